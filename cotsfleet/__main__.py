@@ -1,0 +1,3 @@
+from cotsfleet.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,66 @@
+"""`cotsfleet <command>`: one console script, one module per subcommand.
+
+Subcommand modules are imported lazily, so `cotsfleet plan` never pays for Zenoh or Rerun.
+Each module under `cotsfleet.commands` defines ``HELP``, ``add_arguments(parser)`` and
+``run(args) -> int``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from typing import Sequence
+
+from hfc_core.problem import ScenarioError
+
+# name -> module under cotsfleet.commands
+COMMANDS = {
+    "scenario": "scenario",
+    "plan": "plan",
+    "run": "run",
+    "sim": "sim",
+    "demo": "demo",
+}
+
+
+def _available() -> dict[str, object]:
+    mods = {}
+    for name, module in COMMANDS.items():
+        try:
+            mods[name] = importlib.import_module(f"cotsfleet.commands.{module}")
+        except ModuleNotFoundError as exc:
+            if exc.name != f"cotsfleet.commands.{module}":
+                raise
+    return mods
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="cotsfleet", description="COTSbot AUV fleet: planner, emulated missions, dashboard"
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, mod in _available().items():
+        p = sub.add_parser(name, help=mod.HELP, description=mod.HELP)
+        mod.add_arguments(p)
+        p.set_defaults(_run=mod.run)
+    return parser
+
+
+class UsageError(Exception):
+    """Bad input from the user: printed as one line, exit code 2, no traceback."""
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args._run(args) or 0)
+    except (ScenarioError, UsageError) as exc:
+        print(f"cotsfleet {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,209 @@
+"""The problem model: vehicles, COTS spots (tasks) and travel times (paper eq. 2, 7-8).
+
+A `Problem` is immutable. Tasks are addressed internally by their index ``0..n-1`` in
+``problem.tasks``; scenario task ids (any ints) appear only at the edges (I/O, wire, reports).
+
+Node numbering of the distance matrix ``dist_m`` (shape ``(n + 2k, n + 2k)``):
+``0..n-1`` are tasks, ``n + 2*v`` is vehicle ``v``'s start, ``n + 2*v + 1`` its rendezvous.
+Travel time between two nodes for vehicle ``v`` is ``dist_m[a, b] / vehicles[v].speed_mps``
+(eq. 7-8). With forbidden polygons the matrix holds shortest paths around land
+(see `hfc_core.geometry`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+Point3 = tuple[float, float, float]
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be planned: the message names the offending field."""
+
+
+def _finite(value: float, where: str) -> float:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ScenarioError(f"{where}: expected a number, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ScenarioError(f"{where}: must be finite, got {value!r}")
+    return number
+
+
+def _point(value: object, where: str) -> Point3:
+    if not isinstance(value, (list, tuple)) or len(value) not in (2, 3):
+        raise ScenarioError(f"{where}: expected [x, y, z] in metres, got {value!r}")
+    coords = [_finite(c, f"{where}[{i}]") for i, c in enumerate(value)]
+    if len(coords) == 2:
+        coords.append(0.0)
+    return (coords[0], coords[1], coords[2])
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """One AUV: start station, rendezvous, battery time budget and cruise speed."""
+
+    id: str
+    start: Point3
+    rendezvous: Point3
+    battery_s: float
+    speed_mps: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.id, str) or not self.id:
+            raise ScenarioError(f"vehicle id must be a non-empty string, got {self.id!r}")
+        object.__setattr__(self, "start", _point(self.start, f"vehicle {self.id}: start"))
+        object.__setattr__(
+            self, "rendezvous", _point(self.rendezvous, f"vehicle {self.id}: rendezvous")
+        )
+        battery = _finite(self.battery_s, f"vehicle {self.id}: battery_s")
+        speed = _finite(self.speed_mps, f"vehicle {self.id}: speed_mps")
+        if battery <= 0:
+            raise ScenarioError(f"vehicle {self.id}: battery_s must be positive, got {battery}")
+        if speed <= 0:
+            raise ScenarioError(f"vehicle {self.id}: speed_mps must be positive, got {speed}")
+        object.__setattr__(self, "battery_s", battery)
+        object.__setattr__(self, "speed_mps", speed)
+
+
+@dataclass(frozen=True)
+class Task:
+    """One COTS spot to inject (eq. 2): position, priority rho and injection time t."""
+
+    id: int
+    pos: Point3
+    priority: float
+    service_s: float
+
+    def __post_init__(self) -> None:
+        if isinstance(self.id, bool) or not isinstance(self.id, int):
+            raise ScenarioError(f"task id must be an integer, got {self.id!r}")
+        object.__setattr__(self, "pos", _point(self.pos, f"task {self.id}: pos"))
+        priority = _finite(self.priority, f"task {self.id}: priority")
+        service = _finite(self.service_s, f"task {self.id}: service_s")
+        if priority < 0:
+            raise ScenarioError(f"task {self.id}: priority must be >= 0, got {priority}")
+        if service < 0:
+            raise ScenarioError(f"task {self.id}: service_s must be >= 0, got {service}")
+        object.__setattr__(self, "priority", priority)
+        object.__setattr__(self, "service_s", service)
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """A team orienteering problem with service times: the whole planning input.
+
+    Build with `Problem.build`, which validates ids and computes the distance matrix.
+    """
+
+    name: str
+    vehicles: tuple[Vehicle, ...]
+    tasks: tuple[Task, ...]
+    forbidden: tuple[np.ndarray, ...]
+    dist_m: np.ndarray
+    xyz: np.ndarray = field(repr=False)  # (n + 2k, 3) node coordinates
+    priority: np.ndarray = field(repr=False)  # (n,)
+    service_s: np.ndarray = field(repr=False)  # (n,)
+    task_index: dict[int, int] = field(repr=False)
+    vehicle_index: dict[str, int] = field(repr=False)
+
+    @staticmethod
+    def build(
+        name: str,
+        vehicles: Sequence[Vehicle],
+        tasks: Sequence[Task],
+        forbidden: Sequence[Sequence[Sequence[float]]] = (),
+        dist_m: np.ndarray | None = None,
+    ) -> "Problem":
+        """Validate and assemble a problem; ``dist_m`` defaults to the metric of
+        `hfc_core.geometry.distance_matrix` (Euclidean, or around ``forbidden`` land)."""
+        vehicles = tuple(vehicles)
+        tasks = tuple(tasks)
+        if not vehicles:
+            raise ScenarioError("scenario has no vehicles")
+        vehicle_index: dict[str, int] = {}
+        for i, v in enumerate(vehicles):
+            if v.id in vehicle_index:
+                raise ScenarioError(f"duplicate vehicle id {v.id!r}")
+            vehicle_index[v.id] = i
+        task_index: dict[int, int] = {}
+        for i, t in enumerate(tasks):
+            if t.id in task_index:
+                raise ScenarioError(f"duplicate task id {t.id}")
+            task_index[t.id] = i
+        polygons = tuple(_polygon(p, i) for i, p in enumerate(forbidden))
+        n, k = len(tasks), len(vehicles)
+        xyz = np.zeros((n + 2 * k, 3))
+        for i, t in enumerate(tasks):
+            xyz[i] = t.pos
+        for v_idx, v in enumerate(vehicles):
+            xyz[n + 2 * v_idx] = v.start
+            xyz[n + 2 * v_idx + 1] = v.rendezvous
+        if dist_m is None:
+            from hfc_core.geometry import distance_matrix
+
+            dist_m = distance_matrix(xyz, polygons)
+        dist_m = np.asarray(dist_m, dtype=float)
+        if dist_m.shape != (n + 2 * k, n + 2 * k):
+            raise ScenarioError(f"distance matrix has shape {dist_m.shape}, need {(n + 2 * k,) * 2}")
+        dist_m.setflags(write=False)
+        xyz.setflags(write=False)
+        priority = np.array([t.priority for t in tasks], dtype=float)
+        service = np.array([t.service_s for t in tasks], dtype=float)
+        priority.setflags(write=False)
+        service.setflags(write=False)
+        return Problem(
+            name=name,
+            vehicles=vehicles,
+            tasks=tasks,
+            forbidden=polygons,
+            dist_m=dist_m,
+            xyz=xyz,
+            priority=priority,
+            service_s=service,
+            task_index=task_index,
+            vehicle_index=vehicle_index,
+        )
+
+    @property
+    def n_tasks(self) -> int:
+        return len(self.tasks)
+
+    @property
+    def n_vehicles(self) -> int:
+        return len(self.vehicles)
+
+    def start_node(self, v: int) -> int:
+        return self.n_tasks + 2 * v
+
+    def end_node(self, v: int) -> int:
+        return self.n_tasks + 2 * v + 1
+
+    def route_time_s(self, v: int, route: Sequence[int]) -> float:
+        """Mission time T^M of vehicle ``v`` on ``route`` (task indices): travel
+        start -> tasks -> rendezvous at the vehicle's speed, plus each task's service once."""
+        nodes = [self.start_node(v), *route, self.end_node(v)]
+        travel_m = float(self.dist_m[nodes[:-1], nodes[1:]].sum())
+        service = float(self.service_s[list(route)].sum()) if len(route) else 0.0
+        return travel_m / self.vehicles[v].speed_mps + service
+
+    def route_priority(self, route: Sequence[int]) -> float:
+        return float(self.priority[list(route)].sum()) if len(route) else 0.0
+
+
+def _polygon(points: Sequence[Sequence[float]], i: int) -> np.ndarray:
+    try:
+        arr = np.asarray(points, dtype=float)
+    except (TypeError, ValueError):
+        raise ScenarioError(f"forbidden[{i}]: expected [[x, y], ...]") from None
+    if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 3:
+        raise ScenarioError(f"forbidden[{i}]: a polygon needs at least 3 [x, y] vertices")
+    if not np.all(np.isfinite(arr)):
+        raise ScenarioError(f"forbidden[{i}]: coordinates must be finite")
+    arr.setflags(write=False)
+    return arr
