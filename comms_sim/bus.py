@@ -88,3 +88,31 @@ class Truth:
                          float(doc.get("pitch", 0.0)), str(doc.get("state", "transit")))
         except (ValueError, TypeError, KeyError, msgpack.UnpackException) as exc:
             raise ValueError(f"malformed truth record: {exc}") from None
+
+
+@dataclass(frozen=True)
+class Mission:
+    """What a late joiner needs (served by the launcher as a queryable on `MISSION`): the
+    scenario document, the shared clock (`comms_sim.clock.WarpClock` epoch and warp), the
+    seed and a run id. Never the fleet key: that stays with the agents."""
+
+    scenario: dict[str, Any]
+    epoch_unix: float
+    warp: float
+    seed: int
+    run_id: str
+
+    def encode(self) -> bytes:
+        return msgpack.packb(
+            {"scenario": self.scenario, "epoch_unix": self.epoch_unix, "warp": self.warp,
+             "seed": self.seed, "run_id": self.run_id}
+        )
+
+    @staticmethod
+    def decode(payload: bytes) -> "Mission":
+        try:
+            doc: Any = msgpack.unpackb(payload, strict_map_key=False)
+            return Mission(dict(doc["scenario"]), float(doc["epoch_unix"]), float(doc["warp"]),
+                           int(doc["seed"]), str(doc["run_id"]))
+        except Exception as exc:  # msgpack raises several unrelated types on garbage
+            raise ValueError(f"malformed mission record: {exc}") from None
