@@ -1,0 +1,50 @@
+"""``python -m comms_sim``: the acoustic relay (see `comms_sim.relay`).
+
+Embedded by default: without ``--connect`` it is itself the Zenoh router, listening on
+``--listen`` (default tcp/127.0.0.1:7447). Clock: ``--epoch-unix``/``--warp``, or
+``--mission-from-bus`` to take them (and the seed and roster) from the launcher's
+``fleet/mission`` queryable; with neither, simulation time starts now at warp 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import replace
+
+from comms_sim.config import PRESETS, load_config
+from comms_sim.relay import main
+from comms_sim.router import stop_on_signals
+from comms_sim.session import DEFAULT_ENDPOINT, client_config, router_config
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(prog="python -m comms_sim", description=__doc__)
+    net = parser.add_mutually_exclusive_group()
+    net.add_argument("--connect", action="append", metavar="ENDPOINT",
+                     help="router to connect to (repeatable)")
+    net.add_argument("--listen", action="append", metavar="ENDPOINT",
+                     help=f"be the router, listening here (default {DEFAULT_ENDPOINT})")
+    clock = parser.add_mutually_exclusive_group()
+    clock.add_argument("--epoch-unix", type=float, help="wall time of simulation t=0")
+    clock.add_argument("--mission-from-bus", action="store_true",
+                       help="read epoch, warp, seed and roster from fleet/mission")
+    parser.add_argument("--warp", type=float, default=1.0, help="simulated s per wall s")
+    parser.add_argument("--seed", type=int, help="channel seed (default: mission's, else 0)")
+    parser.add_argument("--config", help="channel settings file (.toml or .json)")
+    parser.add_argument("--preset", choices=sorted(PRESETS), help="named modem (no --config)")
+    parser.add_argument("--loss", type=float, help="extra uniform loss 0..1 (overrides)")
+    parser.add_argument("--vehicles", help="comma-separated roster; others are dropped")
+    parser.add_argument("--mission-timeout", type=float, default=30.0, metavar="S")
+    args = parser.parse_args()
+
+    config = load_config(args.config) if args.config else PRESETS[args.preset or "psk_1k"]
+    if args.loss is not None:
+        config = replace(config, extra_loss=args.loss)
+    conf = (client_config(args.connect) if args.connect
+            else router_config(args.listen or [DEFAULT_ENDPOINT]))
+    epoch = None if args.mission_from_bus else (
+        args.epoch_unix if args.epoch_unix is not None else time.time())
+    vehicles = frozenset(v for v in args.vehicles.split(",") if v) if args.vehicles else None
+    main(conf, config, stop_on_signals(), epoch_unix=epoch,
+         warp=None if args.mission_from_bus else args.warp, seed=args.seed, vehicles=vehicles,
+         mission_timeout_s=args.mission_timeout)

@@ -1,0 +1,287 @@
+"""The acoustic channel model: pure, seeded, no I/O and no clock (time is passed in).
+
+One broadcast medium: a frame a node transmits reaches every other known node after
+``range / sound_speed`` seconds and occupies it for the frame's airtime. Its fate at each
+receiver settles when that reception ends, because it depends on later transmissions:
+
+- partition: a scheduled link-down window overlaps the reception;
+- range: beyond ``max_range_m`` (or a position is unknown), or the range-curve draw failed;
+- half_duplex: the receiver transmitted during the reception;
+- collision: another audible reception overlapped it at the receiver (both are lost);
+- random: the extra uniform loss of fault injection.
+
+When several apply the first listed is reported. Everything within ``max_range_m`` and not
+partitioned is audible: it interferes even when it could not be decoded.
+
+Randomness: each link (src, dst) draws from its own stream, derived from one root seed and the
+two node names (`numpy.random.SeedSequence` spawn keys), exactly two uniforms per frame. So a
+link's draws do not depend on which other nodes exist or in which order they appeared.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import heapq
+import itertools
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from comms_sim.config import PRESETS, ChannelConfig, Partition, TdmaConfig
+from comms_sim.link_event import BROADCAST, DROP_REASONS, LinkEvent
+from comms_sim.stats import LinkCounts, LinkStats
+from comms_sim.tdma import QueuedFrame, SenderQueue, slot_start
+
+__all__ = ["Channel", "ChannelConfig", "LinkEvent", "Partition", "TdmaConfig", "PRESETS",
+           "DROP_REASONS", "BROADCAST"]
+
+_WAKE, _RX = 0, 1  # heap entry kinds: a sender may start its next frame; a reception ends
+
+
+@dataclass(eq=False)
+class _Reception:
+    src: str
+    dst: str
+    t_sent_s: float
+    start_s: float
+    end_s: float
+    frame: bytes
+    fate: str | None  # decided at transmission: "partition", "range", "random" or None
+    audible: bool
+    collided: bool = False
+    deaf: bool = False  # the receiver transmitted meanwhile
+
+
+@dataclass(eq=False)
+class _Node:
+    pos: tuple[float, float, float] | None = None
+    queue: SenderQueue = field(default_factory=SenderQueue)
+    tx_start_s: float = -math.inf  # the last transmission started
+    tx_end_s: float = -math.inf
+    pending: list[_Reception] = field(default_factory=list)  # audible, not yet settled
+    wake_seq: int | None = None  # the valid heap entry for this sender's next start
+
+
+def _name_key(name: str) -> int:
+    """A stable 64-bit key of a node name (Python's hash() is salted per process)."""
+    return int.from_bytes(hashlib.blake2b(name.encode(), digest_size=8).digest(), "little")
+
+
+class Channel:
+    """See the module docstring. Calls must come in non-decreasing time; an earlier time is
+    taken as the latest time already seen (a late packet on a real bus, not an error)."""
+
+    def __init__(self, config: ChannelConfig, rng: np.random.Generator) -> None:
+        self.config = config
+        self._root_seed = int(rng.integers(0, 2**63))
+        self._link_rngs: dict[tuple[str, str], np.random.Generator] = {}
+        self._nodes: dict[str, _Node] = {}
+        self._heap: list[tuple[float, int, int, object]] = []
+        self._seq = itertools.count()
+        self._now_s = -math.inf
+        self._extra_loss = config.extra_loss
+        self._partitions = list(config.partitions)
+        self._slots: dict[str, int] = {}
+        if config.tdma is not None:
+            self._slots = {n: i for i, n in enumerate(config.tdma.order)}
+        self._stats = LinkStats()
+
+    # -- nodes and faults ------------------------------------------------------------------
+
+    def add_node(self, node: str) -> None:
+        """Make ``node`` a potential receiver (position unknown until `set_position`)."""
+        self._node(node)
+
+    def nodes(self) -> list[str]:
+        return list(self._nodes)
+
+    def set_position(self, node: str, pos_xyz: Sequence[float], t_s: float) -> None:
+        """Where ``node`` is from ``t_s`` on. Raises ValueError on a non-finite 3-vector."""
+        pos = tuple(float(c) for c in pos_xyz)
+        if len(pos) != 3 or not all(math.isfinite(c) for c in pos):
+            raise ValueError(f"position must be 3 finite numbers, got {pos_xyz!r}")
+        self._now_s = max(self._now_s, t_s)
+        self._node(node).pos = pos  # type: ignore[assignment]
+
+    def position(self, node: str) -> tuple[float, float, float] | None:
+        n = self._nodes.get(node)
+        return None if n is None else n.pos
+
+    @property
+    def now_s(self) -> float:
+        """The latest time any call has told the channel about."""
+        return self._now_s
+
+    def set_extra_loss(self, p: float) -> None:
+        if not 0.0 <= p <= 1.0:
+            raise ValueError(f"extra loss must be in [0, 1], got {p}")
+        self._extra_loss = float(p)
+
+    @property
+    def extra_loss(self) -> float:
+        return self._extra_loss
+
+    def add_partition(self, partition: Partition) -> None:
+        """Takes effect for frames transmitted from now on."""
+        self._partitions.append(partition)
+
+    def clear_partitions(self) -> None:
+        self._partitions.clear()
+
+    @property
+    def partitions(self) -> tuple[Partition, ...]:
+        return tuple(self._partitions)
+
+    # -- traffic ---------------------------------------------------------------------------
+
+    def submit(self, src: str, frame: bytes, t_s: float, kind: str = "data") -> list[LinkEvent]:
+        """Queue ``frame`` for transmission by ``src`` from ``t_s`` on. Returns the immediate
+        refusal (oversize) if any; everything else settles in later `advance` calls."""
+        t_s = max(t_s, self._now_s)
+        self._now_s = t_s
+        node = self._node(src)
+        frame = bytes(frame)
+        if len(frame) > self.config.max_frame_bytes:
+            event = LinkEvent(src, BROADCAST, t_s, t_s, len(frame), False, "oversize", frame)
+            self._stats.record(event)
+            return [event]
+        if self.config.tdma is not None and src not in self._slots:
+            self._slots[src] = len(self._slots)
+        superseded = node.queue.push(QueuedFrame(frame, kind, t_s))
+        if superseded:
+            self._stats.add(src, BROADCAST, "superseded", superseded)
+        self._schedule_next(src, node, t_s)
+        return []
+
+    def next_due_s(self) -> float | None:
+        """Earliest time at which `advance` has a reception to settle or a frame to start."""
+        while self._heap:
+            t, seq, kind, obj = self._heap[0]
+            if kind == _WAKE and self._nodes[obj].wake_seq != seq:  # type: ignore[index]
+                heapq.heappop(self._heap)  # superseded wake-up
+                continue
+            return t
+        return None
+
+    def advance(self, t_s: float) -> list[LinkEvent]:
+        """Start due transmissions and settle receptions ending by ``t_s``, in time order."""
+        events: list[LinkEvent] = []
+        while self._heap and self._heap[0][0] <= t_s:
+            t, seq, kind, obj = heapq.heappop(self._heap)
+            self._now_s = max(self._now_s, t)
+            if kind == _RX:
+                events.append(self._settle(obj))  # type: ignore[arg-type]
+            else:
+                node = self._nodes[obj]  # type: ignore[index]
+                if node.wake_seq == seq:
+                    node.wake_seq = None
+                    self._try_start(obj, node, t)  # type: ignore[arg-type]
+        self._now_s = max(self._now_s, t_s)
+        return events
+
+    def stats(self) -> LinkCounts:
+        """Counters per ``(src, dst)``; see `comms_sim.stats`."""
+        return self._stats.snapshot()
+
+    def queued(self, node: str) -> int:
+        """Frames of ``node`` waiting for the transmitter."""
+        n = self._nodes.get(node)
+        return 0 if n is None else len(n.queue)
+
+    def airtime_s(self, nbytes: int) -> float:
+        return self.config.airtime_s(nbytes)
+
+    # -- internals -------------------------------------------------------------------------
+
+    def _node(self, name: str) -> _Node:
+        node = self._nodes.get(name)
+        if node is None:
+            node = self._nodes[name] = _Node()
+        return node
+
+    def _link_rng(self, src: str, dst: str) -> np.random.Generator:
+        rng = self._link_rngs.get((src, dst))
+        if rng is None:
+            seq = np.random.SeedSequence(self._root_seed,
+                                         spawn_key=(_name_key(src), _name_key(dst)))
+            rng = self._link_rngs[(src, dst)] = np.random.Generator(np.random.PCG64(seq))
+        return rng
+
+    def _earliest_start(self, src: str, node: _Node, nbytes: int, t_s: float) -> float:
+        t = max(t_s, node.tx_end_s)  # the modem sends one frame at a time
+        tdma = self.config.tdma
+        if tdma is None:
+            return t
+        return slot_start(t, self.config.airtime_s(nbytes), self._slots[src], len(self._slots),
+                          tdma.slot_s, tdma.guard_s)
+
+    def _schedule_next(self, src: str, node: _Node, t_s: float) -> None:
+        head = node.queue.head()
+        if head is None:
+            node.wake_seq = None
+            return
+        start = self._earliest_start(src, node, len(head.frame), t_s)
+        seq = next(self._seq)
+        node.wake_seq = seq
+        heapq.heappush(self._heap, (start, seq, _WAKE, src))
+
+    def _try_start(self, src: str, node: _Node, t_s: float) -> None:
+        head = node.queue.head()
+        if head is None:
+            return
+        if self._earliest_start(src, node, len(head.frame), t_s) > t_s:
+            self._schedule_next(src, node, t_s)  # e.g. the TDMA cycle grew meanwhile
+            return
+        node.queue.pop()
+        end = t_s + self.config.airtime_s(len(head.frame))
+        node.tx_start_s, node.tx_end_s = t_s, end
+        if self.config.half_duplex:
+            for r in node.pending:
+                if r.start_s < end and t_s < r.end_s:
+                    r.deaf = True
+        for dst, dst_node in self._nodes.items():
+            if dst != src:
+                self._receive(src, node, dst, dst_node, head.frame, t_s)
+        self._schedule_next(src, node, end)
+
+    def _receive(self, src: str, node: _Node, dst: str, dst_node: _Node, frame: bytes,
+                 t_s: float) -> None:
+        cfg = self.config
+        u_range, u_random = self._link_rng(src, dst).random(2)  # always two: stable streams
+        airtime = cfg.airtime_s(len(frame))
+        if node.pos is None or dst_node.pos is None:
+            r = _Reception(src, dst, t_s, t_s, t_s + airtime, frame, "range", False)
+        else:
+            range_m = math.dist(node.pos, dst_node.pos)
+            start = t_s + cfg.delay_s(range_m)
+            r = _Reception(src, dst, t_s, start, start + airtime, frame, None, True)
+            if any(p.cuts(src, dst, start, r.end_s) for p in self._partitions):
+                r.fate, r.audible = "partition", False
+            elif range_m > cfg.max_range_m:
+                r.fate, r.audible = "range", False
+            elif u_range >= cfg.delivery_probability(range_m):
+                r.fate = "range"
+            elif u_random < self._extra_loss:
+                r.fate = "random"
+        if r.audible:
+            if cfg.half_duplex and dst_node.tx_end_s > r.start_s and dst_node.tx_start_s < r.end_s:
+                r.deaf = True
+            if cfg.collisions:
+                for q in dst_node.pending:
+                    if q.start_s < r.end_s and r.start_s < q.end_s:
+                        q.collided = r.collided = True
+            dst_node.pending.append(r)
+        heapq.heappush(self._heap, (r.end_s, next(self._seq), _RX, r))
+
+    def _settle(self, r: _Reception) -> LinkEvent:
+        if r.audible:
+            self._nodes[r.dst].pending.remove(r)
+        reason = r.fate
+        if reason not in ("partition", "range"):
+            reason = "half_duplex" if r.deaf else "collision" if r.collided else reason
+        event = LinkEvent(r.src, r.dst, r.t_sent_s, r.end_s, len(r.frame), reason is None,
+                          reason, r.frame)
+        self._stats.record(event)
+        return event

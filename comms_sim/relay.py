@@ -1,0 +1,240 @@
+"""The relay: moves every vehicle-to-vehicle frame through the channel model, over Zenoh.
+
+Subscribes to ``fleet/tx/*`` (frames), ``fleet/truth/*`` (where vehicles really are) and
+``fleet/ctl/link`` (fault injection, see `comms_sim.control`); puts each delivered frame on
+``fleet/rx/<dst>`` when the model says its reception ends, and every delivery or drop as a
+`LinkEvent` on ``fleet/link/<src>/<dst>``; answers ``fleet/stats/link`` queries.
+
+`Relay` holds the logic and is driven by plain calls (tests drive it without Zenoh); `serve`
+wires it to a session. Zenoh callbacks run on Zenoh's threads, the scheduler on the caller's,
+so the channel is guarded by one lock and nothing is published while holding it.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Callable, Protocol
+
+import msgpack
+import numpy as np
+import zenoh
+
+from comms_sim import bus
+from comms_sim.channel import Channel
+from comms_sim.config import ChannelConfig
+from comms_sim.control import LinkControl
+from comms_sim.link_event import LinkEvent
+from comms_sim.stats import encode_stats
+
+Put = Callable[[str, bytes, "bytes | None"], None]  # key, payload, attachment
+READY = "comms_sim relay ready"
+# What the relay drops before the channel: garbage on its keys, or ids it cannot place.
+RELAY_COUNTERS = ("tx", "truth", "ctl", "malformed_tx", "malformed_truth", "malformed_ctl",
+                  "unknown_tx", "unknown_truth", "late_tx")
+
+
+class SimClock(Protocol):
+    def now(self) -> float: ...
+    def wall_delay(self, sim_dt_s: float) -> float: ...
+
+
+def delivery_attachment(event: LinkEvent) -> bytes:
+    """Metadata put beside a delivered frame on ``fleet/rx/<dst>`` (the frame stays raw)."""
+    return msgpack.packb({"src": event.src, "t_s": event.t_s, "t_sent_s": event.t_sent_s})
+
+
+class Relay:
+    """The channel behind a lock, fed by bus samples, publishing through ``put``.
+
+    ``vehicles`` is the roster: frames and truths of other ids are dropped as unknown. Without
+    a roster a vehicle is known once its truth has been seen (the relay cannot place a
+    transmitter it has never located)."""
+
+    def __init__(self, channel: Channel, clock: SimClock, put: Put,
+                 vehicles: frozenset[str] | None = None) -> None:
+        self.channel = channel
+        self.clock = clock
+        self._put = put
+        self._vehicles = vehicles
+        self._located: set[str] = set()
+        self._lock = threading.Lock()
+        self._wakeup = threading.Condition(self._lock)
+        self._dirty = False
+        self.counters = dict.fromkeys(RELAY_COUNTERS, 0)
+
+    # -- inputs (any thread) ---------------------------------------------------------------
+
+    def on_tx(self, vid: str, frame: bytes, kind: str = "data") -> None:
+        with self._lock:
+            self.counters["tx"] += 1
+            if not vid or not frame:
+                self.counters["malformed_tx"] += 1
+                return
+            if (self._vehicles is not None and vid not in self._vehicles) or \
+                    vid not in self._located:
+                self.counters["unknown_tx"] += 1
+                return
+            now = self.clock.now()
+            if now < self.channel.now_s:
+                self.counters["late_tx"] += 1  # the channel clamps it to its own time
+            refused = self.channel.submit(vid, frame, now, kind)
+            self._dirty = True
+            self._wakeup.notify()
+        self._publish(refused)
+
+    def on_truth(self, vid: str, payload: bytes) -> None:
+        with self._lock:
+            self.counters["truth"] += 1
+            if self._vehicles is not None and vid not in self._vehicles:
+                self.counters["unknown_truth"] += 1
+                return
+            try:
+                truth = bus.Truth.decode(payload)
+                self.channel.set_position(vid, truth.pos, self.clock.now())
+            except ValueError:
+                self.counters["malformed_truth"] += 1
+                return
+            self._located.add(vid)
+
+    def on_ctl(self, payload: bytes) -> None:
+        with self._lock:
+            self.counters["ctl"] += 1
+            try:
+                LinkControl.decode(payload, self.clock.now()).apply(self.channel)
+            except ValueError:
+                self.counters["malformed_ctl"] += 1
+                return
+            self._dirty = True
+            self._wakeup.notify()
+
+    def stats_payload(self) -> bytes:
+        with self._lock:
+            return encode_stats(self.channel.stats(), {
+                "relay": dict(self.counters), "t_s": self.clock.now(),
+                "extra_loss": self.channel.extra_loss,
+                "partitions": [p.to_dict() for p in self.channel.partitions]})
+
+    # -- scheduler (one thread) ------------------------------------------------------------
+
+    def step(self) -> float | None:
+        """Settle everything due now and publish it; return the next due simulation time."""
+        with self._lock:
+            now = self.clock.now()
+            events = self.channel.advance(now)
+            due = self.channel.next_due_s()
+        self._publish(events)
+        return due
+
+    def run(self, stop: threading.Event, max_wait_s: float = 0.5) -> None:
+        """Step at each due time until ``stop`` is set (bounded waits keep stop prompt)."""
+        while not stop.is_set():
+            due = self.step()
+            with self._lock:
+                if self._dirty:
+                    self._dirty = False
+                    continue
+                wait = max_wait_s if due is None else min(
+                    max_wait_s, self.clock.wall_delay(due - self.clock.now()))
+                if wait > 0:
+                    self._wakeup.wait(wait)
+                self._dirty = False
+
+    def wake(self) -> None:
+        """Make `run` look at the channel (and at its stop event) now."""
+        with self._lock:
+            self._dirty = True
+            self._wakeup.notify()
+
+    def _publish(self, events: list[LinkEvent]) -> None:
+        for event in events:
+            if event.delivered:
+                self._put(bus.rx_key(event.dst), event.frame, delivery_attachment(event))
+            self._put(bus.link_event_key(event.src, event.dst), event.encode(), None)
+
+
+def fetch_mission(session: zenoh.Session, timeout_s: float) -> bus.Mission:
+    """Ask the launcher's ``fleet/mission`` queryable; raises TimeoutError if nobody answers
+    well-formed within ``timeout_s``."""
+    for reply in session.get(bus.MISSION, timeout=timeout_s):
+        if reply.ok is not None:
+            try:
+                return bus.Mission.decode(reply.ok.payload.to_bytes())
+            except ValueError:
+                continue
+    raise TimeoutError(f"no well-formed answer on {bus.MISSION} within {timeout_s} s")
+
+
+def roster_of(mission: bus.Mission) -> frozenset[str] | None:
+    """Vehicle ids of the mission's scenario, if it lists them."""
+    try:
+        return frozenset(str(v["id"]) for v in mission.scenario["vehicles"])
+    except (KeyError, TypeError):
+        return None
+
+
+def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threading.Event,
+          vehicles: frozenset[str] | None = None,
+          on_ready: Callable[[Relay], None] | None = None) -> Relay:
+    """Relay ``channel`` on ``session`` until ``stop`` is set; returns the relay (counters)."""
+
+    def put(key: str, payload: bytes, attachment: bytes | None) -> None:
+        session.put(key, payload, attachment=attachment)
+
+    relay = Relay(channel, clock, put, vehicles)
+
+    def on_tx(sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            kind = _kind_of(sample)
+            relay.on_tx(bus.vid_of(str(sample.key_expr)), sample.payload.to_bytes(), kind)
+
+    def on_truth(sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            relay.on_truth(bus.vid_of(str(sample.key_expr)), sample.payload.to_bytes())
+
+    def on_ctl(sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            relay.on_ctl(sample.payload.to_bytes())
+
+    def on_stats(query: zenoh.Query) -> None:
+        query.reply(bus.LINK_STATS, relay.stats_payload())
+
+    with session.declare_subscriber(bus.TX_ALL, on_tx), \
+            session.declare_subscriber(bus.TRUTH_ALL, on_truth), \
+            session.declare_subscriber(bus.LINK_CTL, on_ctl), \
+            session.declare_queryable(bus.LINK_STATS, on_stats):
+        if on_ready is not None:
+            on_ready(relay)
+        relay.run(stop)
+    return relay
+
+
+def _kind_of(sample: zenoh.Sample) -> str:
+    """The frame kind an agent may attach to its tx put (``b"pose"``): lets the TDMA queue
+    replace an older pose. No attachment means "data", never replaced."""
+    att = sample.attachment
+    if att is None:
+        return "data"
+    try:
+        return att.to_bytes().decode("ascii")[:16] or "data"
+    except UnicodeDecodeError:
+        return "data"
+
+
+def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
+         epoch_unix: float | None = None, warp: float | None = None, seed: int | None = None,
+         vehicles: frozenset[str] | None = None, mission_timeout_s: float = 30.0) -> Relay:
+    """Open a session on ``conf`` and relay until ``stop``. Without ``epoch_unix`` the clock,
+    seed and roster come from the ``fleet/mission`` queryable. Returns the relay (counters)."""
+    from comms_sim.clock import WarpClock
+
+    with zenoh.open(conf) as session:
+        if epoch_unix is None:
+            mission = fetch_mission(session, mission_timeout_s)
+            epoch_unix, warp = mission.epoch_unix, mission.warp
+            seed = mission.seed if seed is None else seed
+            vehicles = roster_of(mission) if vehicles is None else vehicles
+        clock = WarpClock(epoch_unix, warp if warp is not None else 1.0)
+        channel = Channel(config, np.random.default_rng(0 if seed is None else seed))
+        return serve(session, channel, clock, stop, vehicles, on_ready=lambda _: print(
+            f"{READY} epoch_unix={clock.epoch_unix} warp={clock.warp} "
+            f"roster={','.join(sorted(vehicles)) if vehicles else 'open'}", flush=True))

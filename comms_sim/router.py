@@ -1,0 +1,39 @@
+"""The embedded Zenoh router: a Python session in router mode, so no zenohd is needed.
+
+``python -m comms_sim.router --listen tcp/127.0.0.1:7447`` prints one ready line and routes
+until SIGTERM or SIGINT.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import threading
+from typing import Sequence
+
+from comms_sim.session import DEFAULT_ENDPOINT, open_session, router_config
+
+READY = "comms_sim router listening on"
+
+
+def stop_on_signals() -> threading.Event:
+    """An event set by SIGTERM or SIGINT (call from the main thread)."""
+    stop = threading.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
+    return stop
+
+
+def main(listen: Sequence[str], stop: threading.Event) -> None:
+    with open_session(router_config(listen)):
+        print(f"{READY} {' '.join(listen)}", flush=True)
+        while not stop.wait(1.0):  # a bounded wait keeps signal handling prompt
+            pass
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--listen", action="append", metavar="ENDPOINT",
+                        help=f"endpoint to listen on (repeatable; default {DEFAULT_ENDPOINT})")
+    args = parser.parse_args()
+    main(args.listen or [DEFAULT_ENDPOINT], stop_on_signals())

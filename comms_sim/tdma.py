@@ -1,0 +1,65 @@
+"""A sender's modem queue and the TDMA slot arithmetic.
+
+The queue holds frames waiting for the transmitter (busy with an earlier frame, or waiting
+for the vehicle's TDMA slot). Only a pose report is worth less than its successor, so a new
+"pose" frame replaces the queued "pose" frames of the same sender; every other kind
+(cleared spots, claims, ...) stays queued until sent.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+SUPERSEDABLE = "pose"
+_EPS = 1e-9  # float slack on slot boundaries
+
+
+@dataclass(frozen=True)
+class QueuedFrame:
+    frame: bytes
+    kind: str
+    t_submitted_s: float
+
+
+class SenderQueue:
+    """FIFO of one sender's frames; see the module docstring for what may be replaced."""
+
+    def __init__(self) -> None:
+        self._frames: deque[QueuedFrame] = deque()
+
+    def push(self, item: QueuedFrame) -> int:
+        """Append ``item``; return how many older frames it superseded."""
+        superseded = 0
+        if item.kind == SUPERSEDABLE:
+            kept = deque(q for q in self._frames if q.kind != SUPERSEDABLE)
+            superseded = len(self._frames) - len(kept)
+            self._frames = kept
+        self._frames.append(item)
+        return superseded
+
+    def head(self) -> QueuedFrame | None:
+        return self._frames[0] if self._frames else None
+
+    def pop(self) -> QueuedFrame:
+        return self._frames.popleft()
+
+    def __len__(self) -> int:
+        return len(self._frames)
+
+
+def slot_start(t_s: float, airtime_s: float, slot: int, n_slots: int, slot_s: float,
+               guard_s: float) -> float:
+    """Earliest time >= ``t_s`` at which a frame of ``airtime_s`` can start in slot ``slot``
+    of an ``n_slots``-slot cycle and still end ``guard_s`` before the slot closes."""
+    if airtime_s + guard_s > slot_s + _EPS:
+        raise ValueError(f"a {airtime_s:.3f} s frame never fits a {slot_s} s slot")
+    period = n_slots * slot_s
+    cycle = math.floor(t_s / period)
+    while True:
+        opens = cycle * period + slot * slot_s
+        start = max(t_s, opens)
+        if start + airtime_s <= opens + slot_s - guard_s + _EPS:
+            return start
+        cycle += 1
