@@ -25,7 +25,7 @@ import heapq
 import itertools
 import math
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -87,6 +87,7 @@ class Channel:
         if config.tdma is not None:
             self._slots = {n: i for i, n in enumerate(config.tdma.order)}
         self._stats = LinkStats()
+        self._settled: list[LinkEvent] = []  # settled by a catch-up, returned by `advance`
 
     # -- nodes and faults ------------------------------------------------------------------
 
@@ -102,6 +103,7 @@ class Channel:
         pos = tuple(float(c) for c in pos_xyz)
         if len(pos) != 3 or not all(math.isfinite(c) for c in pos):
             raise ValueError(f"position must be 3 finite numbers, got {pos_xyz!r}")
+        self._catch_up(t_s)
         self._now_s = max(self._now_s, t_s)
         self._node(node).pos = pos  # type: ignore[assignment]
 
@@ -114,20 +116,27 @@ class Channel:
         """The latest time any call has told the channel about."""
         return self._now_s
 
-    def set_extra_loss(self, p: float) -> None:
+    def set_extra_loss(self, p: float, t_s: float | None = None) -> None:
+        """Uniform loss for frames transmitted from now (or from ``t_s``) on."""
         if not 0.0 <= p <= 1.0:
             raise ValueError(f"extra loss must be in [0, 1], got {p}")
+        if t_s is not None:
+            self._catch_up(t_s)
         self._extra_loss = float(p)
 
     @property
     def extra_loss(self) -> float:
         return self._extra_loss
 
-    def add_partition(self, partition: Partition) -> None:
-        """Takes effect for frames transmitted from now on."""
+    def add_partition(self, partition: Partition, t_s: float | None = None) -> None:
+        """Applies to frames transmitted from now (or from ``t_s``) on."""
+        if t_s is not None:
+            self._catch_up(t_s)
         self._partitions.append(partition)
 
-    def clear_partitions(self) -> None:
+    def clear_partitions(self, t_s: float | None = None) -> None:
+        if t_s is not None:
+            self._catch_up(t_s)
         self._partitions.clear()
 
     @property
@@ -139,6 +148,7 @@ class Channel:
     def submit(self, src: str, frame: bytes, t_s: float, kind: str = "data") -> list[LinkEvent]:
         """Queue ``frame`` for transmission by ``src`` from ``t_s`` on. Returns the immediate
         refusal (oversize) if any; everything else settles in later `advance` calls."""
+        self._catch_up(t_s)
         t_s = max(t_s, self._now_s)
         self._now_s = t_s
         node = self._node(src)
@@ -157,6 +167,8 @@ class Channel:
 
     def next_due_s(self) -> float | None:
         """Earliest time at which `advance` has a reception to settle or a frame to start."""
+        if self._settled:
+            return self._settled[0].t_s
         while self._heap:
             t, seq, kind, obj = self._heap[0]
             if kind == _WAKE and self._nodes[obj].wake_seq != seq:  # type: ignore[index]
@@ -167,18 +179,9 @@ class Channel:
 
     def advance(self, t_s: float) -> list[LinkEvent]:
         """Start due transmissions and settle receptions ending by ``t_s``, in time order."""
-        events: list[LinkEvent] = []
-        while self._heap and self._heap[0][0] <= t_s:
-            t, seq, kind, obj = heapq.heappop(self._heap)
-            self._now_s = max(self._now_s, t)
-            if kind == _RX:
-                events.append(self._settle(obj))  # type: ignore[arg-type]
-            else:
-                node = self._nodes[obj]  # type: ignore[index]
-                if node.wake_seq == seq:
-                    node.wake_seq = None
-                    self._try_start(obj, node, t)  # type: ignore[arg-type]
+        self._run_heap(lambda t: t <= t_s)
         self._now_s = max(self._now_s, t_s)
+        events, self._settled = self._settled, []
         return events
 
     def stats(self) -> LinkCounts:
@@ -194,6 +197,23 @@ class Channel:
         return self.config.airtime_s(nbytes)
 
     # -- internals -------------------------------------------------------------------------
+
+    def _catch_up(self, t_s: float) -> None:
+        """Act out everything due strictly before ``t_s`` (kept for the next `advance`), so a
+        call made at ``t_s`` without a prior ``advance`` cannot rewrite the past."""
+        self._run_heap(lambda t: t < t_s)
+
+    def _run_heap(self, due: Callable[[float], bool]) -> None:
+        while self._heap and due(self._heap[0][0]):
+            t, seq, kind, obj = heapq.heappop(self._heap)
+            self._now_s = max(self._now_s, t)
+            if kind == _RX:
+                self._settled.append(self._settle(obj))  # type: ignore[arg-type]
+            else:
+                node = self._nodes[obj]  # type: ignore[index]
+                if node.wake_seq == seq:
+                    node.wake_seq = None
+                    self._try_start(obj, node, t)  # type: ignore[arg-type]
 
     def _node(self, name: str) -> _Node:
         node = self._nodes.get(name)

@@ -64,10 +64,11 @@ class LinkControl:
         except (TypeError, AttributeError) as exc:
             raise ValueError(f"malformed link control: {exc!r}") from None
 
-    def apply(self, channel: Channel) -> None:
+    def apply(self, channel: Channel, t_s: float | None = None) -> None:
+        """Change ``channel`` for frames transmitted from ``t_s`` (default: its time) on."""
         if self.clear_partitions:
-            channel.clear_partitions()
+            channel.clear_partitions(t_s)
         if self.partition is not None:
-            channel.add_partition(self.partition)
+            channel.add_partition(self.partition, t_s)
         if self.extra_loss is not None:
-            channel.set_extra_loss(self.extra_loss)
+            channel.set_extra_loss(self.extra_loss, t_s)

@@ -100,7 +100,8 @@ class Relay:
         with self._lock:
             self.counters["ctl"] += 1
             try:
-                LinkControl.decode(payload, self.clock.now()).apply(self.channel)
+                now = self.clock.now()
+                LinkControl.decode(payload, now).apply(self.channel, now)
             except ValueError:
                 self.counters["malformed_ctl"] += 1
                 return

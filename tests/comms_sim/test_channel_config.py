@@ -1,0 +1,73 @@
+"""Channel parameters validate themselves; presets and config files."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from comms_sim.config import PRESETS, ChannelConfig, Partition, TdmaConfig, config_from_dict, \
+    load_config
+
+
+@pytest.mark.parametrize("bad", [
+    {"sound_speed_mps": 0.0}, {"bitrate_bps": -1.0}, {"max_frame_bytes": 0},
+    {"max_frame_bytes": 64.5}, {"extra_loss": 1.01}, {"extra_loss": -0.1},
+    {"range_d50_m": float("nan")}, {"max_range_m": float("inf")}, {"preamble_s": -0.1},
+    {"partitions": ({"start_s": 0},)},
+])
+def test_invalid_settings_are_refused(bad: dict) -> None:
+    with pytest.raises(ValueError):
+        ChannelConfig(**bad)
+
+
+def test_partition_validation_and_groups() -> None:
+    with pytest.raises(ValueError):
+        Partition(5.0, 5.0, (("a",),))
+    with pytest.raises(ValueError):
+        Partition(0.0, 1.0, (("a", "b"), ("b",)))
+    with pytest.raises(ValueError):
+        Partition(0.0, 1.0, ())
+    split = Partition(0.0, 10.0, (("a", "b"), ("c",)))
+    assert split.cuts("a", "c", 1.0, 2.0) and split.cuts("d", "a", 1.0, 2.0)
+    assert not split.cuts("a", "b", 1.0, 2.0)
+    assert not split.cuts("a", "c", 10.0, 11.0)  # half-open window
+    assert split.cuts("a", "c", 9.5, 11.0)  # any overlap with the reception
+
+
+def test_partition_from_dict() -> None:
+    p = Partition.from_dict({"duration_s": 30, "groups": [["a"]]}, now_s=100.0)
+    assert (p.start_s, p.end_s, p.groups) == (100.0, 130.0, (frozenset({"a"}),))
+    for bad in ({"groups": [["a"]]}, {"end_s": 5, "groups": ["ab"]}, {"end_s": 5},
+                {"end_s": "x", "groups": [["a"]]}):
+        with pytest.raises(ValueError):
+            Partition.from_dict(bad)
+
+
+def test_default_link_is_workable_for_a_reef_fleet() -> None:
+    c = ChannelConfig()
+    assert c.max_frame_bytes == 64 and c.sound_speed_mps == 1500.0
+    assert c.delivery_probability(1000.0) > 0.95
+    assert 0.75 < c.delivery_probability(1500.0) < 0.85
+    assert c.delivery_probability(3000.0) < 0.05 and c.delivery_probability(3000.1) == 0.0
+    assert c.airtime_s(64) < 1.0  # a full frame, so 20 vehicles every 20 s fit on air
+
+
+def test_config_files(tmp_path: Path) -> None:
+    toml = tmp_path / "c.toml"
+    toml.write_text('preset = "micromodem_rate0"\nextra_loss = 0.1\n'
+                    '[tdma]\nslot_s = 6.0\norder = ["a", "b"]\n'
+                    '[[partitions]]\nstart_s = 10\nend_s = 20\ngroups = [["a"]]\n')
+    c = load_config(toml)
+    assert c.bitrate_bps == 80.0 and c.extra_loss == 0.1
+    assert c.tdma == TdmaConfig(slot_s=6.0, order=("a", "b"))
+    assert c.partitions == (Partition(10.0, 20.0, (("a",),)),)
+    js = tmp_path / "c.json"
+    js.write_text(json.dumps({"bitrate_bps": 500}))
+    assert load_config(js) == PRESETS["psk_500"]
+    for bad in ({"preset": "nope"}, {"warp": 3}, {"tdma": {"slot": 1}}):
+        with pytest.raises(ValueError):
+            config_from_dict(bad)
+    with pytest.raises(ValueError):
+        load_config(tmp_path / "c.yaml")
