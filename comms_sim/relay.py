@@ -13,6 +13,7 @@ so the channel is guarded by one lock and nothing is published while holding it.
 from __future__ import annotations
 
 import threading
+import time
 from typing import Callable, Protocol
 
 import msgpack
@@ -153,16 +154,21 @@ class Relay:
             self._put(bus.link_event_key(event.src, event.dst), event.encode(), None)
 
 
-def fetch_mission(session: zenoh.Session, timeout_s: float) -> bus.Mission:
-    """Ask the launcher's ``fleet/mission`` queryable; raises TimeoutError if nobody answers
-    well-formed within ``timeout_s``."""
-    for reply in session.get(bus.MISSION, timeout=timeout_s):
-        if reply.ok is not None:
-            try:
-                return bus.Mission.decode(reply.ok.payload.to_bytes())
-            except ValueError:
-                continue
-    raise TimeoutError(f"no well-formed answer on {bus.MISSION} within {timeout_s} s")
+def fetch_mission(session: zenoh.Session, timeout_s: float, retry_s: float = 0.5) -> bus.Mission:
+    """Ask the launcher's ``fleet/mission`` queryable, again every ``retry_s`` until it answers
+    (it may start after us); raises TimeoutError after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        left = deadline - time.monotonic()
+        for reply in session.get(bus.MISSION, timeout=max(0.1, min(left, 5.0))):
+            if reply.ok is not None:
+                try:
+                    return bus.Mission.decode(reply.ok.payload.to_bytes())
+                except ValueError:
+                    continue
+        if time.monotonic() + retry_s > deadline:
+            raise TimeoutError(f"no well-formed answer on {bus.MISSION} within {timeout_s} s")
+        time.sleep(retry_s)
 
 
 def roster_of(mission: bus.Mission) -> frozenset[str] | None:
