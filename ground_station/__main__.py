@@ -1,0 +1,95 @@
+"""``python -m ground_station``: watch the fleet over Zenoh and show it in Rerun.
+
+Started by ``cotsfleet run`` (or by hand, late, or again after a crash: statuses are
+cumulative, so the picture rebuilds itself from the next round of them)."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from pathlib import Path
+from typing import Sequence
+
+import zenoh
+
+from comms_sim.session import DEFAULT_ENDPOINT, client_config, open_session
+from ground_station.blueprint import live_blueprint
+from ground_station.station import APPLICATION_ID, GroundStation, mission_layers
+from ground_station.subscriber import Inbox, fetch_mission, subscribed
+from ground_station.viewer import VIEWERS, ViewerOptions, close_recording, default_viewer, \
+    open_recording, rrd_for_run
+
+PREFIX = "ground_station:"
+
+
+def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
+         mission_timeout_s: float = 120.0) -> int:
+    """Run until ``stop``; 0 on a clean stop, 3 if no mission record ever came."""
+    with open_session(conf) as session:
+        inbox = Inbox()
+        # subscribe before asking for the mission, so nothing published meanwhile is lost
+        with subscribed(session, inbox):
+            mission = fetch_mission(session, stop, timeout_s=mission_timeout_s)
+            if mission is None:
+                if stop.is_set():
+                    return 0
+                print(f"{PREFIX} no mission record on fleet/mission", file=sys.stderr)
+                return 3
+            layers = mission_layers(mission)
+            if opts.rrd is not None:
+                opts = ViewerOptions(opts.viewer, rrd_for_run(opts.rrd, mission.run_id),
+                                     opts.host, opts.web_port, opts.grpc_port)
+            rec, url = open_recording(APPLICATION_ID, mission.run_id, opts,
+                                      live_blueprint(layers[0].bounds))
+            station = GroundStation(mission, rec, layers)
+            print(f"{PREFIX} mission {mission.run_id} joined", flush=True)
+            if opts.rrd is not None:
+                print(f"{PREFIX} recording to {opts.rrd}", flush=True)
+            if url is not None:
+                print(f"{PREFIX} web viewer at {url}", flush=True)
+            try:
+                while not stop.is_set():
+                    sample = inbox.get(timeout_s=0.2)
+                    if sample is not None:
+                        station.handle(*sample)
+            finally:
+                close_recording(rec)
+                dropped = dict(station.dropped) | ({"overflow": inbox.overflow}
+                                                   if inbox.overflow else {})
+                print(f"{PREFIX} {station.handled} samples logged, dropped {dropped}",
+                      flush=True)
+    return 0
+
+
+def stop_on_signals() -> threading.Event:
+    stop = threading.Event()
+    for sig in (signal.SIGTERM, signal.SIGINT):
+        signal.signal(sig, lambda *_: stop.set())
+    return stop
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="python -m ground_station", description=__doc__)
+    p.add_argument("--connect", action="append", metavar="ENDPOINT",
+                   help=f"Zenoh router endpoint (repeatable; default {DEFAULT_ENDPOINT})")
+    p.add_argument("--viewer", choices=VIEWERS, default=None,
+                   help="native desktop viewer, locally served web viewer, or none "
+                        "(default: native with a display, else web)")
+    p.add_argument("--rrd", type=Path, help="also record to this .rrd file for replay")
+    p.add_argument("--web-port", type=int, default=9090, help="web viewer HTTP port (0: any)")
+    p.add_argument("--grpc-port", type=int, default=0,
+                   help="port of the Rerun gRPC server the viewer reads (0: any free port)")
+    p.add_argument("--host", default="127.0.0.1", help="address the web viewer is served on")
+    p.add_argument("--mission-timeout", type=float, default=120.0,
+                   help="seconds to wait for the fleet/mission record")
+    return p.parse_args(argv)
+
+
+if __name__ == "__main__":
+    args = parse_args()
+    options = ViewerOptions(viewer=args.viewer or default_viewer(), rrd=args.rrd,
+                            host=args.host, web_port=args.web_port, grpc_port=args.grpc_port)
+    raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT]), options,
+                          stop_on_signals(), args.mission_timeout))

@@ -1,0 +1,77 @@
+"""Rerun blueprints: the layout the viewer opens with (map large, series beside, log below)."""
+
+from __future__ import annotations
+
+import rerun.blueprint as rrb
+
+from ground_station.rerun_log import SERIES, TIMELINE
+
+Bounds = tuple[float, float, float, float]
+
+
+def map_view(bounds: Bounds, name: str = "Map") -> rrb.Spatial2DView:
+    """The 2D map; bounds are in world metres, the view sees them through the y-flip."""
+    xmin, xmax, ymin, ymax = bounds
+    return rrb.Spatial2DView(
+        name=name, origin="/", contents=["+ /map/**"], background=[8, 12, 20],
+        visual_bounds=rrb.VisualBounds2D(x_range=[xmin, xmax], y_range=[-ymax, -ymin]))
+
+
+# the whole mission so far, not the viewer's default trailing window
+WHOLE_MISSION = rrb.TimeAxis(view_range=rrb.TimeRange(
+    start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative()))
+
+
+def _series(name: str, *contents: str) -> rrb.TimeSeriesView:
+    return rrb.TimeSeriesView(name=name, origin="/", contents=[f"+ /{SERIES}/{c}" for c in contents],
+                              plot_legend=rrb.PlotLegend(corner="LeftTop"), axis_x=WHOLE_MISSION)
+
+
+def live_blueprint(bounds: Bounds) -> rrb.Blueprint:
+    vehicles = rrb.Vertical(
+        _series("Battery left (s)", "battery_s/**"),
+        _series("T_diff (s)", "t_diff_s/**"),
+        _series("Spots treated", "spots_treated/**"),
+    )
+    fleet = rrb.Vertical(
+        _series("Fleet: spots cleared, duplicates", "fleet/spots_cleared", "fleet/duplicates"),
+        _series("Fleet: priority collected", "fleet/priority_collected"),
+        _series("Acoustic messages", "fleet/messages/**", "fleet/drops/**"),
+        _series("Acoustic bytes delivered", "fleet/bytes/**"),
+    )
+    below = rrb.Horizontal(
+        rrb.TextLogView(name="Events", origin="/events"),
+        rrb.TextDocumentView(name="Mission", origin="/mission"),
+        column_shares=[3, 1],
+    )
+    return rrb.Blueprint(
+        rrb.Vertical(
+            rrb.Horizontal(map_view(bounds), vehicles, fleet, column_shares=[5, 2, 2]),
+            below,
+            row_shares=[3, 1],
+        ),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(timeline=TIMELINE, state="collapsed"),
+    )
+
+
+def plan_blueprint(bounds: Bounds) -> rrb.Blueprint:
+    """`cotsfleet plan --rrd`: routes on the map, convergence (paper Fig. 7-8) beside it."""
+    conv = rrb.Vertical(
+        rrb.TimeSeriesView(name="Cost (eq. 9) per vehicle and total", origin="/convergence/cost"),
+        rrb.TimeSeriesView(name="Violation (s) per vehicle", origin="/convergence/violation_s"),
+        rrb.TimeSeriesView(name="T_diff (s) per vehicle", origin="/convergence/t_diff_s"),
+        rrb.TimeSeriesView(name="Priority collected", origin="/convergence/priority"),
+    )
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            map_view(bounds, name="Plan"),
+            rrb.Vertical(conv, rrb.TextDocumentView(name="Summary", origin="/summary"),
+                         row_shares=[4, 1]),
+            column_shares=[3, 2],
+        ),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(timeline="iteration", state="collapsed"),
+    )

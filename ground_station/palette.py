@@ -1,0 +1,69 @@
+"""Colours of the dashboard: one per vehicle, one per spot state, and the sea colormap.
+
+Vehicle colours avoid the spot-state colours (green cleared, red abandoned, gold claimed,
+grey pending) so a spot planned for a vehicle is never mistaken for a state.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+Rgb = tuple[int, int, int]
+
+VEHICLE_COLORS: tuple[Rgb, ...] = (
+    (255, 127, 14),  # orange
+    (0, 200, 255),  # sky blue
+    (230, 90, 220),  # magenta
+    (170, 140, 255),  # lavender
+    (255, 170, 140),  # salmon
+    (150, 255, 210),  # mint
+    (205, 160, 90),  # tan
+    (120, 160, 255),  # periwinkle
+)
+
+SPOT_PENDING: Rgb = (205, 205, 205)
+SPOT_CLAIMED: Rgb = (255, 215, 0)
+SPOT_CLEARED: Rgb = (40, 200, 70)
+SPOT_ABANDONED: Rgb = (230, 40, 40)
+
+LINK_DELIVERED: Rgb = (60, 230, 90)
+LINK_DROPPED: Rgb = (255, 60, 60)
+MARK_ABORTED: Rgb = (255, 40, 40)
+MARK_LOST: Rgb = (255, 160, 0)
+LAND: Rgb = (12, 10, 8)
+FORBIDDEN: Rgb = (200, 60, 60)
+STATION: Rgb = (255, 255, 255)
+
+# Fleet time series, by path under ``series/fleet``; drop reasons share the "dropped" red family.
+FLEET_SERIES: dict[str, Rgb] = {
+    "spots_cleared": SPOT_CLEARED,
+    "duplicates": SPOT_ABANDONED,
+    "priority_collected": SPOT_CLAIMED,
+    "messages/delivered": LINK_DELIVERED,
+    "messages/dropped": LINK_DROPPED,
+    "bytes/delivered": LINK_DELIVERED,
+    "drops/range": (255, 150, 120),
+    "drops/random": (200, 120, 255),
+    "drops/collision": (255, 120, 200),
+    "drops/half_duplex": (255, 200, 80),
+    "drops/oversize": (160, 160, 160),
+    "drops/partition": (120, 200, 255),
+}
+
+# Deep water -> shallow turquoise -> pale sand: low to high COTS probability (paper Fig. 6 uses
+# dark -> yellow; a sea ramp keeps the gold "claimed" spots readable on top of it).
+_SEA_STOPS = np.array([[8, 24, 58], [18, 84, 120], [40, 150, 150], [200, 210, 150]], float)
+
+
+def vehicle_color(index: int) -> Rgb:
+    return VEHICLE_COLORS[index % len(VEHICLE_COLORS)]
+
+
+def sea_colormap(prob: np.ndarray) -> np.ndarray:
+    """``prob`` in [0, 1] (any shape) -> uint8 RGB of shape ``prob.shape + (3,)``."""
+    p = np.clip(np.nan_to_num(np.asarray(prob, dtype=float)), 0.0, 1.0)
+    pos = p * (len(_SEA_STOPS) - 1)
+    lo = np.minimum(pos.astype(int), len(_SEA_STOPS) - 2)
+    frac = (pos - lo)[..., None]
+    rgb = _SEA_STOPS[lo] * (1.0 - frac) + _SEA_STOPS[lo + 1] * frac
+    return rgb.round().astype(np.uint8)

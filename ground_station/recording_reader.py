@@ -1,0 +1,65 @@
+"""Read a recording back with Rerun's own API (`rerun.chunk.RrdReader`): per entity, its
+static components and its rows on the ``sim_time`` timeline. Used by the tests to check a
+recording against a mission report, and handy for scripts that post-process a replay.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+from rerun.chunk import RrdReader
+
+from ground_station.rerun_log import TIMELINE
+
+_NOT_DATA = {"rerun.controls.RowId", "log_time", "log_tick"}
+
+
+@dataclass
+class EntityRows:
+    static: dict[str, Any] = field(default_factory=dict)  # component -> value
+    rows: list[tuple[float, dict[str, Any]]] = field(default_factory=list)  # (sim_time s, ...)
+
+    def sorted_rows(self) -> list[tuple[float, dict[str, Any]]]:
+        return sorted(self.rows, key=lambda r: r[0])
+
+    def series(self, component: str) -> list[tuple[float, Any]]:
+        """``(t_s, value)`` of every row that sets ``component``, in time order."""
+        return [(t, row[component]) for t, row in self.sorted_rows()
+                if row.get(component) is not None]
+
+    def latest(self, component: str) -> Any:
+        """The value at the end of the recording (static wins, as in the viewer); a Clear
+        logged after the last value makes it None."""
+        if component in self.static:
+            return self.static[component]
+        value = None
+        for _, row in self.sorted_rows():
+            if row.get(component) is not None:
+                value = row[component]
+            elif row.get("Clear:is_recursive") is not None:
+                value = None
+        return value
+
+
+def read_recording(path: str | Path) -> dict[str, EntityRows]:
+    """Entity path (``/map/spots``) -> its data, from the first recording in ``path``."""
+    entities: dict[str, EntityRows] = {}
+    for chunk in RrdReader(path).stream():
+        batch = chunk.to_record_batch()
+        entity = entities.setdefault(chunk.entity_path, EntityRows())
+        names = [n for n in batch.schema.names if n not in _NOT_DATA and n != TIMELINE]
+        columns = {n: batch.column(n).to_pylist() for n in names}
+        if chunk.is_static:
+            for n in names:
+                if columns[n] and columns[n][-1] is not None:
+                    entity.static[n] = columns[n][-1]
+            continue
+        if TIMELINE not in batch.schema.names:
+            continue
+        times_ns = batch.column(TIMELINE).cast(pa.int64()).to_pylist()
+        for i, t_ns in enumerate(times_ns):
+            entity.rows.append((t_ns / 1e9, {n: columns[n][i] for n in names}))
+    return entities
