@@ -143,6 +143,7 @@ def test_embedded_relay_survives_garbage_and_takes_the_mission_from_the_bus(spaw
         session.put(bus.truth_key("b"), b"\x00\x01garbage")
         session.put(bus.truth_key("b"), bus.Truth(0.0, (100.0, 0.0, 0.0)).encode())
         session.put(bus.truth_key("zz"), bus.Truth(0.0, (0.0, 0.0, 0.0)).encode())
+        time.sleep(0.3)  # samples on different keys may be handled concurrently
         session.put(bus.tx_key("zz"), b"unknown id")
         session.put(bus.tx_key("a"), b"")
         session.put(bus.tx_key("a"), b"\xff" * 200)  # oversize
