@@ -1,0 +1,97 @@
+"""The cleared spots: a grow-only set (G-Set CRDT) kept as a bitmap.
+
+Merging is bitwise OR, so loss, duplication and reordering of gossip can never un-clear a
+spot, and any two vehicles that have exchanged their states hold the same set. The digest
+(size mod 128 and a 16-bit sum of per-spot hashes, both order-free and updated in O(1)) rides
+on every pose; a vehicle that hears a digest unlike its own pushes its full state, one
+`wire.SEGMENT_BITS` segment per frame, and so does the other side: that is the anti-entropy.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from typing import Iterable, Iterator
+
+from fleet_agent.wire import SEGMENT_BITS, Digest
+
+
+def _spot_hash(i: int) -> int:
+    # A fixed function of the index (Python's hash() is salted per process).
+    return int.from_bytes(hashlib.blake2b(i.to_bytes(4, "little"), digest_size=2).digest(),
+                          "little")
+
+
+class ClearedSet:
+    def __init__(self, n_tasks: int) -> None:
+        self.n_tasks = n_tasks
+        self._bits = 0
+        self._count = 0
+        self._hash = 0
+        self._table = [_spot_hash(i) for i in range(n_tasks)]
+
+    def __contains__(self, task: int) -> bool:
+        return bool(self._bits >> task & 1)
+
+    def __len__(self) -> int:
+        return self._count
+
+    def __iter__(self) -> Iterator[int]:
+        bits, i = self._bits, 0
+        while bits:
+            if bits & 1:
+                yield i
+            bits >>= 1
+            i += 1
+
+    def add(self, task: int) -> bool:
+        """Add one spot; True if it was new."""
+        if not 0 <= task < self.n_tasks:
+            raise ValueError(f"task index {task} outside the scenario")
+        if task in self:
+            return False
+        self._bits |= 1 << task
+        self._count += 1
+        self._hash = (self._hash + self._table[task]) & 0xFFFF
+        return True
+
+    def update(self, tasks: Iterable[int]) -> list[int]:
+        return [t for t in tasks if self.add(t)]
+
+    def digest(self) -> Digest:
+        return Digest(self._count & 0x7F, self._hash)
+
+    @property
+    def n_segments(self) -> int:
+        return max(1, math.ceil(self.n_tasks / SEGMENT_BITS))
+
+    def segment_of(self, task: int) -> int:
+        return task // SEGMENT_BITS
+
+    def segment(self, segment: int) -> bytes:
+        """The bitmap bytes of one segment (little-endian bit order)."""
+        lo = segment * SEGMENT_BITS
+        bits = min(SEGMENT_BITS, self.n_tasks - lo)
+        width = max(1, math.ceil(bits / 8))
+        return ((self._bits >> lo) & ((1 << bits) - 1)).to_bytes(width, "little")
+
+    def merge_segment(self, segment: int, data: bytes) -> list[int]:
+        """OR a received segment in; returns the spots that were new here."""
+        lo = segment * SEGMENT_BITS
+        incoming = int.from_bytes(data, "little") & ((1 << min(SEGMENT_BITS, self.n_tasks - lo)) - 1)
+        new = (incoming << lo) & ~self._bits
+        out: list[int] = []
+        while new:
+            low = new & -new
+            task = low.bit_length() - 1
+            self.add(task)
+            out.append(task)
+            new ^= low
+        return out
+
+    def missing_from(self, segment: int, data: bytes) -> bool:
+        """Whether a peer's segment lacks a spot this set has (so a push would help it)."""
+        lo = segment * SEGMENT_BITS
+        theirs = int.from_bytes(data, "little") << lo
+        mask = ((1 << min(SEGMENT_BITS, self.n_tasks - lo)) - 1) << lo
+        return bool(self._bits & mask & ~theirs)

@@ -1,0 +1,77 @@
+"""The agent's planner: `hfc_core` behind task indices, with iteration budgets only.
+
+Everything the fleet must agree on is computed with an iteration budget and a shared seed,
+never a time limit, so every agent gets the same answer from the same inputs. Results are
+memoised on their inputs: the in-process simulation runs many agents on one interpreter, and
+a pure function computed once serves them all (the multi-process fleet computes it in each
+process, as the vehicles would).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+from hfc_core.problem import Problem
+
+Point3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Live:
+    """A vehicle as the replanner sees it (task indices)."""
+
+    index: int
+    pos: Point3
+    battery_s: float
+    route: tuple[int, ...] = ()
+    locked: tuple[int, ...] = ()  # spots that must stay first (being injected)
+
+
+class Planner:
+    def __init__(self, problem: Problem, seed: int, plan_iterations: int,
+                 replan_iterations: int) -> None:
+        self.problem = problem
+        self.seed = seed
+        self.plan_iterations = plan_iterations
+        self.replan_iterations = replan_iterations
+        self._initial: tuple[tuple[int, ...], ...] | None = None
+        self._memo: dict[tuple, dict[int, list[int]]] = {}
+        self.calls = 0  # replanner runs (not memo hits), for benchmarks
+
+    def initial_routes(self) -> tuple[tuple[int, ...], ...]:
+        """The fleet plan every agent computes alone at start: solve("best") on the shared
+        scenario with the shared seed and an iteration budget."""
+        if self._initial is None:
+            from hfc_core.solve import solve
+
+            result = solve(self.problem, "best", max_iterations=self.plan_iterations,
+                           seed=self.seed)
+            self._initial = tuple(tuple(int(t) for t in r) for r in result.plan.routes)
+        return self._initial
+
+    def replan(self, vehicles: Sequence[Live], unavailable: frozenset[int],
+               held: Mapping[int, int], seed: int) -> dict[int, list[int]]:
+        """Routes (task indices) for ``vehicles`` over the spots not ``unavailable``; a spot in
+        ``held`` goes to its holder only. Vehicles not listed are gone."""
+        key = (tuple(vehicles), unavailable, tuple(sorted(held.items())), seed)
+        hit = self._memo.get(key)
+        if hit is not None:
+            return {v: list(r) for v, r in hit.items()}
+        from hfc_core.replan import LiveVehicle, replan
+
+        p = self.problem
+        tid = [t.id for t in p.tasks]
+        vid = [v.id for v in p.vehicles]
+        live = [LiveVehicle(vid[v.index], tuple(v.pos), float(v.battery_s),
+                            route=tuple(tid[t] for t in v.route),
+                            locked=tuple(tid[t] for t in v.locked)) for v in vehicles]
+        routes = replan(p, live, cleared=tuple(tid[t] for t in sorted(unavailable)),
+                        held={tid[t]: vid[h] for t, h in held.items()},
+                        max_iterations=self.replan_iterations, seed=seed)
+        self.calls += 1
+        out = {p.vehicle_index[v]: [p.task_index[t] for t in r] for v, r in routes.items()}
+        if len(self._memo) > 256:
+            self._memo.clear()
+        self._memo[key] = out
+        return {v: list(r) for v, r in out.items()}

@@ -1,0 +1,157 @@
+"""The mission report: one format for `cotsfleet sim` and `cotsfleet run`.
+
+Built from what an operator gets after recovery: each vehicle's last `Status`, the `Event`
+log, the relay's link counters, and the faults that were injected (with their times).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping, Sequence
+
+from comms_sim.stats import COUNTERS, LinkCounts, totals
+from fleet_agent.telemetry import Event, Status
+from hfc_core.problem import Problem
+
+
+@dataclass(frozen=True)
+class FaultRecord:
+    kind: str  # abort | kill | restart | partition | loss | forge | replay | garbage
+    vid: str
+    t_s: float
+    value: float = 0.0
+
+
+def build_report(problem: Problem, statuses: Mapping[str, Status], events: Sequence[Event],
+                 link: LinkCounts | None, faults: Sequence[FaultRecord], *, mode: str,
+                 seed: int, end_s: float, extra: Mapping[str, Any] | None = None
+                 ) -> dict[str, Any]:
+    tasks = {t.id: t for t in problem.tasks}
+    killed = {f.vid: f.t_s for f in faults if f.kind == "kill"}
+    aborted = {f.vid: f.t_s for f in faults if f.kind == "abort"}
+    restarted = {f.vid for f in faults if f.kind == "restart"}
+    # Treatments: the last status of each vehicle plus every "cleared" event (a vehicle killed
+    # between two status reports still reported its treatment as an event).
+    treated: dict[str, set[int]] = {vid: set(s.treated) for vid, s in statuses.items()}
+    for e in events:
+        if e.kind == "cleared":
+            treated.setdefault(e.id, set()).update(e.tasks)
+    vehicles = []
+    for v in problem.vehicles:
+        s = statuses.get(v.id)
+        mine = treated.get(v.id, set())
+        vehicles.append({
+            "id": v.id,
+            "state": "dead" if v.id in killed and v.id not in restarted else
+                     (s.state if s else "unknown"),
+            "tasks_treated": len(mine),
+            "priority": round(sum(tasks[t].priority for t in mine), 2),
+            "distance_m": round(s.distance_m, 1) if s else 0.0,
+            "battery_used_s": round(v.battery_s - s.battery_s, 1) if s else 0.0,
+            "t_diff_s": round(s.battery_s, 1) if s and s.state == "home" else None,
+            "home": bool(s and s.state == "home"),
+            "aborted": v.id in aborted,
+            "killed": v.id in killed,
+            "restarted": v.id in restarted,
+            "counters": dict(s.counters) if s else {},
+        })
+    distinct: set[int] = set().union(*treated.values()) if treated else set()
+    n_treatments = sum(len(x) for x in treated.values())
+    duplicates = n_treatments - len(distinct)
+
+    detection: dict[str, dict[str, float | None]] = {}
+    for gone, t0 in sorted({**aborted, **killed}.items()):
+        row: dict[str, float | None] = {}
+        for v in problem.vehicles:
+            if v.id == gone or v.id in killed and killed[v.id] <= t0:
+                continue
+            seen = [e.t_s for e in events
+                    if e.id == v.id and e.kind == "lost" and e.peer == gone and e.t_s >= t0]
+            row[v.id] = round(min(seen) - t0, 1) if seen else None
+        detection[gone] = row
+    false_alarms = sum(
+        1 for e in events if e.kind == "lost" and e.detail == "silent"
+        and not (e.peer in killed and e.t_s >= killed[e.peer])
+        and not (e.peer in aborted and e.t_s >= aborted[e.peer]))
+    taken_over = {t for e in events if e.kind == "takeover" for t in e.tasks}
+
+    agent_totals: dict[str, int] = {}
+    largest = 0
+    for s in statuses.values():
+        for k, n in s.counters.items():
+            if k == "largest_frame":
+                largest = max(largest, int(n))
+            elif k != "replans":
+                agent_totals[k] = agent_totals.get(k, 0) + int(n)
+    frames_sent = sum(n for k, n in agent_totals.items()
+                      if k.startswith("tx_") and k != "tx_bytes")
+    bytes_sent = agent_totals.get("tx_bytes", 0)
+    minutes = max(end_s, 1.0) / 60.0
+    link_totals = totals(link) if link is not None else dict.fromkeys(COUNTERS, 0)
+    return {
+        "mode": mode,
+        "scenario": problem.name,
+        "seed": seed,
+        "end_s": round(end_s, 1),
+        "faults": [{"kind": f.kind, "vid": f.vid, "t_s": f.t_s, "value": f.value}
+                   for f in faults],
+        "vehicles": vehicles,
+        "fleet": {
+            "spots_total": problem.n_tasks,
+            "spots_cleared": len(distinct),
+            "priority": round(sum(tasks[t].priority for t in distinct), 2),
+            "priority_total": round(float(problem.priority.sum()), 2),
+            "treatments": n_treatments,
+            "duplicate_treatments": duplicates,
+            "duplicate_share": round(duplicates / n_treatments, 4) if n_treatments else 0.0,
+            "vehicles_home": sum(1 for v in vehicles if v["home"]),
+            "detection_delay_s": detection,
+            "false_alarms": false_alarms,
+            "spots_taken_over": len(taken_over),
+            "claims": sum(1 for e in events if e.kind == "claim"),
+            "claims_lost": sum(1 for e in events if e.kind == "claim_lost"),
+        },
+        "messages": {
+            "frames_sent": frames_sent,
+            "bytes_sent": bytes_sent,
+            "bytes_per_vehicle_minute": round(bytes_sent / problem.n_vehicles / minutes, 1),
+            "largest_frame_bytes": largest,
+            "by_kind": {k[3:]: n for k, n in sorted(agent_totals.items())
+                        if k.startswith("tx_") and k != "tx_bytes"},
+            "dropped_by_agents": {k[5:]: n for k, n in sorted(agent_totals.items())
+                                  if k.startswith("drop_")},
+            "link": link_totals,
+        },
+        **(dict(extra) if extra else {}),
+    }
+
+
+def format_report(report: Mapping[str, Any]) -> str:
+    """A terminal summary of a report."""
+    f, m = report["fleet"], report["messages"]
+    lines = [f"{report['mode']} {report['scenario']} seed {report['seed']}: "
+             f"{f['spots_cleared']}/{f['spots_total']} spots cleared, priority "
+             f"{f['priority']:.0f}/{f['priority_total']:.0f}, "
+             f"{f['duplicate_treatments']} duplicate treatment(s), "
+             f"{f['vehicles_home']} vehicle(s) home, end t={report['end_s']:.0f} s"]
+    lines.append(f"{'vehicle':<8} {'state':<9} {'tasks':>5} {'priority':>9} {'dist m':>8} "
+                 f"{'batt used':>9} {'T_diff':>7}  faults")
+    for v in report["vehicles"]:
+        flags = [k for k in ("aborted", "killed", "restarted") if v[k]]
+        tdiff = f"{v['t_diff_s']:.0f}" if v["t_diff_s"] is not None else "-"
+        lines.append(f"{v['id']:<8} {v['state']:<9} {v['tasks_treated']:>5} "
+                     f"{v['priority']:>9.1f} {v['distance_m']:>8.0f} {v['battery_used_s']:>9.0f} "
+                     f"{tdiff:>7}  {','.join(flags)}")
+    for gone, row in f["detection_delay_s"].items():
+        delays = ", ".join(f"{vid} {'-' if d is None else f'{d:.0f} s'}" for vid, d in row.items())
+        lines.append(f"detection of {gone}: {delays}")
+    link = m["link"]
+    drops = {k: link.get(k, 0) for k in ("partition", "range", "half_duplex", "collision",
+                                          "random", "superseded", "oversize") if link.get(k)}
+    lines.append(f"radio: {m['frames_sent']} frames, {m['bytes_sent']} bytes "
+                 f"({m['bytes_per_vehicle_minute']:.0f} B/vehicle/min), largest "
+                 f"{m['largest_frame_bytes']} B; receptions {link.get('sent', 0)}, delivered "
+                 f"{link.get('delivered', 0)}, dropped {drops}; agents refused "
+                 f"{m['dropped_by_agents']}; takeovers {f['spots_taken_over']} spot(s), "
+                 f"false alarms {f['false_alarms']}")
+    return "\n".join(lines)

@@ -1,0 +1,332 @@
+"""The vehicle model: kinematics (paper eq. 3-7), injections and battery time.
+
+The AUV cruises at constant speed |v| (Assumption 1) along straight legs in 3-D, with yaw and
+pitch taken from the motion (eq. 5-6, roll neglected by Assumption 2); the distance run is the
+sum of eq. 7 over the legs. At a spot it hovers for the spot's injection time. Battery time
+runs down with mission time whatever the vehicle does (constant thrust power) until it is
+recovered at the rendezvous. Around land a leg is the waypoint path of the land metric.
+
+Pure and exact: `advance` jumps to any later time, settling arrivals and injection ends at
+the moment they happen, so the result does not depend on how often it is called.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+from hfc_core.problem import Problem
+
+Point3 = tuple[float, float, float]
+# (from, to) -> (length_m, waypoints after ``from`` ending at ``to``)
+PathFn = Callable[[Point3, Point3], tuple[float, list[Point3]]]
+
+TRANSIT, INJECTING, RETURNING, HOME, ABORTED = "transit", "injecting", "returning", "home", "aborted"
+_EPS = 1e-9
+
+
+def straight_path(p: Point3, q: Point3) -> tuple[float, list[Point3]]:
+    return math.dist(p, q), [q]
+
+
+def path_function(problem: Problem) -> PathFn:
+    """Straight legs in open water; shortest waypoint paths around land otherwise."""
+    if not problem.forbidden:
+        return straight_path
+    from hfc_core.geometry import LandMap  # land metric of the planner (issue 3)
+
+    land = LandMap(problem.forbidden)
+
+    def around_land(p: Point3, q: Point3) -> tuple[float, list[Point3]]:
+        length, waypoints = land.shortest_path(p, q)
+        points = [tuple(float(c) for c in w) for w in waypoints]
+        points = [(*w, q[2]) if len(w) == 2 else w for w in points]  # 2-D waypoints: keep depth
+        if not points or math.dist(points[-1], q) > 1e-6:
+            points.append(q)
+        if math.dist(points[0], p) <= 1e-6 and len(points) > 1:
+            points = points[1:]
+        return float(length), points  # type: ignore[return-value]
+
+    return around_land
+
+
+@dataclass(frozen=True)
+class Cleared:
+    """The vehicle finished injecting ``task`` at ``t_s``."""
+
+    task: int
+    t_s: float
+
+
+@dataclass(frozen=True)
+class Arrived:
+    """The vehicle reached the rendezvous at ``t_s``."""
+
+    t_s: float
+
+
+class Vehicle:
+    """One AUV's physical state. ``route`` holds task indices still to treat, in order; the
+    head is the spot being approached or injected."""
+
+    def __init__(self, problem: Problem, index: int, paths: PathFn | None = None,
+                 t_s: float = 0.0, pos: Point3 | None = None) -> None:
+        spec = problem.vehicles[index]
+        self.problem = problem
+        self.index = index
+        self.speed_mps = spec.speed_mps
+        self.capacity_s = spec.battery_s
+        self.rendezvous: Point3 = spec.rendezvous
+        self.paths = paths or path_function(problem)
+        self.pos: Point3 = tuple(pos) if pos is not None else spec.start  # type: ignore[assignment]
+        self.t_s = float(t_s)
+        self.route: list[int] = []
+        self.mode = TRANSIT
+        self.aborted = False
+        self.distance_m = 0.0
+        self.yaw_deg = 0.0
+        self.pitch_deg = 0.0
+        self.inject_until_s: float | None = None
+        self.home_at_s: float | None = None
+        self._waypoints: list[Point3] = []
+        self._target: int | None = None  # task index, or -1 for the rendezvous
+        self._retarget()
+
+    # -- queries ---------------------------------------------------------------------------
+
+    def battery_left_s(self, t_s: float | None = None) -> float:
+        t = self.t_s if t_s is None else t_s
+        if self.home_at_s is not None:
+            t = min(t, self.home_at_s)
+        return self.capacity_s - t
+
+    @property
+    def done(self) -> bool:
+        return self.mode == HOME
+
+    @property
+    def injecting(self) -> int | None:
+        return self.route[0] if self.mode == INJECTING and self.route else None
+
+    def state(self) -> str:
+        """The telemetry state (`fleet_agent.telemetry.STATES`)."""
+        if self.aborted and self.mode != HOME:
+            return ABORTED
+        return self.mode
+
+    def time_to_finish_s(self, route: Sequence[int] | None = None) -> float:
+        """Time from now to the rendezvous through ``route`` (default: the current one)."""
+        if self.mode == HOME:
+            return 0.0
+        route = self.route if route is None else list(route)
+        xyz, dist = self.problem.xyz, self.problem.dist_m
+        total = 0.0
+        i = 0
+        if route and self.mode == INJECTING and route[0] == self.route[0]:
+            total += max(0.0, (self.inject_until_s or self.t_s) - self.t_s)
+            i = 1
+        elif route:
+            total += self._reach_m(route[0]) / self.speed_mps + self.problem.service_s[route[0]]
+            i = 1
+        prev = route[0] if route else None
+        for task in route[i:]:
+            total += dist[prev, task] / self.speed_mps + self.problem.service_s[task]
+            prev = task
+        if prev is None:
+            total += self._reach_home_m() / self.speed_mps
+        else:
+            total += dist[prev, self.problem.end_node(self.index)] / self.speed_mps
+        return total
+
+    def slack_s(self, reserve_s: float = 0.0) -> float:
+        return self.battery_left_s() - reserve_s - self.time_to_finish_s()
+
+    def next_event_s(self) -> float | None:
+        """When the next arrival or injection end happens (None once home)."""
+        if self.mode == HOME:
+            return None
+        if self.mode == INJECTING:
+            return self.inject_until_s
+        return self.t_s + self._leg_left_m() / self.speed_mps
+
+    # -- commands --------------------------------------------------------------------------
+
+    def set_route(self, route: Sequence[int]) -> None:
+        """Follow ``route`` from now on. Leaving the spot being injected abandons it."""
+        route = [int(t) for t in route]
+        if self.mode == HOME:
+            return
+        if self.mode == INJECTING and (not route or route[0] != self.route[0]):
+            self.mode = TRANSIT
+            self.inject_until_s = None
+        self.route = route if not self.aborted else []
+        self._retarget()
+
+    def abort(self) -> None:
+        """Give up the mission and head straight for the rendezvous."""
+        self.aborted = True
+        self.set_route([])
+
+    def restore(self, pos: Point3, distance_m: float, route: Sequence[int], aborted: bool,
+                home_at_s: float | None) -> None:
+        """Resume from a journal checkpoint (an injection in progress is started again)."""
+        self.pos = tuple(float(c) for c in pos)  # type: ignore[assignment]
+        self.distance_m = float(distance_m)
+        self.aborted = aborted
+        self.inject_until_s = None
+        if home_at_s is not None:
+            self.home_at_s = float(home_at_s)
+            self.mode = HOME
+            self.route = []
+            return
+        self.mode = TRANSIT
+        self.route = [] if aborted else [int(t) for t in route]
+        self._retarget()
+
+    def advance(self, until_s: float) -> list[Cleared | Arrived]:
+        """Move to time ``until_s``; return what happened on the way, in time order."""
+        events: list[Cleared | Arrived] = []
+        while self.t_s < until_s - _EPS and self.mode != HOME:
+            if self.mode == INJECTING:
+                end = self.inject_until_s if self.inject_until_s is not None else self.t_s
+                if end > until_s:
+                    self.t_s = until_s
+                    break
+                self.t_s = end
+                task = self.route.pop(0)
+                events.append(Cleared(task, end))
+                self.inject_until_s = None
+                self.mode = TRANSIT
+                self._retarget()
+                continue
+            self._move(until_s - self.t_s, events)
+        self.t_s = max(self.t_s, until_s)
+        return events
+
+    # -- internals -------------------------------------------------------------------------
+
+    def _target_pos(self, target: int) -> Point3:
+        if target < 0:
+            return self.rendezvous
+        return tuple(float(c) for c in self.problem.xyz[target])  # type: ignore[return-value]
+
+    def _reach_m(self, task: int) -> float:
+        if self._target == task:
+            return self._leg_left_m()
+        return self.paths(self.pos, self._target_pos(task))[0]
+
+    def _reach_home_m(self) -> float:
+        if self._target == -1:
+            return self._leg_left_m()
+        return self.paths(self.pos, self.rendezvous)[0]
+
+    def _leg_left_m(self) -> float:
+        total, prev = 0.0, self.pos
+        for w in self._waypoints:
+            total += math.dist(prev, w)
+            prev = w
+        return total
+
+    def _retarget(self) -> None:
+        if self.mode in (HOME, INJECTING):
+            return
+        target = self.route[0] if self.route else -1
+        if target == self._target and self._waypoints:
+            return
+        self._target = target
+        self.mode = TRANSIT if target >= 0 else RETURNING
+        _, self._waypoints = self.paths(self.pos, self._target_pos(target))
+        self._waypoints = list(self._waypoints)
+
+    def _move(self, dt_s: float, events: list[Cleared | Arrived]) -> None:
+        t0 = self.t_s
+        budget_m = dt_s * self.speed_mps
+        while self._waypoints and budget_m > _EPS:
+            w = self._waypoints[0]
+            d = math.dist(self.pos, w)
+            if d > _EPS:
+                self._heading(w)
+            if d <= budget_m + _EPS:
+                budget_m -= d
+                self.distance_m += d
+                self.t_s += d / self.speed_mps
+                self.pos = w
+                self._waypoints.pop(0)
+            else:
+                f = budget_m / d
+                self.pos = tuple(a + (b - a) * f for a, b in zip(self.pos, w))  # type: ignore
+                self.distance_m += budget_m
+                self.t_s += budget_m / self.speed_mps
+                budget_m = 0.0
+        if self._waypoints:
+            self.t_s = t0 + dt_s  # the whole interval was spent on the leg
+        else:
+            self._arrive(events)
+
+    def _arrive(self, events: list[Cleared | Arrived]) -> None:
+        if self._target is not None and self._target >= 0:
+            self.mode = INJECTING
+            self.inject_until_s = self.t_s + float(self.problem.service_s[self._target])
+            self._target = None
+        else:
+            self.mode = HOME
+            self.home_at_s = self.t_s
+            events.append(Arrived(self.t_s))
+
+    def _heading(self, w: Point3) -> None:
+        """Yaw (eq. 5) and pitch (eq. 6) of the motion toward ``w``; NED, degrees."""
+        dx, dy, dz = (b - a for a, b in zip(self.pos, w))
+        horizontal = math.hypot(dx, dy)
+        if horizontal > _EPS:
+            self.yaw_deg = math.degrees(math.atan2(dy, dx))
+        self.pitch_deg = math.degrees(math.atan2(-dz, horizontal))
+
+
+def fit_route(vehicle: Vehicle, route: Sequence[int], reserve_s: float) -> list[int]:
+    """``route`` with spots dropped until it ends at the rendezvous within the battery.
+
+    Drops the spot whose removal saves the most time per unit of priority (the paper's
+    screening idea), never the one being injected.
+    """
+    route = list(route)
+    priority = vehicle.problem.priority
+    while route and vehicle.time_to_finish_s(route) > vehicle.battery_left_s() - reserve_s:
+        base = vehicle.time_to_finish_s(route)
+        best, best_score = None, -math.inf
+        for i, task in enumerate(route):
+            if i == 0 and vehicle.injecting == task:
+                continue
+            saved = base - vehicle.time_to_finish_s(route[:i] + route[i + 1:])
+            score = saved / max(float(priority[task]), 1e-9)
+            if score > best_score:
+                best, best_score = i, score
+        if best is None:
+            break
+        route.pop(best)
+    return route
+
+
+def position_along(problem: Problem, v: int, pos: Point3, route: Sequence[int], dt_s: float,
+                   first_service_left_s: float = 0.0) -> Point3:
+    """Dead reckoning: where vehicle ``v`` is ``dt_s`` after being at ``pos`` with ``route``
+    ahead (straight legs; a spot being injected first if ``first_service_left_s`` > 0)."""
+    speed = problem.vehicles[v].speed_mps
+    t = dt_s - first_service_left_s
+    here = np.asarray(pos, dtype=float)
+    targets = [problem.xyz[task] for task in route] + [np.asarray(problem.vehicles[v].rendezvous)]
+    services = [float(problem.service_s[task]) for task in route] + [math.inf]
+    for target, service in zip(targets, services):
+        if t <= 0:
+            break
+        leg = float(np.linalg.norm(target - here))
+        if leg / speed >= t:
+            here = here + (target - here) * (t * speed / leg)
+            t = 0.0
+            break
+        t -= leg / speed
+        here = np.asarray(target, dtype=float)
+        t -= service
+    return (float(here[0]), float(here[1]), float(here[2]))
