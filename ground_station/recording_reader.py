@@ -14,7 +14,7 @@ from rerun.chunk import RrdReader
 
 from ground_station.rerun_log import TIMELINE
 
-_NOT_DATA = {"rerun.controls.RowId", "log_time", "log_tick"}
+_NOT_DATA = {"rerun.controls.RowId"}
 
 
 @dataclass
@@ -44,22 +44,26 @@ class EntityRows:
         return value
 
 
-def read_recording(path: str | Path) -> dict[str, EntityRows]:
-    """Entity path (``/map/spots``) -> its data, from the first recording in ``path``."""
+def read_recording(path: str | Path, timeline: str = TIMELINE) -> dict[str, EntityRows]:
+    """Entity path (``/map/spots``) -> its data, from the first recording in ``path``; rows
+    are indexed by ``timeline`` (durations in seconds, sequences as numbers)."""
     entities: dict[str, EntityRows] = {}
     for chunk in RrdReader(path).stream():
         batch = chunk.to_record_batch()
         entity = entities.setdefault(chunk.entity_path, EntityRows())
-        names = [n for n in batch.schema.names if n not in _NOT_DATA and n != TIMELINE]
+        names = [n for n in batch.schema.names
+                 if n not in _NOT_DATA and batch.schema.field(n).metadata is not None
+                 and batch.schema.field(n).metadata.get(b"rerun:kind") == b"data"]
         columns = {n: batch.column(n).to_pylist() for n in names}
         if chunk.is_static:
             for n in names:
                 if columns[n] and columns[n][-1] is not None:
                     entity.static[n] = columns[n][-1]
             continue
-        if TIMELINE not in batch.schema.names:
+        if timeline not in batch.schema.names:
             continue
-        times_ns = batch.column(TIMELINE).cast(pa.int64()).to_pylist()
-        for i, t_ns in enumerate(times_ns):
-            entity.rows.append((t_ns / 1e9, {n: columns[n][i] for n in names}))
+        index = batch.column(timeline)
+        scale = 1e-9 if pa.types.is_duration(index.type) else 1.0
+        for i, t in enumerate(index.cast(pa.int64()).to_pylist()):
+            entity.rows.append((t * scale, {n: columns[n][i] for n in names}))
     return entities
