@@ -178,8 +178,8 @@ class Agent:
         self._detect(now, out)
         self._cooperate(now, out)
         self._sync_route(now, out)
+        self._telemetry(now, out)  # truth first: the relay places a sender before its frames
         self._radio(now, out)
-        self._telemetry(now, out)
         self.t = now
         return out
 

@@ -1,0 +1,68 @@
+"""`cotsfleet run`: an emulated mission, one OS process per vehicle, over Zenoh."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from cotsfleet.cli import UsageError
+
+HELP = "run an emulated mission: router, link emulator, one agent process per AUV, dashboard"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenario", type=Path, help="scenario JSON or TOP file "
+                   "(default: the paper preset drawn with --seed)")
+    p.add_argument("--vehicles", type=int, help="fleet size of the default scenario")
+    p.add_argument("--seed", type=int, default=0, help="mission seed (plans, channel)")
+    p.add_argument("--warp", type=float, default=60.0, help="simulated seconds per wall second")
+    p.add_argument("--loss", type=float, default=0.0, help="extra uniform link loss 0..1")
+    p.add_argument("--abort", action="append", default=[], metavar="ID@S",
+                   help="vehicle announces an abort at sim time S (repeatable)")
+    p.add_argument("--kill", action="append", default=[], metavar="ID@S",
+                   help="SIGKILL the vehicle's agent at sim time S (repeatable)")
+    p.add_argument("--restart", action="append", default=[], metavar="ID@S",
+                   help="start a killed agent again from its journal at S (repeatable)")
+    p.add_argument("--viewer", choices=("web", "native", "none"),
+                   help="Rerun viewer (default: native with a display, else web)")
+    p.add_argument("--rrd", type=Path, help="also record the mission to this .rrd file")
+    p.add_argument("--web-port", type=int, default=9090, help="web viewer port")
+    p.add_argument("--report", type=Path, help="mission report JSON (default: in the run dir)")
+    p.add_argument("--run-dir", type=Path, help="journals, logs, report (default: a new "
+                   "directory under $TMPDIR/cotsfleet-runs)")
+    p.add_argument("--config", type=Path, help="agent settings TOML (fleet_agent.config)")
+
+
+def _faults(specs: list[str], what: str) -> tuple[tuple[str, float], ...]:
+    from fleet_agent.sim import parse_at
+
+    try:
+        return tuple(parse_at(s) for s in specs)
+    except ValueError as exc:
+        raise UsageError(f"--{what}: {exc}") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    from cotsfleet.launcher import LaunchOptions, run_mission, scenario_doc
+    from fleet_agent.config import AgentConfig, load_config
+
+    viewer = args.viewer
+    if viewer is None:
+        from ground_station.viewer import default_viewer
+
+        viewer = default_viewer()
+    try:
+        config = load_config(args.config) if args.config else AgentConfig()
+        opts = LaunchOptions(
+            scenario=scenario_doc(args.scenario, args.vehicles, args.seed), seed=args.seed,
+            warp=args.warp, loss=args.loss, aborts=_faults(args.abort, "abort"),
+            kills=_faults(args.kill, "kill"), restarts=_faults(args.restart, "restart"),
+            viewer=viewer, rrd=args.rrd, web_port=args.web_port, run_dir=args.run_dir,
+            report=args.report, agent_config=config)
+        report = run_mission(opts)
+    except (RuntimeError, TimeoutError) as exc:  # TimeoutError first: it is an OSError
+        print(f"cotsfleet run: failed: {exc}")
+        return 1
+    except (ValueError, OSError) as exc:
+        raise UsageError(str(exc)) from None
+    return 130 if report.get("interrupted") else 0

@@ -1,0 +1,115 @@
+"""`cotsfleet sim`: the same agents in one process, on the deterministic transport and clock."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+from pathlib import Path
+from typing import Any
+
+from cotsfleet.cli import UsageError
+
+HELP = "simulate missions in-process (deterministic, seeded; --runs N for Monte Carlo)"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scenario", type=Path, help="scenario JSON or TOP file "
+                   "(default: the paper preset, drawn anew for each run's seed)")
+    p.add_argument("--vehicles", type=int, help="fleet size of the default scenario")
+    p.add_argument("--seed", type=int, default=0, help="seed of the first run")
+    p.add_argument("--runs", type=int, default=1, help="Monte Carlo runs (seeds seed..)")
+    p.add_argument("--loss", type=float, default=0.0, help="extra uniform link loss 0..1")
+    p.add_argument("--abort", action="append", default=[], metavar="ID@S")
+    p.add_argument("--kill", action="append", default=[], metavar="ID@S")
+    p.add_argument("--restart", action="append", default=[], metavar="ID@S")
+    p.add_argument("--partition", action="append", default=[], metavar="ID@S+D",
+                   help="cut the vehicle off from S for D seconds")
+    p.add_argument("--attack", action="append", default=[], metavar="KIND@S",
+                   help="an intruder sends 10 forge|replay|garbage frames from S")
+    p.add_argument("--config", type=Path, help="agent settings TOML (fleet_agent.config)")
+    p.add_argument("--report", type=Path, help="write the report(s) here (JSON)")
+
+
+def _faults(args: argparse.Namespace) -> list:
+    from fleet_agent.sim import Fault, parse_at
+
+    faults = []
+    try:
+        for kind in ("abort", "kill", "restart"):
+            for spec in getattr(args, kind):
+                vid, t = parse_at(spec)
+                faults.append(Fault(kind, t, vid))
+        for spec in args.partition:
+            head, _, dur = spec.partition("+")
+            vid, t = parse_at(head)
+            faults.append(Fault("partition", t, vid, float(dur or 300)))
+        for spec in args.attack:
+            kind, t = parse_at(spec)
+            faults.append(Fault(kind, t, "", 10))
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    return faults
+
+
+def _row(report: dict[str, Any]) -> dict[str, float]:
+    f, m = report["fleet"], report["messages"]
+    delays = [d for row in f["detection_delay_s"].values() for d in row.values() if d is not None]
+    return {"cleared": f["spots_cleared"], "priority": f["priority"],
+            "duplicates": f["duplicate_treatments"], "home": f["vehicles_home"],
+            "detect_s": max(delays) if delays else float("nan"),
+            "false_alarms": f["false_alarms"], "B/veh/min": m["bytes_per_vehicle_minute"],
+            "oracle": report.get("oracle", {}).get("ratio", float("nan"))}
+
+
+def summary_table(rows: list[dict[str, float]]) -> str:
+    keys = list(rows[0])
+    lines = [f"{'':<6}" + "".join(f"{k:>13}" for k in keys)]
+    for name, fn in (("mean", statistics.fmean), ("min", min), ("max", max)):
+        cells = []
+        for k in keys:
+            vals = [r[k] for r in rows if r[k] == r[k]]  # drop NaN
+            cells.append(f"{fn(vals):>13.4g}" if vals else f"{'-':>13}")
+        lines.append(f"{name:<6}" + "".join(cells))
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    from cotsfleet.launcher import scenario_doc
+    from fleet_agent.config import AgentConfig, load_config
+    from fleet_agent.report import format_report
+    from fleet_agent.sim import FleetSim
+    from hfc_core.scenario import problem_from_dict
+
+    if args.runs < 1:
+        raise UsageError("--runs must be >= 1")
+    if not 0.0 <= args.loss <= 1.0:
+        raise UsageError("--loss must be in [0, 1]")
+    try:
+        config = load_config(args.config) if args.config else AgentConfig()
+        faults = _faults(args)
+        reports, rows = [], []
+        for i in range(args.runs):
+            seed = args.seed + i
+            problem = problem_from_dict(scenario_doc(args.scenario, args.vehicles, seed))
+            result = FleetSim(problem, config, seed=seed, loss=args.loss, faults=faults).run()
+            reports.append({**result.report, "wall_s": round(result.wall_s, 3)})
+            rows.append(_row(result.report))
+            if args.runs == 1:
+                print(format_report(result.report))
+                print(f"wall {result.wall_s:.2f} s")
+            else:
+                done = int(30 * (i + 1) / args.runs)
+                print(f"\r[{'#' * done}{'.' * (30 - done)}] {i + 1}/{args.runs} runs",
+                      end="" if sys.stderr.isatty() else "\n", file=sys.stderr, flush=True)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if args.runs > 1:
+        print(file=sys.stderr)
+        print(summary_table(rows))
+    if args.report is not None:
+        args.report.parent.mkdir(parents=True, exist_ok=True)
+        args.report.write_text(json.dumps(reports[0] if args.runs == 1 else reports, indent=2),
+                               encoding="utf-8")
+    return 0

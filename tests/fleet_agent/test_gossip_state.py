@@ -1,0 +1,162 @@
+"""Cleared-set CRDT, replay window, failure detector and the claim rule."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from fleet_agent.cleared import ClearedSet
+from fleet_agent.membership import ABORTED, ALIVE, HOME, LOST, Membership
+from fleet_agent.negotiation import Holdings
+from fleet_agent.replay import WINDOW, ReplayWindow
+from fleet_agent.wire import SEGMENT_BITS
+
+
+# -- cleared set ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n_tasks", [1, 90, SEGMENT_BITS, SEGMENT_BITS + 1, 1000])
+@pytest.mark.parametrize("seed", range(5))
+def test_gossip_converges_under_loss_duplication_and_reordering(n_tasks: int, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    sets = [ClearedSet(n_tasks) for _ in range(4)]
+    truth: set[int] = set()
+    for _ in range(60):  # each vehicle clears spots and gossips random segments
+        v = int(rng.integers(4))
+        t = int(rng.integers(n_tasks))
+        sets[v].add(t)
+        truth.add(t)
+        inflight = []
+        for src in range(4):
+            seg = int(rng.integers(sets[src].n_segments))
+            inflight += [(src, seg, sets[src].segment(seg))] * int(rng.integers(0, 3))
+        rng.shuffle(inflight)
+        for src, seg, data in inflight:
+            if rng.random() < 0.3:
+                continue  # lost
+            for dst in range(4):
+                if dst != src:
+                    sets[dst].merge_segment(seg, data)
+    for _ in range(3):  # anti-entropy rounds without loss: everyone pushes every segment
+        for src in range(4):
+            for seg in range(sets[src].n_segments):
+                for dst in range(4):
+                    sets[dst].merge_segment(seg, sets[src].segment(seg))
+    for s in sets:
+        assert set(s) == truth
+        assert s.digest() == sets[0].digest()
+        assert len(s) == len(truth)
+
+
+def test_a_merge_never_unclears() -> None:
+    s = ClearedSet(90)
+    s.update([1, 2, 3])
+    assert s.merge_segment(0, bytes(12)) == []
+    assert set(s) == {1, 2, 3}
+    assert s.merge_segment(0, ClearedSet(90).segment(0)) == []
+
+
+def test_digest_tells_sets_apart_and_is_order_free() -> None:
+    a, b = ClearedSet(90), ClearedSet(90)
+    a.update([5, 9, 40])
+    b.update([40, 5, 9])
+    assert a.digest() == b.digest()
+    b.add(41)
+    assert a.digest() != b.digest()
+    assert a.missing_from(0, b.segment(0)) is False
+    assert b.missing_from(0, a.segment(0)) is True
+
+
+# -- replay window ----------------------------------------------------------------------------
+
+def test_replay_window_accepts_each_sequence_number_once() -> None:
+    w = ReplayWindow()
+    assert w.accept(1, 100)
+    assert not w.accept(1, 100)
+    assert w.accept(1, 98)  # late but inside the window, and new
+    assert not w.accept(1, 98)
+    assert w.accept(1, 101)
+    assert not w.accept(1, 101 - WINDOW)  # too old to tell
+    assert w.accept(2, 5)  # senders are independent
+
+
+def test_replay_window_restored_after_restart_refuses_old_frames() -> None:
+    w = ReplayWindow()
+    for s in (10, 11, 12):
+        w.accept(0, s)
+    fresh = ReplayWindow()
+    fresh.restore(w.high_water())
+    assert not fresh.accept(0, 12) and not fresh.accept(0, 3)
+    assert fresh.accept(0, 13)
+
+
+# -- failure detector -------------------------------------------------------------------------
+
+def test_silent_peer_is_lost_after_the_timeout_and_revived_by_its_own_frame() -> None:
+    m = Membership(3, 0, lost_after_s=30.0, heard_window_s=20.0)
+    m.heard(1, 10.0)
+    m.heard(2, 10.0)
+    assert m.check(39.9) == []
+    assert m.next_deadline_s() == 40.0
+    assert sorted(m.check(40.0)) == [1, 2]
+    assert m.status(1) == LOST and not m.alive(1)
+    assert m.heard(1, 50.0) is True  # a frame of its own: alive again
+    assert m.status(1) == ALIVE
+
+
+def test_relayed_evidence_delays_detection_but_stale_evidence_never_revives() -> None:
+    m = Membership(3, 0, lost_after_s=30.0, heard_window_s=20.0)
+    m.heard(1, 10.0)
+    m.heard(2, 40.0)
+    m.relayed(1, 25.0, now_s=26.0)  # vehicle 2 heard vehicle 1 later than we did
+    assert m.check(45.0) == []
+    assert m.check(55.0) == [1]
+    assert m.relayed(1, 24.0, now_s=60.0) is False  # older than what we had: still lost
+    assert m.relayed(1, 56.0, now_s=70.0) is True  # heard after we declared it: revived
+
+
+def test_abort_and_home_are_final() -> None:
+    m = Membership(3, 0, lost_after_s=30.0, heard_window_s=20.0)
+    assert m.mark(1, ABORTED, 5.0)
+    m.heard(1, 6.0)
+    assert m.status(1) == ABORTED
+    assert m.mark(2, HOME, 7.0)
+    assert m.check(1000.0) == []
+    assert m.heard_mask(6.0) == 0b010
+
+
+# -- claims -----------------------------------------------------------------------------------
+
+def test_initial_plan_is_everyones_claim_at_time_zero() -> None:
+    h = Holdings(6, [[0, 1], [2], [3]])
+    everyone = lambda v: True  # noqa: E731
+    assert h.holders(everyone) == {0: 0, 1: 0, 2: 1, 3: 2}
+    h.apply(1, 100, [0, 4], True)
+    assert h.holder(0, everyone) == 0  # a later claim never beats a live plan owner
+    assert h.holder(4, everyone) == 1
+    assert h.holder(0, lambda v: v != 0) == 1  # ... but a claim dies with its claimer
+
+
+def test_conflicting_claims_resolve_the_same_whatever_the_arrival_order() -> None:
+    claims = [(0, 50, [7, 8], True), (1, 40, [8, 9], True), (2, 40, [9, 7], True),
+              (1, 60, [8], False), (2, 30, [7], True), (0, 70, [9], True)]
+    results = set()
+    for order in itertools.permutations(claims):
+        h = Holdings(10, [[], [], []])
+        for v, t, tasks, c in order:
+            h.apply(v, t, tasks, c)
+        results.add(tuple(sorted(h.holders(lambda v: True).items())))
+    assert len(results) == 1
+    assert dict(next(iter(results))) == {7: 2, 8: 0, 9: 1}
+
+
+def test_release_frees_a_spot_and_a_newer_claim_retakes_it() -> None:
+    h = Holdings(3, [[0], []])
+    everyone = lambda v: True  # noqa: E731
+    h.apply(0, 10, [0], False)
+    assert h.holder(0, everyone) is None
+    h.apply(0, 5, [0], True)  # older than the release: ignored
+    assert h.holder(0, everyone) is None
+    h.apply(1, 20, [0], True)
+    assert h.holder(0, everyone) == 1
