@@ -17,29 +17,22 @@ import numpy as np
 from hfc_core.cost import RouteModel
 from hfc_core.operators.ordering import order_route
 
-_SLACK_S = 1e-9  # keep clear of rounding when a spot fits exactly
-
-
 def take_nearest(
     route: Sequence[int], abandoned: np.ndarray, *, model: RouteModel, v: int
 ) -> list[int]:
     """Algorithm 3 for vehicle ``v``: append nearest abandoned spots while they fit.
     ``abandoned`` is a boolean mask over tasks; taken spots are cleared in it."""
     out = list(route)
-    d = model.dist_m
-    end, speed, battery = model.end[v], float(model.speed_mps[v]), float(model.battery_s[v])
-    time_s = model.time_s(v, out)
     while abandoned.any():
         last = out[-1] if out else model.start[v]
         candidates = np.flatnonzero(abandoned)
-        nearest = int(candidates[np.argmin(d[last, candidates])])  # eq. (13)
-        extra_s = (d[last, nearest] + d[nearest, end] - d[last, end]) / speed
-        extra_s += float(model.service_s[nearest])
-        if time_s + extra_s > battery - _SLACK_S:
+        nearest = int(candidates[np.argmin(model.dist_m[last, candidates])])  # eq. (13)
+        # the mission time is recomputed, not accumulated, so "fits" means what the
+        # screening and the final feasibility test mean by it
+        if model.time_s(v, [*out, nearest]) > model.battery_s[v]:
             break
         out.append(nearest)
         abandoned[nearest] = False
-        time_s += extra_s
     return out
 
 
