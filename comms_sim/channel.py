@@ -40,7 +40,7 @@ __all__ = ["Channel", "ChannelConfig", "LinkEvent", "Partition", "TdmaConfig", "
 _WAKE, _RX = 0, 1  # heap entry kinds: a sender may start its next frame; a reception ends
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, slots=True)
 class _Reception:
     src: str
     dst: str
@@ -54,7 +54,7 @@ class _Reception:
     deaf: bool = False  # the receiver transmitted meanwhile
 
 
-@dataclass(eq=False)
+@dataclass(eq=False, slots=True)
 class _Node:
     pos: tuple[float, float, float] | None = None
     queue: SenderQueue = field(default_factory=SenderQueue)

@@ -1,0 +1,233 @@
+"""Relay load: CPU per message and delivery-time error against the model, on loopback.
+
+Topology of a real mission: an embedded router process, the relay process connected to it,
+and one process here standing in for the fleet (N senders putting frames on ``fleet/tx/<id>``
+and truths on ``fleet/truth/<id>``) and for the ground station (subscribed to every link
+event). Receivers note the simulation time at which each frame arrives on ``fleet/rx/<id>``;
+the error is that time minus the model's delivery time (the relay's attachment), i.e. how late
+the relay's wall-clock scheduling (plus Zenoh hops) delivers, in simulated seconds.
+
+    python -m benchmarks.relay_bench            # 20 senders, warp 100, 1/5/10 msg/s each
+    python -m benchmarks.relay_bench --quick    # 1 msg/s only, shorter run
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import msgpack
+import numpy as np
+
+from benchmarks.results import markdown_table, write_section
+from comms_sim import bus
+from comms_sim.clock import WarpClock
+from comms_sim.relay import READY as RELAY_READY
+from comms_sim.router import READY as ROUTER_READY
+from comms_sim.router import stop_on_signals
+from comms_sim.session import client_config, free_tcp_endpoint, open_session
+from comms_sim.stats import decode_stats, totals
+
+REPO = Path(__file__).resolve().parents[1]
+TICKS = os.sysconf("SC_CLK_TCK")
+
+
+@dataclass
+class Figures:
+    senders: int
+    rate_hz: float  # frames per wall second per sender
+    warp: float
+    tx: int
+    published: int  # link events seen by the "ground station"
+    delivered: int
+    relay_cpu_s: float
+    router_cpu_s: float
+    wall_s: float  # sending plus settling
+    send_s: float
+    err_sim_s: np.ndarray  # arrival minus model delivery time, simulated seconds
+
+
+def cpu_s(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / TICKS  # utime + stime
+
+
+COUNTER_READY = "link counter ready"
+
+
+class Child:
+    """A Python child process; its output is drained into ``lines`` so it never blocks."""
+
+    def __init__(self, args: list[str], ready: str, timeout_s: float = 60.0) -> None:
+        self.proc = subprocess.Popen([sys.executable, *args], cwd=REPO, stdout=subprocess.PIPE,
+                                     stderr=subprocess.STDOUT, text=True,
+                                     env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        self.pid = self.proc.pid
+        self.lines: list[str] = []
+        self._drain = threading.Thread(target=self._read, daemon=True)
+        self._drain.start()
+        deadline = time.monotonic() + timeout_s
+        while not any(line.startswith(ready) for line in list(self.lines)):
+            if time.monotonic() > deadline or self.proc.poll() is not None:
+                self.stop()
+                raise RuntimeError(f"{args} never printed {ready!r}: {self.lines[-5:]}")
+            time.sleep(0.05)
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append(line.strip())
+
+    def stop(self) -> int:
+        """Terminate; return the number it printed last (the link counter's), else -1."""
+        self.proc.terminate()
+        try:
+            self.proc.wait(10)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+        self._drain.join(5)
+        last = self.lines[-1] if self.lines else ""
+        return int(last) if last.isdigit() else -1
+
+
+def count_links(endpoint: str) -> None:
+    """Stand-in ground station: count link events until SIGTERM, then print the count."""
+    count = [0]
+
+    def on_link(_sample) -> None:
+        count[0] += 1
+
+    stop_event = stop_on_signals()
+    with open_session(client_config([endpoint])) as session, \
+            session.declare_subscriber(bus.LINK_ALL, on_link):
+        print(COUNTER_READY, flush=True)
+        while not stop_event.wait(0.5):
+            pass
+    print(count[0], flush=True)
+
+
+def positions(n: int, seed: int) -> list[tuple[float, float, float]]:
+    """Vehicles spread over a 1.2 km square: all within range of each other."""
+    xy = np.random.default_rng(seed).uniform(0.0, 1200.0, size=(n, 2))
+    return [(float(x), float(y), 5.0) for x, y in xy]
+
+
+def run_load(senders: int, rate_hz: float, warp: float, duration_s: float,
+             seed: int = 1) -> Figures:
+    endpoint = free_tcp_endpoint()
+    epoch = time.time()
+    clock = WarpClock(epoch, warp)
+    ids = [f"auv{i}" for i in range(senders)]
+    where = dict(zip(ids, positions(senders, seed)))
+    errors: list[float] = []
+    lock = threading.Lock()
+    children: list[Child] = []
+
+    def on_rx(sample) -> None:
+        now = clock.now()
+        meta = msgpack.unpackb(sample.attachment.to_bytes())
+        with lock:
+            errors.append(now - meta["t_s"])
+
+    try:
+        children.append(Child(["-m", "comms_sim.router", "--listen", endpoint], ROUTER_READY))
+        children.append(Child(["-m", "comms_sim", "--connect", endpoint, "--epoch-unix",
+                               repr(epoch), "--warp", str(warp), "--seed", str(seed)],
+                              RELAY_READY))
+        # the ground station's stand-in, in a process of its own as in a mission
+        children.append(Child(["-m", "benchmarks.relay_bench", "--count-links", endpoint],
+                              COUNTER_READY))
+        router, relay, _ = children
+        with open_session(client_config([endpoint])) as session, \
+                session.declare_subscriber("fleet/rx/*", on_rx):
+            for vid in ids:
+                session.put(bus.truth_key(vid), bus.Truth(clock.now(), where[vid]).encode())
+            time.sleep(1.0)
+            cpu0, router0, t0 = cpu_s(relay.pid), cpu_s(router.pid), time.monotonic()
+            period = 1.0 / rate_hz
+            tx = 0
+            k = 0
+            while (elapsed := time.monotonic() - t0) < duration_s:
+                # senders are staggered evenly over one period, like unsynchronised vehicles
+                due = (k // senders) * period + (k % senders) * period / senders
+                if due > elapsed:
+                    time.sleep(due - elapsed)
+                vid = ids[k % senders]
+                if k % senders == 0 and (k // senders) % max(1, int(rate_hz)) == 0:
+                    for v in ids:  # truth about once per wall second, as agents would
+                        session.put(bus.truth_key(v), bus.Truth(clock.now(), where[v]).encode())
+                session.put(bus.tx_key(vid), (b"%s:%d:" % (vid.encode(), k)).ljust(32, b"."))
+                tx += 1
+                k += 1
+            send_s = time.monotonic() - t0
+            time.sleep(2.0)  # let the last receptions settle (2 s wall = 200 s simulated)
+            wall = time.monotonic() - t0
+            relay_cpu, router_cpu = cpu_s(relay.pid) - cpu0, cpu_s(router.pid) - router0
+            counts = None
+            for reply in session.get(bus.LINK_STATS, timeout=5.0):
+                counts, _ = decode_stats(reply.ok.payload.to_bytes())
+    finally:
+        stopped = [child.stop() for child in reversed(children)]  # counter first
+        published = stopped[0] if len(stopped) == 3 else -1
+    delivered = totals(counts)["delivered"] if counts else -1
+    with lock:
+        return Figures(senders, rate_hz, warp, tx, published, delivered, relay_cpu,
+                       router_cpu, wall, send_s, np.array(errors))
+
+
+def row(f: Figures) -> list[object]:
+    err = f.err_sim_s if f.err_sim_s.size else np.array([np.nan])
+    return [f.senders, f.rate_hz, f.warp / f.rate_hz, f"{f.tx / f.send_s:.0f}",
+            f"{100 * f.relay_cpu_s / f.wall_s:.0f} %", f"{1e3 * f.relay_cpu_s / f.tx:.2f}",
+            f"{1e6 * f.relay_cpu_s / max(1, f.published + f.delivered):.0f}",
+            f"{100 * f.router_cpu_s / f.wall_s:.0f} %", f.delivered,
+            f"{np.median(err):.3f}", f"{np.percentile(err, 99):.3f}",
+            f"{1e3 * np.percentile(err, 99) / f.warp:.1f}"]
+
+
+HEADER = ["senders", "msg/s each (wall)", "sim s between msgs", "tx/s", "relay CPU",
+          "relay CPU ms/tx", "relay CPU us/put", "router CPU", "deliveries",
+          "error median (sim s)", "error p99 (sim s)", "error p99 (wall ms)"]
+
+
+def main(senders: int, warp: float, rates: list[float], duration_s: float) -> None:
+    rows = []
+    for rate in rates:
+        figures = run_load(senders, rate, warp, duration_s)
+        rows.append(row(figures))
+        print(dict(zip(HEADER, rows[-1])), flush=True)
+    table = markdown_table(HEADER, rows)
+    print(table)
+    write_section("relay_bench", "comms_sim relay: CPU and delivery-time error", (
+        f"{senders} senders in one process, warp {warp:g}, {duration_s:g} s of wall time per "
+        "row, 32-byte frames, vehicles within 1.2 km of each other (default psk_1k modem), a "
+        "subscriber on every link event standing in for the ground station. Relay and router "
+        "are separate processes as in a launched mission; CPU is their utime+stime over the "
+        "run (including 2 s of settling), per tx frame and per sample the relay put (link "
+        "events + deliveries). Error: simulated time at which a frame arrived on "
+        "`fleet/rx/<id>` minus the model's delivery time (median and p99). The fleet's "
+        "gossip rate of one frame per 10-20 simulated s is 5-10 msg/s per sender at warp "
+        f"100.\n\n{table}\n"))
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="1 msg/s only, 5 s")
+    parser.add_argument("--senders", type=int, default=20)
+    parser.add_argument("--warp", type=float, default=100.0)
+    parser.add_argument("--rates", type=float, nargs="+", help="msg/s per sender (wall)")
+    parser.add_argument("--duration", type=float, help="wall seconds per rate")
+    parser.add_argument("--count-links", metavar="ENDPOINT", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.count_links:
+        count_links(args.count_links)
+        sys.exit(0)
+    rates = args.rates or ([1.0] if args.quick else [1.0, 5.0, 10.0])
+    main(args.senders, args.warp, rates, args.duration or (5.0 if args.quick else 20.0))
