@@ -64,6 +64,9 @@ class FleetPicture:
         for vid in layers.vehicle_ids:
             self._vehicle(vid)
         self.cleared: set[int] = set()  # grow-only, like the fleet's own set
+        # per vehicle, every spot it reported treating (statuses and "cleared" events: a
+        # vehicle killed between two statuses still announced its last treatment)
+        self.treated_by: dict[str, set[int]] = {}
         self._spot_states: tuple[str, ...] = ()
         self._link_expiry: dict[tuple[str, str], float] = {}
         self.link_counts: Counter[str] = Counter()
@@ -93,18 +96,16 @@ class FleetPicture:
         return [d for d in out if d is not None]
 
     def fleet_figures(self) -> dict[str, float]:
-        """Spots cleared, priority collected (each spot once) and duplicate treatments."""
-        treatments: Counter[int] = Counter()
-        for v in self.vehicles.values():
-            if v.status is not None:
-                treatments.update(set(v.status.treated))
+        """Spots cleared, priority collected (each spot once) and duplicate treatments (the
+        mission report's definitions, `fleet_agent.report`)."""
+        treatments = sum(len(t) for t in self.treated_by.values())
         index = self.layers.spot_index
         priority = sum(float(self.layers.spot_priority[index[t]]) for t in self.cleared
                        if t in index)
         return {
             "spots_cleared": float(len(self.cleared)),
             "priority_collected": priority,
-            "duplicates": float(sum(n - 1 for n in treatments.values() if n > 1)),
+            "duplicates": float(treatments - len(set().union(*self.treated_by.values()))),
         }
 
     # -- records ------------------------------------------------------------------------------
@@ -115,6 +116,10 @@ class FleetPicture:
             self.vehicles[vid] = _Vehicle(vid, palette.vehicle_color(index),
                                           self.layers.rendezvous.get(vid))
         return self.vehicles[vid]
+
+    def _treated(self, vid: str, tasks: list[int]) -> None:
+        self.treated_by.setdefault(vid, set()).update(tasks)
+        self.cleared.update(tasks)
 
     def _heard(self, v: _Vehicle, t: float) -> list[Drawing]:
         v.last_heard_s = max(v.last_heard_s, t)
@@ -142,17 +147,19 @@ class FleetPicture:
         v.status = s
         if v.xy is None:  # no truth yet (late join): the status position will do
             v.xy = (s.pos[0], s.pos[1])
-        self.cleared.update(s.treated)
+        self._treated(s.id, s.treated)
         out += self._set_state(v, s.state, s.t_s)
         out += [
             Scalar(s.t_s, f"battery_s/{s.id}", s.battery_s),
             Scalar(s.t_s, f"t_diff_s/{s.id}", s.t_diff_s),
-            Scalar(s.t_s, f"spots_treated/{s.id}", float(len(s.treated))),
+            Scalar(s.t_s, f"spots_treated/{s.id}", float(len(self.treated_by[s.id]))),
             self._route(v, s.t_s),
             self._spots(s.t_s),
         ]
-        out += [Scalar(s.t_s, f"fleet/{k}", val) for k, val in self.fleet_figures().items()]
-        return out
+        return out + self._fleet_scalars(s.t_s)
+
+    def _fleet_scalars(self, t: float) -> list[Drawing]:
+        return [Scalar(t, f"fleet/{k}", val) for k, val in self.fleet_figures().items()]
 
     def _on_event(self, e: Event) -> list[Drawing]:
         v = self._vehicle(e.id)
@@ -165,8 +172,10 @@ class FleetPicture:
             text += f": {e.detail}"
         out: list[Drawing] = [LogLine(e.t_s, text, WARN_EVENTS.get(e.kind, "INFO"))]
         if e.kind == "cleared":
-            self.cleared.update(e.tasks)
+            self._treated(e.id, e.tasks)
             out.append(self._spots(e.t_s))
+            out.append(Scalar(e.t_s, f"spots_treated/{e.id}", float(len(self.treated_by[e.id]))))
+            out += self._fleet_scalars(e.t_s)
         elif e.kind == "abort":
             out += self._set_state(v, "aborted", e.t_s)
         elif e.kind in ("lost", "revived") and e.peer:

@@ -84,7 +84,7 @@ def open_recording(application_id: str, recording_id: str, opts: ViewerOptions,
 
 def close_recording(rec: rr.RecordingStream) -> None:
     """Flush everything (the .rrd footer included) before the process goes."""
-    rec.flush(timeout_sec=10.0)
+    rec.flush(timeout_sec=3.0)  # the launcher allows 5 s after SIGTERM
     rec.disconnect()
 
 

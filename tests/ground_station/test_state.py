@@ -121,6 +121,11 @@ def test_fleet_figures_count_each_spot_once_and_duplicates_apart(picture):
     fleet = {s.path: s.value for s in of_type(out, Scalar) if s.path.startswith("fleet/")}
     assert fleet == {"fleet/spots_cleared": 3, "fleet/priority_collected": 10 + 100 + 30,
                      "fleet/duplicates": 1}
+    # a vehicle killed before its next status still announced its treatment as an event
+    out = picture.apply("auv3", Event(12, "auv3", "cleared", [13]))
+    scalars = {s.path: s.value for s in of_type(out, Scalar)}
+    assert scalars["spots_treated/auv3"] == 1
+    assert scalars["fleet/duplicates"] == 2 and scalars["fleet/spots_cleared"] == 3
 
 
 def test_trail_is_decimated_and_pose_carries_heading(picture):
