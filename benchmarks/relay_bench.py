@@ -27,7 +27,10 @@ import numpy as np
 
 from benchmarks.results import markdown_table, write_section
 from comms_sim import bus
+from comms_sim.channel import Channel, ChannelConfig
+from comms_sim.config import with_tdma
 from comms_sim.clock import WarpClock
+from comms_sim.des import EventLoop, InProcessNetwork
 from comms_sim.relay import READY as RELAY_READY
 from comms_sim.router import READY as ROUTER_READY
 from comms_sim.router import stop_on_signals
@@ -119,6 +122,22 @@ def positions(n: int, seed: int) -> list[tuple[float, float, float]]:
     return [(float(x), float(y), 5.0) for x, y in xy]
 
 
+def send_times(senders: int, rate_hz: float, duration_s: float,
+               seed: int) -> list[tuple[float, int]]:
+    """(wall offset, sender) of every frame: each sender keeps its period, from a random
+    phase and with +-10 % jitter, like unsynchronised vehicles (an even stagger would make
+    neighbours collide systematically whenever it is shorter than a frame's airtime)."""
+    rng = np.random.default_rng(seed)
+    period = 1.0 / rate_hz
+    times = []
+    for k in range(senders):
+        t = rng.uniform(0.0, period)
+        while t < duration_s:
+            times.append((t, k))
+            t += period * rng.uniform(0.9, 1.1)
+    return sorted(times)
+
+
 def run_load(senders: int, rate_hz: float, warp: float, duration_s: float,
              seed: int = 1) -> Figures:
     endpoint = free_tcp_endpoint()
@@ -151,21 +170,20 @@ def run_load(senders: int, rate_hz: float, warp: float, duration_s: float,
                 session.put(bus.truth_key(vid), bus.Truth(clock.now(), where[vid]).encode())
             time.sleep(1.0)
             cpu0, router0, t0 = cpu_s(relay.pid), cpu_s(router.pid), time.monotonic()
-            period = 1.0 / rate_hz
+            schedule = send_times(senders, rate_hz, duration_s, seed)
+            next_truth = 0.0
             tx = 0
-            k = 0
-            while (elapsed := time.monotonic() - t0) < duration_s:
-                # senders are staggered evenly over one period, like unsynchronised vehicles
-                due = (k // senders) * period + (k % senders) * period / senders
+            for due, k in schedule:
+                elapsed = time.monotonic() - t0
                 if due > elapsed:
                     time.sleep(due - elapsed)
-                vid = ids[k % senders]
-                if k % senders == 0 and (k // senders) % max(1, int(rate_hz)) == 0:
-                    for v in ids:  # truth about once per wall second, as agents would
+                if due >= next_truth:  # truths about once per wall second, as agents would
+                    next_truth += 1.0
+                    for v in ids:
                         session.put(bus.truth_key(v), bus.Truth(clock.now(), where[v]).encode())
-                session.put(bus.tx_key(vid), (b"%s:%d:" % (vid.encode(), k)).ljust(32, b"."))
+                frame = (b"%s:%d:" % (ids[k].encode(), tx)).ljust(32, b".")
+                session.put(bus.tx_key(ids[k]), frame)
                 tx += 1
-                k += 1
             send_s = time.monotonic() - t0
             time.sleep(2.0)  # let the last receptions settle (2 s wall = 200 s simulated)
             wall = time.monotonic() - t0
@@ -197,7 +215,54 @@ HEADER = ["senders", "msg/s each (wall)", "sim s between msgs", "tx/s", "relay C
           "error median (sim s)", "error p99 (sim s)", "error p99 (wall ms)"]
 
 
-def main(senders: int, warp: float, rates: list[float], duration_s: float) -> None:
+def model_capacity(n: int, interval_s: float, tdma: bool, seed: int = 1,
+                   hours: float = 1.0) -> list[object]:
+    """One simulated mission on the in-process transport: every vehicle sends a 32-byte pose
+    every ``interval_s`` (+-10 %, random phase). Returns a table row."""
+    ids = [f"auv{i}" for i in range(n)]
+    config = with_tdma(ChannelConfig(), ids) if tdma else ChannelConfig()
+    loop = EventLoop()
+    net = InProcessNetwork(Channel(config, np.random.default_rng(seed)), loop)
+    heard: dict[tuple[str, str], list[float]] = {}
+    for vid, pos in zip(ids, positions(n, seed)):
+        net.attach(vid, lambda frame, t, vid=vid: heard.setdefault(
+            (frame[:8].decode().strip("."), vid), []).append(t))
+        net.set_position(vid, pos)
+    rng = np.random.default_rng(seed)
+
+    def sender(vid: str) -> None:
+        net.send(vid, vid.encode().ljust(32, b"."), kind="pose")
+        loop.call_later(interval_s * rng.uniform(0.9, 1.1), lambda: sender(vid))
+
+    for vid in ids:
+        loop.call_at(rng.uniform(0.0, interval_s), lambda vid=vid: sender(vid))
+    t0 = time.perf_counter()
+    loop.run_until(hours * 3600.0)
+    wall = time.perf_counter() - t0
+    total = totals(net.channel.stats())
+    gaps = np.concatenate([np.diff(ts) for ts in heard.values() if len(ts) > 1] or [[np.nan]])
+    return [n, interval_s, f"TDMA {config.tdma.slot_s:g} s" if config.tdma else "ALOHA", total["sent"],
+            f"{100 * total['delivered'] / max(1, total['sent']):.0f} %",
+            f"{100 * total['collision'] / max(1, total['sent']):.0f} %",
+            f"{100 * total['half_duplex'] / max(1, total['sent']):.0f} %",
+            f"{np.median(gaps):.0f}", f"{np.percentile(gaps, 99):.0f}", f"{wall:.2f}"]
+
+
+CAPACITY_HEADER = ["vehicles", "s between poses", "MAC", "receptions", "delivered",
+                   "collision", "half-duplex", "gap median (s)", "gap p99 (s)",
+                   "DES wall s / sim h"]
+
+
+def main(senders: int, warp: float, rates: list[float], duration_s: float,
+         fleets: list[int]) -> None:
+    capacity = []
+    for n in fleets:
+        for interval in (10.0, 20.0):
+            for tdma in (False, True):
+                capacity.append(model_capacity(n, interval, tdma))
+                print(dict(zip(CAPACITY_HEADER, capacity[-1])), flush=True)
+    capacity_table = markdown_table(CAPACITY_HEADER, capacity)
+    print(capacity_table)
     rows = []
     for rate in rates:
         figures = run_load(senders, rate, warp, duration_s)
@@ -214,7 +279,12 @@ def main(senders: int, warp: float, rates: list[float], duration_s: float) -> No
         "events + deliveries). Error: simulated time at which a frame arrived on "
         "`fleet/rx/<id>` minus the model's delivery time (median and p99). The fleet's "
         "gossip rate of one frame per 10-20 simulated s is 5-10 msg/s per sender at warp "
-        f"100.\n\n{table}\n"))
+        f"100.\n\n{table}\n\n"
+        "What the default channel (psk_1k, 32-byte poses, vehicles within 1.2 km) carries, "
+        "from the in-process transport (one simulated hour each; gap = time between two "
+        "frames heard from the same peer, over all links; TDMA slots from `with_tdma` hold a "
+        "64-byte frame plus a 2 s guard):\n\n"
+        f"{capacity_table}\n"))
 
 
 if __name__ == "__main__":
@@ -230,4 +300,5 @@ if __name__ == "__main__":
         count_links(args.count_links)
         sys.exit(0)
     rates = args.rates or ([1.0] if args.quick else [1.0, 5.0, 10.0])
-    main(args.senders, args.warp, rates, args.duration or (5.0 if args.quick else 20.0))
+    main(args.senders, args.warp, rates, args.duration or (5.0 if args.quick else 20.0),
+         [3, 20] if args.quick else [3, 10, 20])

@@ -34,6 +34,8 @@ if __name__ == "__main__":
     parser.add_argument("--preset", choices=sorted(PRESETS), help="named modem (no --config)")
     parser.add_argument("--loss", type=float, help="extra uniform loss 0..1 (overrides)")
     parser.add_argument("--vehicles", help="comma-separated roster; others are dropped")
+    parser.add_argument("--tdma", action="store_true",
+                        help="one slot per roster vehicle (needs --vehicles or the mission)")
     parser.add_argument("--mission-timeout", type=float, default=30.0, metavar="S")
     args = parser.parse_args()
 
@@ -47,4 +49,4 @@ if __name__ == "__main__":
     vehicles = frozenset(v for v in args.vehicles.split(",") if v) if args.vehicles else None
     main(conf, config, stop_on_signals(), epoch_unix=epoch,
          warp=None if args.mission_from_bus else args.warp, seed=args.seed, vehicles=vehicles,
-         mission_timeout_s=args.mission_timeout)
+         mission_timeout_s=args.mission_timeout, tdma=args.tdma)

@@ -173,6 +173,17 @@ PRESETS: dict[str, ChannelConfig] = {
 }
 
 
+def with_tdma(config: ChannelConfig, order: Iterable[str],
+              guard_s: float | None = None) -> ChannelConfig:
+    """``config`` with one TDMA slot per vehicle of ``order``: just long enough for the largest
+    frame plus a guard (default: the propagation time over ``max_range_m``), rounded up to
+    0.1 s. Pure ALOHA stops carrying a fleet's gossip beyond a handful of vehicles; this is
+    the MAC real acoustic fleets use."""
+    guard = config.max_range_m / config.sound_speed_mps if guard_s is None else guard_s
+    slot = math.ceil((config.airtime_s(config.max_frame_bytes) + guard) * 10.0 - 1e-9) / 10.0
+    return replace(config, tdma=TdmaConfig(slot_s=slot, order=tuple(order), guard_s=guard))
+
+
 def config_from_dict(doc: Mapping[str, Any]) -> ChannelConfig:
     """Build a config from a plain document (TOML/JSON/msgpack): ``preset`` names the base,
     every other key overrides a `ChannelConfig` field; ``tdma`` is a table of `TdmaConfig`

@@ -22,7 +22,7 @@ import zenoh
 
 from comms_sim import bus
 from comms_sim.channel import Channel
-from comms_sim.config import ChannelConfig
+from comms_sim.config import ChannelConfig, with_tdma
 from comms_sim.control import LinkControl
 from comms_sim.link_event import LinkEvent
 from comms_sim.stats import encode_stats
@@ -238,9 +238,11 @@ def _kind_of(sample: zenoh.Sample) -> str:
 
 def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
          epoch_unix: float | None = None, warp: float | None = None, seed: int | None = None,
-         vehicles: frozenset[str] | None = None, mission_timeout_s: float = 30.0) -> Relay:
+         vehicles: frozenset[str] | None = None, mission_timeout_s: float = 30.0,
+         tdma: bool = False) -> Relay:
     """Open a session on ``conf`` and relay until ``stop``. Without ``epoch_unix`` the clock,
-    seed and roster come from the ``fleet/mission`` queryable. Returns the relay (counters)."""
+    seed and roster come from the ``fleet/mission`` queryable. ``tdma`` gives each vehicle of
+    the roster a slot, in sorted order (`with_tdma`). Returns the relay (counters)."""
     from comms_sim.clock import WarpClock
 
     with zenoh.open(conf) as session:
@@ -249,8 +251,13 @@ def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
             epoch_unix, warp = mission.epoch_unix, mission.warp
             seed = mission.seed if seed is None else seed
             vehicles = roster_of(mission) if vehicles is None else vehicles
+        if tdma:
+            if not vehicles:
+                raise ValueError("TDMA needs the roster (--vehicles or the mission's)")
+            config = with_tdma(config, sorted(vehicles))
         clock = WarpClock(epoch_unix, warp if warp is not None else 1.0)
         channel = Channel(config, np.random.default_rng(0 if seed is None else seed))
         return serve(session, channel, clock, stop, vehicles, on_ready=lambda _: print(
             f"{READY} epoch_unix={clock.epoch_unix} warp={clock.warp} "
+            f"mac={'tdma' if config.tdma else 'aloha'} "
             f"roster={','.join(sorted(vehicles)) if vehicles else 'open'}", flush=True))

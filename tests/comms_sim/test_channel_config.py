@@ -71,3 +71,12 @@ def test_config_files(tmp_path: Path) -> None:
             config_from_dict(bad)
     with pytest.raises(ValueError):
         load_config(tmp_path / "c.yaml")
+
+
+def test_with_tdma_sizes_the_slot_for_the_largest_frame() -> None:
+    from comms_sim.config import with_tdma
+
+    c = with_tdma(ChannelConfig(), ["b", "a"])
+    assert c.tdma == TdmaConfig(slot_s=2.9, order=("b", "a"), guard_s=2.0)  # 0.812 + 2 s
+    slow = with_tdma(PRESETS["micromodem_rate0"], ["a"], guard_s=1.0)
+    assert slow.tdma is not None and slow.tdma.slot_s == pytest.approx(4.7)  # 3.7 + 1 s

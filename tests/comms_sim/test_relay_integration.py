@@ -117,10 +117,10 @@ def test_relay_applies_delay_and_loss_and_never_delivers_a_drop(tmp_path: Path, 
     assert relay.stop() == 0 and router.stop() == 0
 
 
-def test_embedded_relay_survives_garbage_and_takes_the_mission_from_the_bus(spawn) -> None:
+def test_embedded_tdma_relay_survives_garbage_and_takes_the_mission_from_the_bus(spawn) -> None:
     endpoint = free_tcp_endpoint()
     relay = spawn(["-m", "comms_sim", "--listen", endpoint, "--mission-from-bus",
-                   "--mission-timeout", "30"])
+                   "--tdma", "--mission-timeout", "30"])
     epoch = time.time()
     mission = bus.Mission({"vehicles": [{"id": "a"}, {"id": "b"}]}, epoch, WARP, 5, "run-1")
     clock = WarpClock(epoch, WARP)
@@ -138,7 +138,7 @@ def test_embedded_relay_survives_garbage_and_takes_the_mission_from_the_bus(spaw
                                                                      mission.encode())), \
             session.declare_subscriber("fleet/rx/*", inbox.on_rx):
         line = relay.wait_for(RELAY_READY)
-        assert f"warp={WARP}" in line and "roster=a,b" in line
+        assert f"warp={WARP}" in line and "roster=a,b" in line and "mac=tdma" in line
         session.put(bus.truth_key("a"), bus.Truth(0.0, POSITIONS["a"]).encode())
         session.put(bus.truth_key("b"), b"\x00\x01garbage")
         session.put(bus.truth_key("b"), bus.Truth(0.0, (100.0, 0.0, 0.0)).encode())
