@@ -47,9 +47,11 @@ def delivery_attachment(event: LinkEvent) -> bytes:
 class Relay:
     """The channel behind a lock, fed by bus samples, publishing through ``put``.
 
-    ``vehicles`` is the roster: frames and truths of other ids are dropped as unknown. Without
-    a roster a vehicle is known once its truth has been seen (the relay cannot place a
-    transmitter it has never located)."""
+    ``vehicles`` is the roster: frames and truths of other ids are dropped as unknown. A
+    roster vehicle whose truth has not come yet is still heard by the channel (which counts
+    its frames as out of range until it is located: its first truth may race its first
+    frame). Without a roster a vehicle is known once its truth has been seen, so that garbage
+    ids do not become phantom receivers."""
 
     def __init__(self, channel: Channel, clock: SimClock, put: Put,
                  vehicles: frozenset[str] | None = None) -> None:
@@ -71,8 +73,8 @@ class Relay:
             if not vid or not frame:
                 self.counters["malformed_tx"] += 1
                 return
-            if (self._vehicles is not None and vid not in self._vehicles) or \
-                    vid not in self._located:
+            known = self._located if self._vehicles is None else self._vehicles
+            if vid not in known:
                 self.counters["unknown_tx"] += 1
                 return
             now = self.clock.now()

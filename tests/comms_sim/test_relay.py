@@ -53,7 +53,7 @@ def test_garbage_and_unknown_ids_are_dropped_and_counted() -> None:
     relay.on_truth("auv1", msgpack.packb({"t": 0, "p": [1, "nan", 2]}))
     relay.on_truth("auv1", msgpack.packb({"t": 0, "p": [float("inf"), 0, 0]}))
     relay.on_truth("intruder", truth(5.0))
-    relay.on_tx("auv1", b"never located")
+    relay.on_tx("auv1", b"never located")  # on the roster: the channel hears it, out of range
     relay.on_tx("intruder", b"hi")
     relay.on_tx("auv0", b"")
     relay.on_ctl(b"\xff\xfe")
@@ -63,12 +63,24 @@ def test_garbage_and_unknown_ids_are_dropped_and_counted() -> None:
     relay.step()
     c = relay.counters
     assert (c["malformed_truth"], c["unknown_truth"], c["unknown_tx"], c["malformed_tx"],
-            c["malformed_ctl"]) == (3, 1, 2, 1, 2)
-    assert [k for k, _, _ in sent] == ["fleet/link/auv0/*"]
-    assert LinkEvent.decode(sent[0][1]).reason == "oversize"
+            c["malformed_ctl"]) == (3, 1, 1, 1, 2)
+    assert [(k, LinkEvent.decode(p).reason) for k, p, _ in sent] == [
+        ("fleet/link/auv0/*", "oversize"), ("fleet/link/auv1/auv0", "range")]
     counts, extra = decode_stats(relay.stats_payload())
     assert counts[("auv0", "*")]["oversize"] == 1
     assert extra["relay"]["malformed_ctl"] == 2 and extra["t_s"] == 100.0
+
+
+def test_without_roster_only_located_vehicles_transmit() -> None:
+    clock, relay, sent = make_relay()
+    relay.on_tx("ghost", b"boo")
+    relay.on_truth("a", truth(0.0))
+    relay.on_truth("b", truth(100.0))
+    relay.on_tx("a", b"hi")
+    clock.advance_to(10.0)
+    relay.step()
+    assert relay.counters["unknown_tx"] == 1
+    assert [k for k, _, _ in sent] == ["fleet/rx/b", "fleet/link/a/b"]  # no phantom "ghost"
 
 
 def test_link_control_applies_from_now() -> None:
