@@ -47,10 +47,12 @@ class LinkEvent:
         """Raises ValueError on anything that is not a well-formed link event."""
         try:
             doc: Any = msgpack.unpackb(payload, raw=False)
-            reason = doc["reason"]
+            reason, frame = doc["reason"], doc["frame"]
+            if not isinstance(frame, bytes):  # bytes(5) would make five zero bytes
+                raise TypeError(f"frame must be bytes, got {type(frame).__name__}")
             return LinkEvent(
                 str(doc["src"]), str(doc["dst"]), float(doc["t_sent_s"]), float(doc["t_s"]),
                 int(doc["nbytes"]), bool(doc["delivered"]),
-                None if reason is None else str(reason), bytes(doc["frame"]))
+                None if reason is None else str(reason), frame)
         except Exception as exc:  # msgpack raises several unrelated types on garbage
             raise ValueError(f"malformed link event: {exc!r}") from None

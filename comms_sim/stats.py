@@ -34,7 +34,7 @@ class LinkStats:
             self.add(event.src, event.dst, "delivered")
             self.add(event.src, event.dst, "bytes", event.nbytes)
         else:
-            self.add(event.src, event.dst, event.reason or "random")
+            self.add(event.src, event.dst, str(event.reason))
 
     def snapshot(self) -> LinkCounts:
         return {link: dict(row) for link, row in self._counts.items()}

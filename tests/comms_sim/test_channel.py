@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import msgpack
 import numpy as np
 import pytest
 
@@ -332,7 +333,8 @@ def test_tdma_slot_must_hold_the_largest_frame() -> None:
 def test_link_event_codec_round_trip_and_garbage() -> None:
     event = LinkEvent("auv0", "auv1", 1.5, 3.25, 3, False, "collision", b"\x00\xff\x10")
     assert LinkEvent.decode(event.encode()) == event
-    for garbage in (b"", b"\xc1", b"\x93\x01\x02\x03", b"\x81\xa3src\xa1a"):
+    bad_frame = msgpack.packb({**msgpack.unpackb(event.encode()), "frame": 5})
+    for garbage in (b"", b"\xc1", b"\x93\x01\x02\x03", b"\x81\xa3src\xa1a", bad_frame):
         with pytest.raises(ValueError):
             LinkEvent.decode(garbage)
     with pytest.raises(ValueError):
