@@ -79,7 +79,8 @@ def main(seed: int = 0, quick: bool = False) -> str:
         markdown_table(clus_header, clus),
     ])
     if not quick:  # a smoke run never overwrites the recorded figures
-        write_section("paper_table", "Paper Table I analog: HFC modes and GA on the paper preset", body)
+        write_section("paper_table",
+                      "Paper Table I analog: HFC modes and GA on the paper preset", body)
     print(f"done in {time.perf_counter() - started:.0f} s")
     return body
 

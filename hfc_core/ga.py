@@ -91,7 +91,9 @@ def mutate(route: list[int], rng: np.random.Generator) -> list[int]:
     return MOVES[int(rng.integers(3))](route, i, j)
 
 
-def mutate_ordering(route: list[int], rng: np.random.Generator, *, model: RouteModel, v: int) -> list[int]:
+def mutate_ordering(
+    route: list[int], rng: np.random.Generator, *, model: RouteModel, v: int
+) -> list[int]:
     """The mutation as the ordering operator: len(route) random moves, each kept if shorter."""
     return order_route(route, rng, model=model, v=v)
 
@@ -128,7 +130,9 @@ def next_generation(
     return out
 
 
-def _drop_last_if_overdue(model: RouteModel, v: int, population: list[list[int]], best: list[int]) -> list[list[int]]:
+def _drop_last_if_overdue(
+    model: RouteModel, v: int, population: list[list[int]], best: list[int]
+) -> list[list[int]]:
     """Leave the last ordered spot of the best route if that route overruns the battery."""
     if not best or model.time_s(v, best) <= model.battery_s[v]:
         return population
@@ -153,7 +157,8 @@ def solve_ga(problem: Problem, stop: Stop, rng: np.random.Generator, **raw: Any)
             best[v] = list(pops[v][int(np.argmin(length))])
             pops[v] = _drop_last_if_overdue(model, v, pops[v], best[v])
             length = lengths_m(model, v, pops[v])
-            mutation = mutate if params.mutation == "move" else partial(mutate_ordering, model=model, v=v)
+            mutation = (mutate if params.mutation == "move"
+                        else partial(mutate_ordering, model=model, v=v))
             pops[v] = next_generation(pops[v], length, params, rng, mutation)
         generation += 1
         best = [list(p[int(np.argmin(lengths_m(model, v, p)))]) for v, p in enumerate(pops)]

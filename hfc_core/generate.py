@@ -4,9 +4,10 @@ COTS spots are drawn from the eq. (1) probability map: a grid cell is chosen wit
 proportional to ``p ** concentration`` and the spot is placed uniformly inside it. The exponent
 is ours: eq. (1)'s magnitude has a 1/d tail, so sampling ``p`` itself scatters most spots far
 from any centre; ``p**6`` keeps them in compact aggregations like the paper's Fig. 4 and 6
-(for a lone centre, ~90% of the spots within 3.5 r). A centre's expected share of the spots
-grows as ``density**6 / radius**4``, which is how the non-uniform cluster sizes are set. Each spot gets
-a priority rho ~ U(1, 100) and an injection time t ~ U(60, 90) s, or a fixed time (eq. 2).
+(for a lone centre, 90% of the spots lie within 2.3 r). A centre's expected share of the spots
+grows as ``density**6 / radius**4``, which is how the non-uniform cluster sizes are set.
+Each spot gets a priority rho ~ U(1, 100) and an injection time t ~ U(60, 90) s, or a fixed
+time (eq. 2).
 
 Land (a coastline, or islands) has zero probability and never holds a spot. Depth (z, negative
 down) follows a simple seabed model: shallow at the coast, shelving to ``deep_m`` over
@@ -76,12 +77,13 @@ class GeneratorParams:
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be positive and finite, got {value}")
         lo, hi = self.service_range_s
-        if self.service_s is not None and not (math.isfinite(self.service_s) and self.service_s >= 0):
+        service = self.service_s
+        if service is not None and not (math.isfinite(service) and service >= 0):
             raise ValueError(f"service_s must be >= 0, got {self.service_s}")
         if not (0 <= lo <= hi):
-            raise ValueError(f"service_range_s must satisfy 0 <= lo <= hi, got {self.service_range_s}")
+            raise ValueError(f"service_range_s needs 0 <= lo <= hi, got {self.service_range_s}")
         if not (0 <= self.priority_range[0] <= self.priority_range[1]):
-            raise ValueError(f"priority_range must satisfy 0 <= lo <= hi, got {self.priority_range}")
+            raise ValueError(f"priority_range needs 0 <= lo <= hi, got {self.priority_range}")
         if self.n_centres is not None and self.n_centres < 1:
             raise ValueError("n_centres must be >= 1")
         if self.centre_jitter_m < 0:
@@ -99,12 +101,15 @@ def _segment_distance_m(x: np.ndarray, y: np.ndarray, polygon: np.ndarray) -> np
     return best
 
 
-def seabed_depth_m(cots_map: ProbabilityMap, x: np.ndarray, y: np.ndarray, seabed: SeabedParams) -> np.ndarray:
+def seabed_depth_m(
+    cots_map: ProbabilityMap, x: np.ndarray, y: np.ndarray, seabed: SeabedParams
+) -> np.ndarray:
     """Positive depth of the seabed at (x, y): the shelf deepens away from the nearest land."""
     if not cots_map.land:
         return np.full(np.shape(x), seabed.deep_m)
     coast_m = np.min([_segment_distance_m(x, y, poly) for poly in cots_map.land], axis=0)
-    return seabed.shallow_m + (seabed.deep_m - seabed.shallow_m) * -np.expm1(-coast_m / seabed.shelf_m)
+    shelf = -np.expm1(-coast_m / seabed.shelf_m)  # 0 at the coast, -> 1 far out
+    return seabed.shallow_m + (seabed.deep_m - seabed.shallow_m) * shelf
 
 
 def _random_centres(params: GeneratorParams, rng: np.random.Generator) -> tuple[VortexCentre, ...]:
@@ -118,7 +123,8 @@ def _random_centres(params: GeneratorParams, rng: np.random.Generator) -> tuple[
         if len(centres) == count:
             break
         x, y = rng.uniform(0.15 * size, 0.85 * size, size=2)
-        if on_land(params.land, x, y) or any(math.hypot(x - c.x_m, y - c.y_m) < min_gap for c in centres):
+        crowded = any(math.hypot(x - c.x_m, y - c.y_m) < min_gap for c in centres)
+        if crowded or on_land(params.land, x, y):
             continue
         radius = rng.uniform(0.03, 0.05) * size
         # a share in U(0.3, 1) of the spots, relative to the other centres (see module doc)
@@ -131,14 +137,18 @@ def _random_centres(params: GeneratorParams, rng: np.random.Generator) -> tuple[
     return tuple(centres)
 
 
-def _jittered(centres: tuple[VortexCentre, ...], sigma_m: float, rng: np.random.Generator) -> tuple[VortexCentre, ...]:
+def _jittered(
+    centres: tuple[VortexCentre, ...], sigma_m: float, rng: np.random.Generator
+) -> tuple[VortexCentre, ...]:
     if sigma_m == 0:
         return centres
     shift = rng.normal(0.0, sigma_m, size=(len(centres), 2))
     return tuple(replace(c, x_m=c.x_m + dx, y_m=c.y_m + dy) for c, (dx, dy) in zip(centres, shift))
 
 
-def sample_spots_m(cots_map: ProbabilityMap, n: int, params: GeneratorParams, rng: np.random.Generator) -> np.ndarray:
+def sample_spots_m(
+    cots_map: ProbabilityMap, n: int, params: GeneratorParams, rng: np.random.Generator
+) -> np.ndarray:
     """``(n, 2)`` spot positions drawn from the map (weights ``p ** concentration``), off land."""
     prob, (xmin, xmax, ymin, ymax) = cots_map.grid(params.resolution_m)
     weights = (prob**params.concentration).ravel()

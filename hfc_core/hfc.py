@@ -68,7 +68,10 @@ class HFCParams:
         return HFCParams(**params)
 
 
-def record(model: RouteModel, routes: Routes, weights: CostWeights, iteration: int, elapsed_s: float) -> IterationRecord:
+def record(
+    model: RouteModel, routes: Routes, weights: CostWeights, iteration: int, elapsed_s: float
+) -> IterationRecord:
+    """The Fig. 7-8 figures of ``routes`` after ``iteration``."""
     times = model.times_s(routes)
     return IterationRecord(
         iteration=iteration,
@@ -93,7 +96,9 @@ def run_hfc(
     if screening:
         model.require_reachable()
     weights = params.weights or CostWeights().scaled_to(problem)
-    clusters = clusters_of_vehicles(model, rng, method=params.clustering, fuzzifier=params.fuzzifier)
+    clusters = clusters_of_vehicles(
+        model, rng, method=params.clustering, fuzzifier=params.fuzzifier
+    )
     population = [initial_routes(clusters, rng) for _ in range(params.population)]
     history: list[IterationRecord] = []
     iteration = 0
@@ -139,19 +144,25 @@ def run_hfc(
     )
 
 
-def solve_ncm1(problem: Problem, stop: Stop, rng: np.random.Generator, **params: Any) -> SolveResult:
+def solve_ncm1(
+    problem: Problem, stop: Stop, rng: np.random.Generator, **params: Any
+) -> SolveResult:
     """NCM1: ordering only (battery ignored by design)."""
     return run_hfc(problem, stop, rng, screening=False, cooperation=False, mode="hfc-ncm1",
                    params=HFCParams.of(params))
 
 
-def solve_ncm2(problem: Problem, stop: Stop, rng: np.random.Generator, **params: Any) -> SolveResult:
+def solve_ncm2(
+    problem: Problem, stop: Stop, rng: np.random.Generator, **params: Any
+) -> SolveResult:
     """NCM2: ordering and screening, no cooperation."""
     return run_hfc(problem, stop, rng, screening=True, cooperation=False, mode="hfc-ncm2",
                    params=HFCParams.of(params))
 
 
-def solve_cm(problem: Problem, stop: Stop, rng: np.random.Generator, **params: Any) -> SolveResult:
+def solve_cm(
+    problem: Problem, stop: Stop, rng: np.random.Generator, **params: Any
+) -> SolveResult:
     """CM: ordering, screening and cooperation (the full HFC)."""
     return run_hfc(problem, stop, rng, screening=True, cooperation=True, mode="hfc-cm",
                    params=HFCParams.of(params))

@@ -45,7 +45,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def budget(args: argparse.Namespace) -> dict[str, Any]:
     """``time_limit_s``/``max_iterations`` for `solve`, from the flags or the mode's default."""
     if args.time_limit is not None and not (math.isfinite(args.time_limit) and args.time_limit > 0):
-        raise UsageError(f"--time-limit must be a positive number of seconds, got {args.time_limit}")
+        raise UsageError(f"--time-limit must be a positive number of seconds, "
+                         f"got {args.time_limit}")
     if args.iterations is not None and args.iterations < 0:
         raise UsageError(f"--iterations must be >= 0, got {args.iterations}")
     if args.time_limit is None and args.iterations is None:

@@ -20,17 +20,19 @@ HELP = "generate a COTS scenario (tasks drawn from the eq. 1 probability map)"
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--paper", action="store_true",
-                        help="the paper's preset: 90 spots, 1 km x 1 km, 3 AUVs, 3600 s, 1 m/s, 90 s "
-                             "injections, one small cluster (flags below override it)")
+                        help="the paper's preset: 90 spots, 1 km x 1 km, 3 AUVs, 3600 s, 1 m/s, "
+                             "90 s injections, one small cluster (flags below override it)")
     parser.add_argument("--tasks", type=int, help="number of COTS spots (default 90)")
     parser.add_argument("--vehicles", type=int, help="number of AUVs (default 3)")
-    parser.add_argument("--size", type=float, metavar="M", help="side of the square field in metres")
+    parser.add_argument("--size", type=float, metavar="M",
+                        help="side of the square field in metres")
     parser.add_argument("--battery", type=float, metavar="S", help="battery time budget per AUV, s")
     parser.add_argument("--speed", type=float, metavar="MPS", help="cruise speed, m/s")
     parser.add_argument("--service", type=float, metavar="S",
                         help="fixed injection time per spot, s (default: U(60, 90), eq. 2)")
     parser.add_argument("--centres", type=int, metavar="N",
-                        help="number of random COTS centres (default: one per AUV; not with --paper)")
+                        help="number of random COTS centres (default: one per AUV; "
+                             "not with --paper)")
     parser.add_argument("--land-forbidden", action="store_true",
                         help="also write land polygons as the scenario's 'forbidden' areas")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")

@@ -52,7 +52,8 @@ def lloyd(
     for _ in range(1, k):
         d2 = cdist(points, np.array(centres), "sqeuclidean").min(axis=1)
         total = d2.sum()
-        centres.append(points[rng.choice(n, p=d2 / total)] if total > 0 else points[rng.integers(n)])
+        pick = rng.choice(n, p=d2 / total) if total > 0 else rng.integers(n)
+        centres.append(points[pick])
     centres_arr = np.array(centres, dtype=float)
     labels = np.full(n, -1)
     for _ in range(max_iter):

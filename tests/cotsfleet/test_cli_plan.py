@@ -136,4 +136,5 @@ def test_subprocess_exit_code_and_no_traceback(scenario_doc, tmp_path):
     )
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr
-    assert proc.stderr.strip().startswith("cotsfleet plan: error: ") and "duplicate task id" in proc.stderr
+    assert proc.stderr.strip().startswith("cotsfleet plan: error: ")
+    assert "duplicate task id" in proc.stderr
