@@ -53,8 +53,8 @@ def run_modes(problem: Problem, modes: list[str], seed: int, *, quick: bool = Fa
 
 
 def table_rows(problem: Problem, results: dict[str, SolveResult]) -> list[list[Any]]:
-    """Table I's columns per vehicle and in total. Every mode's plan is costed with the same
-    eq. (9) weights, so costs compare across modes."""
+    """Table I's columns per vehicle and in total, formatted. Every mode's plan is costed with
+    the same eq. (9) weights, so costs compare across modes."""
     model = RouteModel(problem)
     weights = CostWeights().scaled_to(problem)
     rows: list[list[Any]] = []
@@ -62,13 +62,13 @@ def table_rows(problem: Problem, results: dict[str, SolveResult]) -> list[list[A
         figs = vehicle_figures(problem, result.plan)
         costs = model.costs([list(r) for r in result.plan.routes], weights)
         for f, cost in zip(figs, costs):
-            rows.append([mode, f.id, round(float(cost)), round(f.mission_time_s, 1),
-                         round(f.t_diff_s, 1), f.tasks, round(f.violation_s, 1)])
-        rows.append([mode, "total", round(float(costs.sum())),
-                     round(sum(f.mission_time_s for f in figs), 1),
-                     round(sum(f.t_diff_s for f in figs), 1),
+            rows.append([mode, f.id, f"{cost:.0f}", f"{f.mission_time_s:.1f}",
+                         f"{f.t_diff_s:+.1f}", f.tasks, f"{f.violation_s:.1f}"])
+        rows.append([mode, "total", f"{costs.sum():.0f}",
+                     f"{sum(f.mission_time_s for f in figs):.1f}",
+                     f"{sum(f.t_diff_s for f in figs):+.1f}",
                      f"{sum(f.tasks for f in figs)}/{problem.n_tasks}",
-                     round(sum(f.violation_s for f in figs), 1)])
+                     f"{sum(f.violation_s for f in figs):.1f}"])
     return rows
 
 
