@@ -1,4 +1,5 @@
 import json
+import re
 import subprocess
 import sys
 
@@ -138,3 +139,11 @@ def test_subprocess_exit_code_and_no_traceback(scenario_doc, tmp_path):
     assert "Traceback" not in proc.stderr
     assert proc.stderr.strip().startswith("cotsfleet plan: error: ")
     assert "duplicate task id" in proc.stderr
+
+
+def test_planning_demo_quick(capsys):
+    assert main(["demo", "--quick", "--best-time-limit", "0.5"]) == 0
+    out = capsys.readouterr().out
+    for mode in ("hfc-ncm1", "hfc-ncm2", "hfc-cm", "ga"):
+        assert re.search(rf"{mode}\s+total", out), mode
+    assert "paper (Table I" in out
