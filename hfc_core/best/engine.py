@@ -1,0 +1,142 @@
+"""Adaptive large neighbourhood search with record-to-record acceptance.
+
+Each iteration ruins the current plan with one destroy operator (chosen by roulette over
+adaptive weights), repairs it by greedy insertion, shortens the changed routes (2-opt, or-opt)
+and inserts again into the time that frees. A candidate is kept if it is within a threshold
+of the best plan's objective; the threshold shrinks to zero as the budget is spent, so the
+search wanders early and intensifies late. Acceptance uses no exp() or pow(): with an
+iteration budget the search is a pure function of its inputs on every IEEE machine.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from hfc_core.best.exchange import replace_improve
+from hfc_core.best.insert import EXPONENTS, fill
+from hfc_core.best.intra import improve_route
+from hfc_core.best.ruin import RUIN_OPERATORS
+from hfc_core.best.state import State
+from hfc_core.solve import Stop
+
+# Operator scores by outcome: new best of the run, better than current, accepted, rejected.
+OUTCOME_SCORES = (10.0, 5.0, 2.0, 0.0)
+
+
+@dataclass(frozen=True)
+class SearchParams:
+    ruin_max: int = 30  # most tasks one destroy unassigns
+    ruin_share: float = 0.3  # ... and at most this share of the routed tasks
+    threshold: float = 0.01  # accept down to this share below the run's best, shrinking to 0
+    noise: float = 0.5  # relative noise on the repair's insertion values
+    reaction: float = 0.2  # how fast operator weights follow their recent scores
+    segment: int = 50  # iterations between weight updates
+    restart: int = 300  # iterations without a better plan before a run ends
+    explore: float = 0.7  # share of the budget in which a run ending starts a fresh one
+
+    def __post_init__(self) -> None:
+        if self.ruin_max < 1:
+            raise ValueError(f"ruin_max must be >= 1, got {self.ruin_max}")
+        for name in ("ruin_share", "reaction"):
+            if not 0 < getattr(self, name) <= 1:
+                raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)}")
+        for name in ("threshold", "noise", "explore"):
+            if not 0 <= getattr(self, name) <= 1:
+                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)}")
+        if self.segment < 1 or self.restart < 1:
+            raise ValueError("segment and restart must be >= 1")
+
+
+def shorten(state: State, vehicles: list[int]) -> bool:
+    """2-opt/or-opt the given routes; True if any got shorter."""
+    shorter = False
+    for v in vehicles:
+        if len(state.routes[v]) < 2:
+            continue
+        nodes = improve_route(state.inst.dist_m, state.nodes(v))
+        route = [int(u) for u in nodes[1:-1]]
+        if route != state.routes[v]:
+            state.set_route(v, route)
+            shorter = True
+    return shorter
+
+
+def recreate(state: State, before: State, rng: np.random.Generator, params: SearchParams) -> State:
+    """Greedy insertion, then shorten what changed and swap in richer tasks, and insert again
+    while that frees time."""
+    exponent = EXPONENTS[int(rng.integers(len(EXPONENTS)))]
+    fill(state, rng, exponent=exponent, noise=params.noise)
+    for _ in range(3):
+        changed = [v for v in range(state.inst.k) if state.routes[v] != before.routes[v]]
+        if not (shorten(state, changed) | replace_improve(state)):
+            break
+        fill(state, rng, exponent=exponent)
+    return state
+
+
+def progress(stop: Stop, iteration: int) -> float:
+    """Share of the budget spent, in [0, 1]."""
+    spent = 0.0
+    if stop.max_iterations:
+        spent = iteration / stop.max_iterations
+    if stop.time_limit_s is not None:
+        spent = max(spent, stop.elapsed_s() / stop.time_limit_s)
+    return min(spent, 1.0)
+
+
+def search(
+    start: State,
+    rng: np.random.Generator,
+    stop: Stop,
+    params: SearchParams,
+    on_best: Callable[[int, State], None] = lambda it, s: None,
+    fresh: Callable[[], State] | None = None,
+) -> tuple[State, int]:
+    """Improve ``start`` until ``stop``; returns the best plan and the iterations run.
+
+    The search is a sequence of runs. A run ends once ``params.restart`` iterations pass
+    without beating the run's best; the next run starts from ``fresh()`` (a new construction)
+    while less than ``params.explore`` of the budget is spent, and from the best plan after.
+    """
+    tie = start.inst.tie_weight()
+    current, current_obj = start, start.objective(tie)
+    best, best_obj, run_obj = start.copy(), current_obj, current_obj
+    weights = np.ones(len(RUIN_OPERATORS))
+    seg_score, seg_uses = np.zeros_like(weights), np.zeros_like(weights)
+    iteration = stale = 0
+    while not stop.done(iteration):
+        op = int(rng.choice(len(weights), p=weights / weights.sum()))
+        routed = int((current.owner >= 0).sum())
+        size = int(rng.integers(1, max(1, min(params.ruin_max, params.ruin_share * routed)) + 1))
+        candidate = recreate(RUIN_OPERATORS[op](current.copy(), rng, size), current, rng, params)
+        cand_obj = candidate.objective(tie)
+        spent = progress(stop, iteration)
+        iteration, stale = iteration + 1, stale + 1
+        if cand_obj > best_obj + 1e-12:
+            best, best_obj = candidate.copy(), cand_obj
+            on_best(iteration, best)
+        if cand_obj > run_obj + 1e-12:
+            outcome, run_obj, stale = 0, cand_obj, 0
+        elif cand_obj > current_obj + 1e-12:
+            outcome = 1
+        elif cand_obj >= run_obj - params.threshold * abs(run_obj) * (1.0 - spent):
+            outcome = 2
+        else:
+            outcome = 3
+        if outcome < 3:
+            current, current_obj = candidate, cand_obj
+        seg_score[op] += OUTCOME_SCORES[outcome]
+        seg_uses[op] += 1
+        if iteration % params.segment == 0:
+            used = seg_uses > 0
+            recent = np.maximum(seg_score[used] / seg_uses[used], 0.1)
+            weights[used] = (1 - params.reaction) * weights[used] + params.reaction * recent
+            seg_score[:], seg_uses[:] = 0.0, 0.0
+        if stale >= params.restart:
+            current = fresh() if fresh is not None and spent < params.explore else best.copy()
+            current_obj = run_obj = current.objective(tie)
+            stale = 0
+    return best, iteration

@@ -1,0 +1,81 @@
+"""The array view the `best` engine searches: one node metric, per-vehicle budgets and values.
+
+`Problem` is the scenario; `Instance` is what the search needs, and it is general enough for
+replanning too: a vehicle's start node may be any node (its current position, or the last of
+the tasks it is locked to), its budget is whatever battery is left, and ``value[v, u]`` (what
+vehicle ``v`` earns by treating task ``u``) carries the stability penalty of the replanner.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hfc_core.problem import Problem
+
+
+@dataclass(frozen=True, eq=False)
+class Instance:
+    """Nodes ``0..n-1`` are tasks; ``start``/``end`` index vehicles' terminal nodes in ``dist_m``."""
+
+    dist_m: np.ndarray  # (m, m) symmetric travel metric, m >= n
+    service_s: np.ndarray  # (n,)
+    speed_mps: np.ndarray  # (k,)
+    budget_s: np.ndarray  # (k,)
+    start: np.ndarray  # (k,) node index
+    end: np.ndarray  # (k,) node index
+    value: np.ndarray  # (k, n) gain of vehicle v treating task u
+    allowed: np.ndarray  # (k, n) bool: may vehicle v treat task u
+
+    def __post_init__(self) -> None:
+        n, k = len(self.service_s), len(self.speed_mps)
+        m = self.dist_m.shape[0]
+        if self.dist_m.shape != (m, m) or m < n:
+            raise ValueError(f"dist_m has shape {self.dist_m.shape}, need square with >= {n} rows")
+        for name in ("budget_s", "start", "end"):
+            if getattr(self, name).shape != (k,):
+                raise ValueError(f"{name} needs shape ({k},)")
+        for name in ("value", "allowed"):
+            if getattr(self, name).shape != (k, n):
+                raise ValueError(f"{name} needs shape ({k}, {n})")
+        if np.any(self.speed_mps <= 0):
+            raise ValueError("speeds must be positive")
+
+    @property
+    def n(self) -> int:
+        return len(self.service_s)
+
+    @property
+    def k(self) -> int:
+        return len(self.speed_mps)
+
+    def route_time_s(self, v: int, route: list[int]) -> float:
+        """Travel start -> route -> end at ``v``'s speed plus service, summed in a fixed order."""
+        nodes = [int(self.start[v]), *route, int(self.end[v])]
+        length = float(self.dist_m[nodes[:-1], nodes[1:]].sum()) if len(nodes) > 1 else 0.0
+        return length / float(self.speed_mps[v]) + float(sum(self.service_s[route]))
+
+    def tie_weight(self) -> float:
+        """Weight of one second of mission time in the objective: small enough that saving the
+        whole fleet's budget is worth less than a thousandth of the smallest positive value,
+        so time only ever breaks ties between plans of equal value."""
+        positive = self.value[self.value > 0]
+        smallest = float(positive.min()) if positive.size else 1.0
+        return 1e-3 * smallest / max(float(self.budget_s.sum()), 1e-9)
+
+
+def instance_from_problem(problem: Problem) -> Instance:
+    """The whole scenario: every vehicle at its start station with a full battery."""
+    k = problem.n_vehicles
+    priority = np.asarray(problem.priority, dtype=float)
+    return Instance(
+        dist_m=problem.dist_m,
+        service_s=np.asarray(problem.service_s, dtype=float),
+        speed_mps=np.array([v.speed_mps for v in problem.vehicles]),
+        budget_s=np.array([v.battery_s for v in problem.vehicles]),
+        start=np.array([problem.start_node(v) for v in range(k)]),
+        end=np.array([problem.end_node(v) for v in range(k)]),
+        value=np.broadcast_to(priority, (k, problem.n_tasks)),
+        allowed=np.ones((k, problem.n_tasks), dtype=bool),
+    )

@@ -1,0 +1,74 @@
+"""Intra-route improvement: 2-opt and or-opt, each neighbourhood evaluated in one numpy shot.
+
+A route is shortened, never changed in content, so its value is untouched and the time it
+frees is room for more tasks. Both moves assume a symmetric metric (Euclidean, or shortest
+paths around land). ``nodes`` includes the route's terminals, which never move.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+EPS_M = 1e-9  # an improvement smaller than this is rounding, not progress
+
+
+def two_opt_step(dist: np.ndarray, nodes: np.ndarray) -> np.ndarray | None:
+    """The best improving segment reversal, or None at a local optimum."""
+    if len(nodes) < 4:
+        return None
+    a, b = nodes[:-1], nodes[1:]
+    edge = dist[a, b]
+    # Reversing nodes[i+1..j] swaps edges (a_i, b_i), (a_j, b_j) for (a_i, a_j), (b_i, b_j).
+    gain = dist[a[:, None], a[None, :]] + dist[b[:, None], b[None, :]] - edge[:, None] - edge[None, :]
+    gain[np.tril_indices(len(a), 1)] = np.inf
+    flat = int(gain.argmin())
+    i, j = divmod(flat, len(a))
+    if gain[i, j] >= -EPS_M:
+        return None
+    out = nodes.copy()
+    out[i + 1 : j + 1] = nodes[i + 1 : j + 1][::-1]
+    return out
+
+
+def or_opt_step(dist: np.ndarray, nodes: np.ndarray, max_len: int = 3) -> np.ndarray | None:
+    """The best improving move of a segment of 1..max_len tasks elsewhere (either direction)."""
+    inner = len(nodes) - 2
+    if inner < 2:
+        return None
+    # Every segment nodes[i : i + s] at once: one row per (i, s).
+    lens = range(1, min(max_len, inner - 1) + 1)
+    i = np.concatenate([np.arange(1, inner - s + 2) for s in lens])
+    s = np.concatenate([np.full(inner - s + 1, s) for s in lens])
+    first, last = nodes[i], nodes[i + s - 1]
+    prev, nxt = nodes[i - 1], nodes[i + s]
+    removal = dist[prev, first] + dist[last, nxt] - dist[prev, nxt]
+    tail, head = nodes[:-1], nodes[1:]
+    edge = dist[tail, head]
+    fwd = dist[first[:, None], tail[None, :]] + dist[last[:, None], head[None, :]]
+    rev = dist[last[:, None], tail[None, :]] + dist[first[:, None], head[None, :]]
+    delta = np.minimum(fwd, rev) - edge[None, :] - removal[:, None]
+    # Edges touching the segment (j from i-1 to i+s-1) are not insertion points.
+    j = np.arange(len(edge))[None, :]
+    delta[(j >= i[:, None] - 1) & (j <= (i + s)[:, None] - 1)] = np.inf
+    r, c = divmod(int(delta.argmin()), delta.shape[1])
+    if delta[r, c] >= -EPS_M:
+        return None
+    start, length = int(i[r]), int(s[r])
+    seg = nodes[start : start + length]
+    if rev[r, c] < fwd[r, c]:
+        seg = seg[::-1]
+    rest = np.concatenate([nodes[:start], nodes[start + length :]])
+    at = c + 1 if c < start else c + 1 - length  # edge c's head, in the route without the segment
+    return np.concatenate([rest[:at], seg, rest[at:]])
+
+
+def improve_route(dist: np.ndarray, nodes: np.ndarray, max_rounds: int = 1000) -> np.ndarray:
+    """2-opt to a local optimum, then or-opt; repeat until neither improves."""
+    for _ in range(max_rounds):
+        while (step := two_opt_step(dist, nodes)) is not None:
+            nodes = step
+        step = or_opt_step(dist, nodes)
+        if step is None:
+            return nodes
+        nodes = step
+    return nodes

@@ -1,0 +1,107 @@
+"""Destroy operators: ``op(state, rng, size) -> state`` unassigns about ``size`` tasks.
+
+Each works on the state it is given (the engine passes a copy). Tasks a vehicle is locked to
+never appear in routes (they are folded into the vehicle's start, see `hfc_core.replan`), so
+every routed task may be removed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hfc_core.best.state import State
+
+
+def _assigned(state: State) -> np.ndarray:
+    return np.flatnonzero(state.owner >= 0)
+
+
+def random_removal(state: State, rng: np.random.Generator, size: int) -> State:
+    """Uniformly random tasks: plain diversification."""
+    assigned = _assigned(state)
+    if len(assigned):
+        state.remove(list(rng.choice(assigned, size=min(size, len(assigned)), replace=False)))
+    return state
+
+
+def related_removal(state: State, rng: np.random.Generator, size: int) -> State:
+    """The routed tasks nearest a random seed task (routed or not): frees a region, so the
+    repair can re-cut it, or can make room for an unrouted rich task among them."""
+    inst = state.inst
+    seed = int(rng.integers(inst.n))
+    order = np.argsort(inst.dist_m[seed, : inst.n], kind="stable")
+    routed = order[state.owner[order] >= 0]
+    state.remove(list(routed[:size]))
+    return state
+
+
+def string_removal(state: State, rng: np.random.Generator, size: int) -> State:
+    """Consecutive runs of tasks in the routes passing near a seed (after SISR's strings):
+    slack appears where routes are dense, and route tails can be swapped between vehicles."""
+    assigned = _assigned(state)
+    if not len(assigned):
+        return state
+    inst = state.inst
+    seed = int(rng.choice(assigned))
+    order = np.argsort(inst.dist_m[seed, : inst.n], kind="stable")
+    routed = order[state.owner[order] >= 0]
+    strings = int(rng.integers(1, inst.k + 1))
+    per_string = max(1, size // strings)
+    removed: list[int] = []
+    done_routes: set[int] = set()
+    for u in routed:
+        v = int(state.owner[u])
+        if v in done_routes:
+            continue
+        done_routes.add(v)
+        route = state.routes[v]
+        length = min(per_string, len(route))
+        at = route.index(int(u))
+        # A string of the given length containing u, at a random offset.
+        first = int(rng.integers(max(0, at - length + 1), min(at, len(route) - length) + 1))
+        removed += route[first : first + length]
+        if len(done_routes) >= strings:
+            break
+    state.remove(removed)
+    return state
+
+
+def worst_removal(state: State, rng: np.random.Generator, size: int) -> State:
+    """Tasks earning the least per second they cost their route (randomised by rank), so
+    their time can go to better ones."""
+    inst = state.inst
+    tasks, ratio = [], []
+    for v, route in enumerate(state.routes):
+        if not route:
+            continue
+        nodes = state.nodes(v)
+        saving_m = (
+            inst.dist_m[nodes[:-2], nodes[1:-1]]
+            + inst.dist_m[nodes[1:-1], nodes[2:]]
+            - inst.dist_m[nodes[:-2], nodes[2:]]
+        )
+        saving_s = saving_m / inst.speed_mps[v] + inst.service_s[route]
+        tasks += route
+        ratio += list(inst.value[v, route] / (saving_s + 1e-3 * float(inst.budget_s[v])))
+    if not tasks:
+        return state
+    ranked = np.asarray(tasks)[np.argsort(ratio, kind="stable")]
+    # Skewed random ranks: mostly the worst, sometimes a fairly good one.
+    picks = np.unique((len(ranked) * rng.random(min(size, len(ranked))) ** 3).astype(int))
+    state.remove(list(ranked[picks]))
+    return state
+
+
+def route_removal(state: State, rng: np.random.Generator, size: int) -> State:
+    """Empty one route (or its first ``size`` tasks from a random point): lets the repair
+    rebuild a whole vehicle's tour around different tasks."""
+    busy = [v for v, r in enumerate(state.routes) if r]
+    if busy:
+        v = int(rng.choice(busy))
+        route = state.routes[v]
+        first = int(rng.integers(0, max(1, len(route) - size + 1)))
+        state.remove(route[first : first + size])
+    return state
+
+
+RUIN_OPERATORS = (random_removal, related_removal, string_removal, worst_removal, route_removal)

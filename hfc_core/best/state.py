@@ -1,0 +1,135 @@
+"""The search state: routes with cached lengths, and cached best insertions per route.
+
+Routes hold task nodes only; a vehicle's terminals come from the instance. Each route's
+length is recomputed from the metric whenever the route changes (never accumulated), so
+feasibility never drifts. ``ins_len[v, u]`` / ``ins_pos[v, u]`` cache the cheapest insertion
+of every task into route ``v`` (extra metres, position); a route's row is refreshed lazily
+after it changes, which is what makes repeated greedy insertion cheap.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hfc_core.best.instance import Instance
+
+UNASSIGNED = -1
+# Feasibility margin in seconds: a route must fit with this much to spare, so that rounding
+# in any other evaluation (the independent checker sums legs differently) cannot tip it over.
+MARGIN_S = 1e-7
+
+
+class State:
+    """Mutable; operators work on a `copy` and return it."""
+
+    __slots__ = ("inst", "routes", "length_m", "service_s", "owner", "ins_len", "ins_pos", "stale")
+
+    def __init__(self, inst: Instance, routes: list[list[int]] | None = None) -> None:
+        self.inst = inst
+        k, n = inst.k, inst.n
+        self.routes: list[list[int]] = [list(r) for r in routes] if routes else [[] for _ in range(k)]
+        self.owner = np.full(n, UNASSIGNED, dtype=np.int64)
+        for v, route in enumerate(self.routes):
+            self.owner[route] = v
+        self.length_m = [self._length(v) for v in range(k)]
+        self.service_s = [self._service(v) for v in range(k)]
+        self.ins_len = np.zeros((k, n))
+        self.ins_pos = np.zeros((k, n), dtype=np.int64)
+        self.stale = np.ones(k, dtype=bool)
+
+    def copy(self) -> "State":
+        other = State.__new__(State)
+        other.inst = self.inst
+        other.routes = [list(r) for r in self.routes]
+        other.length_m = list(self.length_m)
+        other.service_s = list(self.service_s)
+        other.owner = self.owner.copy()
+        other.ins_len = self.ins_len.copy()
+        other.ins_pos = self.ins_pos.copy()
+        other.stale = self.stale.copy()
+        return other
+
+    # --- figures -------------------------------------------------------------------------
+    def nodes(self, v: int) -> np.ndarray:
+        """Route ``v`` with its terminals: start, tasks..., end."""
+        inst = self.inst
+        return np.array([inst.start[v], *self.routes[v], inst.end[v]], dtype=np.int64)
+
+    def _length(self, v: int) -> float:
+        nodes = self.nodes(v)
+        return float(self.inst.dist_m[nodes[:-1], nodes[1:]].sum())
+
+    def _service(self, v: int) -> float:
+        route = self.routes[v]
+        return float(self.inst.service_s[route].sum()) if route else 0.0
+
+    def _changed(self, v: int) -> None:
+        self.length_m[v] = self._length(v)
+        self.service_s[v] = self._service(v)
+        self.stale[v] = True
+
+    def time_s(self, v: int) -> float:
+        return self.length_m[v] / float(self.inst.speed_mps[v]) + self.service_s[v]
+
+    def slack_s(self, v: int) -> float:
+        return float(self.inst.budget_s[v]) - self.time_s(v) - MARGIN_S
+
+    def value(self) -> float:
+        val = self.inst.value
+        return float(sum(float(val[v, u]) for v, r in enumerate(self.routes) for u in r))
+
+    def total_time_s(self) -> float:
+        return sum(self.time_s(v) for v in range(self.inst.k))
+
+    def objective(self, tie_weight: float) -> float:
+        """Value collected, less a tie-breaking touch of mission time (see `Instance.tie_weight`)."""
+        return self.value() - tie_weight * self.total_time_s()
+
+    def feasible(self) -> bool:
+        return all(self.slack_s(v) >= -MARGIN_S for v in range(self.inst.k))
+
+    # --- edits ---------------------------------------------------------------------------
+    def set_route(self, v: int, route: list[int]) -> None:
+        """Replace route ``v`` (its tasks must be unassigned or already its own)."""
+        self.owner[self.routes[v]] = UNASSIGNED
+        self.routes[v] = list(route)
+        self.owner[route] = v
+        self._changed(v)
+
+    def insert(self, v: int, u: int, pos: int) -> None:
+        self.routes[v].insert(pos, u)
+        self.owner[u] = v
+        self._changed(v)
+
+    def remove(self, tasks: list[int]) -> None:
+        """Unassign ``tasks`` from whatever routes hold them."""
+        drop = set(tasks)
+        for v in {int(self.owner[u]) for u in drop if self.owner[u] >= 0}:
+            self.routes[v] = [u for u in self.routes[v] if u not in drop]
+            self._changed(v)
+        self.owner[list(drop)] = UNASSIGNED
+
+    # --- insertion cache -----------------------------------------------------------------
+    def refresh_route(self, v: int) -> None:
+        """Recompute the cheapest insertion of every task into route ``v``."""
+        n = self.inst.n
+        dist = self.inst.dist_m
+        nodes = self.nodes(v)
+        to_tasks = dist[nodes, :n]  # (L, n)
+        extra = to_tasks[:-1] + to_tasks[1:]
+        extra -= dist[nodes[:-1], nodes[1:]][:, None]
+        pos = extra.argmin(axis=0)
+        self.ins_pos[v] = pos
+        self.ins_len[v] = extra[pos, np.arange(n)]
+        self.stale[v] = False
+
+    def refresh(self) -> None:
+        """Recompute the cheapest insertions into each changed route."""
+        for v in np.flatnonzero(self.stale):
+            self.refresh_route(int(v))
+
+    def insertion_time_s(self) -> np.ndarray:
+        """(k, n) extra mission time of each task's cheapest insertion into each route."""
+        self.refresh()
+        inst = self.inst
+        return self.ins_len / inst.speed_mps[:, None] + inst.service_s[None, :]
