@@ -23,7 +23,9 @@ def check_routes(
     """Problems found in ``routes`` (vehicle id -> scenario task ids); empty if feasible.
 
     Checks: known vehicle and task ids, no task visited twice in the fleet, and (unless
-    ``enforce_budget`` is false, as for NCM1) every mission time within its battery.
+    ``enforce_budget`` is false, as for NCM1) every mission time within its battery. With land,
+    each leg is the waypoint path the vehicle would follow (`Problem.land.shortest_path`): it
+    must join the leg's ends and enter no forbidden polygon, and its length is what counts.
     """
     errors: list[str] = []
     vehicles = {v.id: v for v in problem.vehicles}
@@ -45,15 +47,11 @@ def check_routes(
             continue
         points = [vehicle.start, *(tasks[t].pos for t in route), vehicle.rendezvous]
         if problem.forbidden:
-            # Around land the straight line is only a lower bound; use the planner's metric for
-            # the length but still reject a leg that is impossible (no path found).
-            nodes = [problem.start_node(problem.vehicle_index[vid])]
-            nodes += [problem.task_index[t] for t in route]
-            nodes.append(problem.end_node(problem.vehicle_index[vid]))
-            legs = [float(problem.dist_m[a, b]) for a, b in zip(nodes[:-1], nodes[1:])]
-            for (a, b), leg in zip(zip(points[:-1], points[1:]), legs):
-                if not math.isfinite(leg) or leg + 1e-9 < math.dist(a, b):
-                    errors.append(f"{vid}: leg {a}->{b} shorter than the straight line")
+            legs = []
+            for a, b in zip(points[:-1], points[1:]):
+                leg, leg_errors = _land_leg(problem, a, b)
+                legs.append(leg)
+                errors += [f"{vid}: {e}" for e in leg_errors]
         else:
             legs = [math.dist(a, b) for a, b in zip(points[:-1], points[1:])]
         time_s = sum(legs) / vehicle.speed_mps + sum(tasks[t].service_s for t in route)
@@ -62,3 +60,74 @@ def check_routes(
                 f"{vid}: mission time {time_s:.3f} s exceeds battery {vehicle.battery_s:.3f} s"
             )
     return errors
+
+
+# --- land: the path of a leg must stay in the water ------------------------------------------
+LAND_DEPTH_TOL_M = 1e-6  # grazing the coast is allowed; entering land deeper than this is not
+Point = tuple[float, ...]
+
+
+def _land_leg(problem: Problem, a: Point, b: Point) -> tuple[float, list[str]]:
+    """(length of the waypoint path from a to b, problems with it)."""
+    assert problem.land is not None
+    try:
+        _, path = problem.land.shortest_path(a, b)
+    except ValueError as err:
+        return math.inf, [f"leg {a}->{b}: {err}"]
+    errors = []
+    if math.dist(path[0], a) > 1e-9 or math.dist(path[-1], b) > 1e-9:
+        errors.append(f"leg {a}->{b}: its path runs from {path[0]} to {path[-1]}")
+    for p, q in zip(path[:-1], path[1:]):
+        for i, poly in enumerate(problem.forbidden):
+            ring = [(float(x), float(y)) for x, y in poly]
+            if _segment_enters(p[:2], q[:2], ring):
+                errors.append(f"leg {a}->{b}: segment {p}->{q} crosses forbidden[{i}]")
+    return sum(math.dist(p, q) for p, q in zip(path[:-1], path[1:])), errors
+
+
+def _segment_enters(p: Point, q: Point, ring: list[tuple[float, float]]) -> bool:
+    """Does segment p-q pass through the polygon's interior? Cut it wherever it meets the
+    boundary; each piece is then wholly inside or outside, so test each piece's middle."""
+    dx, dy = q[0] - p[0], q[1] - p[1]
+    cuts = {0.0, 1.0}
+    for (ax, ay), (bx, by) in zip(ring, ring[1:] + ring[:1]):
+        ex, ey = bx - ax, by - ay
+        denom = dx * ey - dy * ex
+        wx, wy = ax - p[0], ay - p[1]
+        if abs(denom) > 1e-15:
+            t = (wx * ey - wy * ex) / denom
+            s = (wx * dy - wy * dx) / denom
+            if 0.0 <= t <= 1.0 and -1e-12 <= s <= 1.0 + 1e-12:
+                cuts.add(t)
+        else:  # parallel: the edge's ends may lie on the segment
+            length2 = dx * dx + dy * dy
+            for cx, cy in ((ax, ay), (bx, by)):
+                if length2 > 0:
+                    t = ((cx - p[0]) * dx + (cy - p[1]) * dy) / length2
+                    if 0.0 < t < 1.0:
+                        cuts.add(t)
+    ordered = sorted(cuts)
+    for t0, t1 in zip(ordered[:-1], ordered[1:]):
+        mid = (p[0] + dx * (t0 + t1) / 2, p[1] + dy * (t0 + t1) / 2)
+        if _inside(mid, ring) and _boundary_distance(mid, ring) > LAND_DEPTH_TOL_M:
+            return True
+    return False
+
+
+def _inside(pt: tuple[float, float], ring: list[tuple[float, float]]) -> bool:
+    x, y = pt
+    inside = False
+    for (ax, ay), (bx, by) in zip(ring, ring[1:] + ring[:1]):
+        if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
+            inside = not inside
+    return inside
+
+
+def _boundary_distance(pt: tuple[float, float], ring: list[tuple[float, float]]) -> float:
+    best = math.inf
+    for (ax, ay), (bx, by) in zip(ring, ring[1:] + ring[:1]):
+        ex, ey = bx - ax, by - ay
+        length2 = ex * ex + ey * ey
+        t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((pt[0] - ax) * ex + (pt[1] - ay) * ey) / length2))
+        best = min(best, math.dist(pt, (ax + t * ex, ay + t * ey)))
+    return best

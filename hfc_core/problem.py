@@ -7,16 +7,19 @@ Node numbering of the distance matrix ``dist_m`` (shape ``(n + 2k, n + 2k)``):
 ``0..n-1`` are tasks, ``n + 2*v`` is vehicle ``v``'s start, ``n + 2*v + 1`` its rendezvous.
 Travel time between two nodes for vehicle ``v`` is ``dist_m[a, b] / vehicles[v].speed_mps``
 (eq. 7-8). With forbidden polygons the matrix holds shortest paths around land
-(see `hfc_core.geometry`).
+(see `hfc_core.geometry`), and ``Problem.land`` gives paths and distances from any position.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from hfc_core.geometry import LandMap
 
 Point3 = tuple[float, float, float]
 
@@ -111,6 +114,9 @@ class Problem:
     service_s: np.ndarray = field(repr=False)  # (n,)
     task_index: dict[int, int] = field(repr=False)
     vehicle_index: dict[str, int] = field(repr=False)
+    # Shortest paths around ``forbidden`` (None without land): distances from positions off
+    # the nodes (replanning mid-route) and the waypoint path of every leg.
+    land: "LandMap | None" = field(default=None, repr=False)
 
     @staticmethod
     def build(
@@ -144,10 +150,19 @@ class Problem:
         for v_idx, v in enumerate(vehicles):
             xyz[n + 2 * v_idx] = v.start
             xyz[n + 2 * v_idx + 1] = v.rendezvous
+        land = None
+        if polygons:
+            from hfc_core.geometry import LandMap
+
+            land = LandMap(polygons)
+            _require_water(land, xyz, tasks, vehicles)
         if dist_m is None:
             from hfc_core.geometry import distance_matrix
 
-            dist_m = distance_matrix(xyz, polygons)
+            try:
+                dist_m = land.distance_matrix(xyz) if land is not None else distance_matrix(xyz)
+            except ValueError as err:  # e.g. a point walled in by land
+                raise ScenarioError(f"forbidden: {err}") from None
         dist_m = np.asarray(dist_m, dtype=float)
         if dist_m.shape != (n + 2 * k, n + 2 * k):
             raise ScenarioError(f"distance matrix has shape {dist_m.shape}, need {(n + 2 * k,) * 2}")
@@ -168,6 +183,7 @@ class Problem:
             service_s=service,
             task_index=task_index,
             vehicle_index=vehicle_index,
+            land=land,
         )
 
     @property
@@ -194,6 +210,19 @@ class Problem:
 
     def route_priority(self, route: Sequence[int]) -> float:
         return float(self.priority[list(route)].sum()) if len(route) else 0.0
+
+
+def _require_water(
+    land: "LandMap", xyz: np.ndarray, tasks: Sequence[Task], vehicles: Sequence[Vehicle]
+) -> None:
+    inside = land.inside(xyz)
+    n = len(tasks)
+    for i in np.flatnonzero(inside):
+        if i < n:
+            raise ScenarioError(f"task {tasks[i].id}: pos {tasks[i].pos} is on land (forbidden)")
+        v = vehicles[(i - n) // 2]
+        what = "start" if (i - n) % 2 == 0 else "rendezvous"
+        raise ScenarioError(f"vehicle {v.id}: {what} {getattr(v, what)} is on land (forbidden)")
 
 
 def _polygon(points: Sequence[Sequence[float]], i: int) -> np.ndarray:

@@ -1,0 +1,222 @@
+"""`replan`: new routes for the live vehicles, from where they are, with what battery they have.
+
+The agents call this mid-mission: after a vehicle is lost (survivors share its spots), or for
+the online cooperation operator (one vehicle with spare battery inserts free spots into its own
+route: call it with that vehicle alone and mark the others' spots ``cleared`` or ``held``).
+
+How the inputs become a `best` search (`hfc_core.best`):
+- each vehicle starts at its position (or, with ``locked`` spots, at the last of them: the
+  locked chain is prepended unchanged and its time taken off the battery);
+- spots ``cleared``, locked by a vehicle, or held by another live vehicle are off limits;
+- travel from a position uses `Problem.land` when the scenario has land;
+- stability: the current routes (minus what is now off limits, cut to fit the battery, topped
+  up with free spots that fit) are the starting point, and they are returned unless the search
+  beats them by more than ``stability`` times the mean priority. Within the search, treating a
+  spot from another live vehicle's current route is worth that much less, so spots change
+  vehicle only for a real gain. Reordering happens only when it shortens a route, which leaves
+  a plan from `best` (already 2-opt/or-opt optimal) as it is.
+
+With ``max_iterations`` and no time limit the result is a pure function of the inputs (the
+order of ``cleared`` and ``held`` does not matter): agents on different machines agree.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Collection, Mapping, Sequence
+
+import numpy as np
+from scipy.spatial.distance import cdist
+
+from hfc_core.best.construct import construct, screen
+from hfc_core.best.engine import SearchParams, search, shorten
+from hfc_core.best.insert import fill
+from hfc_core.best.instance import Instance
+from hfc_core.best.state import State
+from hfc_core.problem import Problem, ScenarioError
+from hfc_core.solve import Stop
+
+DEFAULT_ITERATIONS = 150
+DEFAULT_STABILITY = 0.1
+
+
+@dataclass(frozen=True)
+class LiveVehicle:
+    id: str  # scenario vehicle id
+    pos: tuple[float, float, float]  # where it is now
+    battery_s: float  # battery time left
+    speed_mps: float | None = None  # None = the scenario vehicle's speed
+    route: tuple[int, ...] = ()  # its current planned route (scenario task ids), for stability
+    locked: tuple[int, ...] = ()  # tasks it must keep at the head of its route, in order
+
+
+def replan(
+    problem: Problem,
+    vehicles: Sequence[LiveVehicle],
+    *,
+    cleared: Collection[int] = (),
+    held: Mapping[int, str] = {},  # noqa: B006 - read only
+    max_iterations: int | None = None,
+    time_limit_s: float | None = None,
+    seed: int = 0,
+    stability: float = DEFAULT_STABILITY,
+) -> dict[str, list[int]]:
+    """Vehicle id -> new route (scenario task ids; the rendezvous follows) for ``vehicles``.
+
+    Vehicles not passed are gone: their spots are free unless cleared. A spot held by one of
+    ``vehicles`` goes to that vehicle or to none; a spot held by a gone vehicle is free. No
+    route exceeds its vehicle's ``battery_s`` from ``pos``. Locked spots that are cleared or
+    held by another live vehicle are dropped. If even the locked spots and the way to the
+    rendezvous do not fit the battery, that vehicle gets its locked spots only (it cannot do
+    better). Without a budget, ``DEFAULT_ITERATIONS`` iterations are run.
+    """
+    if not stability >= 0:
+        raise ValueError(f"stability must be >= 0, got {stability}")
+    if max_iterations is None and time_limit_s is None:
+        max_iterations = DEFAULT_ITERATIONS
+    setup = _Setup(problem, vehicles, cleared, held, stability)
+    inst = setup.instance()
+    rng = np.random.default_rng(seed)
+    stop = Stop(time_limit_s=time_limit_s, max_iterations=max_iterations)
+    warm = setup.warm_start(inst)
+    scratch = construct(inst, rng)
+    tie = inst.tie_weight()
+    start = scratch if scratch.objective(tie) > warm.objective(tie) + 1e-12 else warm
+    best, _ = search(start, rng, stop, SearchParams(restart=100))
+    if best.objective(tie) <= warm.objective(tie) + setup.penalty:
+        best = warm
+    out = {}
+    for v, live in enumerate(setup.vehicles):
+        tail = best.routes[v] if setup.budget_s[v] > 0 else []
+        out[live.id] = [problem.tasks[u].id for u in (*setup.locked[v], *tail)]
+    return out
+
+
+class _Setup:
+    """Validated inputs, in task indices, and the instance built from them."""
+
+    def __init__(
+        self,
+        problem: Problem,
+        vehicles: Sequence[LiveVehicle],
+        cleared: Collection[int],
+        held: Mapping[int, str],
+        stability: float,
+    ) -> None:
+        self.problem = problem
+        self.vehicles = list(vehicles)
+        ids = [v.id for v in self.vehicles]
+        for vid in ids:
+            if vid not in problem.vehicle_index:
+                raise ScenarioError(f"unknown vehicle {vid!r}")
+        if len(set(ids)) != len(ids):
+            raise ScenarioError("a vehicle is listed twice")
+        live = {vid: i for i, vid in enumerate(ids)}
+        n = problem.n_tasks
+        self.cleared = np.zeros(n, dtype=bool)
+        self.cleared[[self._index(t) for t in cleared]] = True
+        # holder[u]: index into vehicles of the live vehicle holding u, -1 if none is.
+        self.holder = np.full(n, -1, dtype=np.int64)
+        for t, vid in held.items():
+            if vid in live:
+                self.holder[self._index(t)] = live[vid]
+        self.locked: list[list[int]] = []
+        taken = np.zeros(n, dtype=bool)
+        for i, v in enumerate(self.vehicles):
+            chain = []
+            for t in v.locked:
+                u = self._index(t)
+                if not (self.cleared[u] or taken[u] or self.holder[u] not in (-1, i)):
+                    chain.append(u)
+                    taken[u] = True
+            self.locked.append(chain)
+        self.locked_mask = taken
+        # What moving one spot between vehicles (or changing the plan at all) must gain.
+        self.penalty = stability * float(problem.priority.mean()) if n else 0.0
+
+    def _index(self, task_id: int) -> int:
+        try:
+            return self.problem.task_index[task_id]
+        except (KeyError, TypeError):
+            raise ScenarioError(f"unknown task {task_id!r}") from None
+
+    def instance(self) -> Instance:
+        p, k, n = self.problem, len(self.vehicles), self.problem.n_tasks
+        # Nodes: tasks, then per live vehicle its position and its rendezvous.
+        dist = np.empty((n + 2 * k, n + 2 * k))
+        dist[:n, :n] = p.dist_m[:n, :n]
+        ends = [p.end_node(p.vehicle_index[v.id]) for v in self.vehicles]
+        pos = np.array([v.pos for v in self.vehicles], dtype=float).reshape(k, 3)
+        if p.land is not None:
+            p.land.require_water(pos, "vehicle position")
+        targets = np.vstack([p.xyz[:n], p.xyz[ends]])
+        from_pos = np.array([self._from(pos[i], targets) for i in range(k)]).reshape(k, n + k)
+        pos_pos = cdist(pos, pos)  # never travelled: no vehicle visits another's position
+        for i in range(k):
+            s, e = n + 2 * i, n + 2 * i + 1
+            dist[s, :n] = dist[:n, s] = from_pos[i, :n]
+            dist[e, :n] = dist[:n, e] = p.dist_m[ends[i], :n]
+            for j in range(k):
+                dist[s, n + 2 * j] = pos_pos[i, j]
+                dist[s, n + 2 * j + 1] = dist[n + 2 * j + 1, s] = from_pos[i, n + j]
+                dist[e, n + 2 * j + 1] = p.dist_m[ends[i], ends[j]]
+        speed = np.array([v.speed_mps or p.vehicles[p.vehicle_index[v.id]].speed_mps
+                          for v in self.vehicles], dtype=float)
+        if np.any(speed <= 0):
+            raise ScenarioError("a live vehicle has a non-positive speed")
+        start = np.array([self.locked[i][-1] if self.locked[i] else n + 2 * i for i in range(k)])
+        self.budget_s = np.array([v.battery_s - self._locked_time(dist, speed, i)
+                                  for i, v in enumerate(self.vehicles)], dtype=float)
+        free = ~(self.cleared | self.locked_mask)
+        allowed = np.repeat(free[None, :], k, axis=0)
+        held_by = np.flatnonzero(self.holder >= 0)
+        allowed[:, held_by] = False
+        allowed[self.holder[held_by], held_by] = free[held_by]
+        allowed[self.budget_s <= 0] = False
+        value = np.broadcast_to(p.priority, (k, n)).copy()
+        home = self._home()
+        moved = (home[None, :] >= 0) & (home[None, :] != np.arange(k)[:, None])
+        value[moved] -= self.penalty
+        return Instance(
+            dist_m=dist,
+            service_s=np.asarray(p.service_s, dtype=float),
+            speed_mps=speed,
+            budget_s=np.maximum(self.budget_s, 0.0),
+            start=start,
+            end=np.arange(k) * 2 + n + 1,
+            value=value,
+            allowed=allowed,
+        )
+
+    def _from(self, pos: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        if self.problem.land is not None:
+            return self.problem.land.distances_from(pos, targets)
+        return np.linalg.norm(targets - pos[None, :], axis=1)
+
+    def _locked_time(self, dist: np.ndarray, speed: np.ndarray, i: int) -> float:
+        n = self.problem.n_tasks
+        nodes = [n + 2 * i, *self.locked[i]]
+        travel = sum(float(dist[a, b]) for a, b in zip(nodes[:-1], nodes[1:]))
+        return travel / float(speed[i]) + sum(float(self.problem.service_s[u]) for u in self.locked[i])
+
+    def _home(self) -> np.ndarray:
+        """Which live vehicle's current route each task is in (first one wins), -1 if none."""
+        home = np.full(self.problem.n_tasks, -1, dtype=np.int64)
+        for i, v in enumerate(self.vehicles):
+            for t in v.route:
+                u = self._index(t)
+                if home[u] < 0:
+                    home[u] = i
+        return home
+
+    def warm_start(self, inst: Instance) -> State:
+        """The current routes, minus what is off limits, screened to fit and then topped up."""
+        home = self._home()
+        routes = []
+        for i, v in enumerate(self.vehicles):
+            route = [u for u in (self._index(t) for t in v.route)
+                     if home[u] == i and inst.allowed[i, u]]
+            routes.append(screen(inst, i, route))
+        state = State(inst, routes)
+        shorten(state, list(range(inst.k)))
+        return fill(state)
