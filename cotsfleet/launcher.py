@@ -198,6 +198,7 @@ class Launcher:
         wall0 = time.monotonic()
         interrupted = False
         clock: WarpClock | None = None
+        end_s: float | None = None
         try:
             router = self._spawn("router", [sys.executable, "-m", "comms_sim.router",
                                             "--listen", self.endpoint], ROUTER_READY)
@@ -233,6 +234,7 @@ class Launcher:
                              f"{opts.warp:g}, loss {opts.loss:g}, run dir {self.run_dir}")
                     try:
                         self._monitor(session, clock)
+                        end_s = clock.now()
                     except KeyboardInterrupt:
                         interrupted = True
                         self.out("interrupted: stopping the fleet")
@@ -245,7 +247,8 @@ class Launcher:
         finally:
             self._stop([n for n in self.procs if n not in ("router",)])
             self._stop(["router"])
-        end_s = clock.now() if clock is not None else 0.0
+        if end_s is None:
+            end_s = max(0.0, clock.now()) if clock is not None else 0.0
         with self._lock:
             statuses, events = dict(self.statuses), list(self.events)
         report = build_report(
@@ -290,7 +293,7 @@ class Launcher:
             while pending and pending[0][0] <= now:
                 _, kind, vid = pending.pop(0)
                 self._inject(session, kind, vid, now, dead)
-            if opts.progress_every_s and time.monotonic() >= next_progress:
+            if opts.progress_every_s and time.monotonic() >= next_progress and now >= 0:
                 next_progress = time.monotonic() + opts.progress_every_s
                 self.out(self._progress(now, dead))
             if now >= self.horizon_s or (not pending and self._all_done(dead)):

@@ -129,7 +129,7 @@ class Agent:
         self.cleared = ClearedSet(p.n_tasks)
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
         self.members = Membership(self.k, index, config.lost_after_cycles * self.cycle_s,
-                                  config.heard_window_cycles * self.cycle_s)
+                                  self.cycle_s)
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []
         self.counters: dict[str, int] = {}
@@ -220,7 +220,8 @@ class Agent:
                                         durable=True))
                 out.append(self._event(ev.t_s, "cleared", [ev.task]))
             elif isinstance(ev, Arrived):
-                self._home_left = self.config.home_repeats
+                # An aborted vehicle already said goodbye; others announce their arrival.
+                self._home_left = 0 if self.vehicle.aborted else self.config.home_repeats
                 out.append(self._record({"k": "home", "t": ev.t_s}, durable=True))
                 out.append(self._event(ev.t_s, "replan", [], detail="home"))
 
@@ -244,10 +245,12 @@ class Agent:
             return
         self._count(f"rx_{type(msg).__name__.lower()}")
         v = msg.sender
-        if self.members.heard(v, now):
+        revived = [v] if self.members.heard(v, float(msg.seq), now) else []
+        revived += self.members.take_heard(v, msg.heard, float(msg.seq), now)
+        for u in revived:
             self._dirty = True
-            out.append(self._event(now, "revived", [], peer=self._vid(v)))
-            out.append(self._record({"k": "peer", "v": v, "s": mb.ALIVE, "t": now}))
+            out.append(self._event(now, "revived", [], peer=self._vid(u)))
+            out.append(self._record({"k": "peer", "v": u, "s": mb.ALIVE, "t": now}))
         if isinstance(msg, Pose):
             self._on_pose(msg, now, out)
         elif isinstance(msg, ClearedSegment):
@@ -267,12 +270,6 @@ class Agent:
         behind = (mine.count - msg.digest.count) % 128
         if msg.digest != mine and (behind == 0 or behind < 64):
             self._mismatch.add(v)
-        evidence = msg.seq - self.members.heard_window_s
-        for u in range(self.k):
-            if msg.heard >> u & 1 and u != self.index and u != v:
-                if self.members.relayed(u, evidence, now):
-                    self._dirty = True
-                    out.append(self._event(now, "revived", [], peer=self._vid(u)))
         if msg.state == "home":
             self._peer_gone(v, mb.HOME, now, out)
         elif msg.state == "aborted":
@@ -547,7 +544,7 @@ class Agent:
         if self.vehicle.aborted:
             if self._abort_left > 0:
                 self._abort_left -= 1
-                return Abort(self.index, self._next_seq(now), int(now))
+                return Abort(self.index, self._next_seq(now), int(now), self._heard(now))
             if self._push_cleared > 0:
                 self._push_cleared -= 1
                 return self._cleared_msg(now)
@@ -568,7 +565,7 @@ class Agent:
             if entry[3] <= 0 or not tasks:
                 self._outgoing.popleft()
             if tasks:
-                return cls(self.index, self._next_seq(now), t, tasks)
+                return cls(self.index, self._next_seq(now), t, tasks, self._heard(now))
         if self._push_cleared > 0 or self._mismatch or \
                 slot - self._last_refresh_slot >= cfg.cleared_refresh_cycles:
             self._push_cleared = max(0, self._push_cleared - 1)
@@ -587,14 +584,18 @@ class Agent:
                 for c, tasks in by_time.items():
                     self._queue(Claim, c, tasks)
                 entry = self._outgoing.popleft()
-                return entry[0](self.index, self._next_seq(now), entry[1], entry[2])
+                return entry[0](self.index, self._next_seq(now), entry[1], entry[2],
+                                self._heard(now))
         return self._pose(now)
 
     def _pose(self, now: float) -> Pose:
         self._since_pose = 0
         v = self.vehicle
         return Pose(self.index, self._next_seq(now), v.pos, int(round(v.yaw_deg)), v.state(),
-                    self.members.heard_mask(now), self.cleared.digest())
+                    self.cleared.digest(), self._heard(now))
+
+    def _heard(self, now: float) -> int:
+        return self.members.heard_field(now)
 
     def _cleared_msg(self, now: float) -> ClearedSegment:
         # Rotate over segments; the one holding our latest clear goes first.
@@ -602,7 +603,7 @@ class Agent:
         seg = self.cleared.segment_of(self.treated[-1][0]) if self.treated and \
             self._push_cleared else int(self._slot_no % n)
         return ClearedSegment(self.index, self._next_seq(now), self.cleared.digest(), seg,
-                              self.cleared.segment(seg))
+                              self.cleared.segment(seg), self._heard(now))
 
     # -- telemetry and journal -------------------------------------------------------------
 

@@ -1,10 +1,11 @@
 """Failure detection: who is alive, lost (silent too long), aborted (announced) or home.
 
 Evidence that a peer is alive comes directly (any authentic fresh frame from it) or
-indirectly, SWIM-style: each pose carries a bitmask of the vehicles its sender heard within
-the last ``heard_window_s``; a set bit proves the peer was alive at the pose's send time
-minus that window at the latest, which is the evidence time used (a lower bound, so relayed
-evidence can delay a detection but never make it later than direct silence would). A peer is
+indirectly, SWIM-style: every frame carries, two bits per vehicle, how long ago its sender
+last heard each peer (`wire.HEARD_AGES`, in heartbeat periods). Code ``c`` proves the peer
+was alive at the frame's send time minus ``HEARD_AGES[c]`` periods, which is the evidence time
+used: a lower bound, so relayed evidence can delay a detection but never past the moment
+the peer really fell silent. A peer is
 lost once ``now - evidence >= lost_after_s``. Several independent paths keep false alarms rare
 under heavy loss, without slowing down the detection of a vehicle that really went silent.
 
@@ -15,6 +16,8 @@ it was declared lost (it was heard after that, so it is alive). Aborted and home
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+from fleet_agent.wire import HEARD_AGES, HEARD_NEVER
 
 ALIVE, LOST, ABORTED, HOME = "alive", "lost", "aborted", "home"
 
@@ -28,11 +31,11 @@ class Peer:
 
 
 class Membership:
-    def __init__(self, n_vehicles: int, me: int, lost_after_s: float, heard_window_s: float,
+    def __init__(self, n_vehicles: int, me: int, lost_after_s: float, period_s: float,
                  start_s: float = 0.0) -> None:
         self.me = me
         self.lost_after_s = lost_after_s
-        self.heard_window_s = heard_window_s
+        self.period_s = period_s
         # Everyone starts alive at the mission start: silence is counted from there.
         self.peers = {v: Peer(ALIVE, float("-inf"), start_s, start_s)
                       for v in range(n_vehicles) if v != me}
@@ -43,11 +46,13 @@ class Membership:
     def alive(self, v: int) -> bool:
         return v == self.me or self.peers[v].status == ALIVE
 
-    def heard(self, v: int, now_s: float) -> bool:
-        """A frame from ``v`` itself; True if this revives a lost peer."""
+    def heard(self, v: int, sent_s: float, now_s: float) -> bool:
+        """A frame from ``v`` itself, sent at ``sent_s`` (its sequence number: the sender's
+        clock, never later than the truth, however long the frame queued); True if this
+        revives a lost peer."""
         p = self.peers[v]
-        p.direct_s = max(p.direct_s, now_s)
-        return self._evidence(v, now_s, now_s)
+        p.direct_s = max(p.direct_s, sent_s)
+        return self._evidence(v, sent_s, now_s)
 
     def relayed(self, v: int, evidence_s: float, now_s: float) -> bool:
         """Another vehicle heard ``v`` at ``evidence_s`` or later; True if this revives it."""
@@ -77,7 +82,7 @@ class Membership:
         """Peers that went silent too long as of ``now_s`` (newly lost)."""
         lost = []
         for v, p in self.peers.items():
-            if p.status == ALIVE and now_s - p.evidence_s >= self.lost_after_s:
+            if p.status == ALIVE and now_s >= p.evidence_s + self.lost_after_s:
                 p.status, p.since_s = LOST, now_s
                 lost.append(v)
         return lost
@@ -88,13 +93,28 @@ class Membership:
                  if p.status == ALIVE]
         return min(times) if times else None
 
-    def heard_mask(self, now_s: float) -> int:
-        """Bit v set for each peer heard directly within the heard window."""
-        mask = 0
+    def heard_field(self, now_s: float) -> int:
+        """What this vehicle tells the others: 2 bits per vehicle index, the `HEARD_AGES`
+        code of its last direct hearing of each peer (`HEARD_NEVER` for itself)."""
+        field = HEARD_NEVER << (2 * self.me)
         for v, p in self.peers.items():
-            if now_s - p.direct_s <= self.heard_window_s:
-                mask |= 1 << v
-        return mask
+            code = HEARD_NEVER
+            for c, age in enumerate(HEARD_AGES):
+                if now_s - p.direct_s <= age * self.period_s:
+                    code = c
+                    break
+            field |= code << (2 * v)
+        return field
+
+    def take_heard(self, sender: int, field: int, sent_s: float, now_s: float) -> list[int]:
+        """Relayed evidence from a frame ``sender`` sent at ``sent_s``; the peers it revived."""
+        revived = []
+        for v in self.peers:
+            code = field >> (2 * v) & 3
+            if v != sender and code != HEARD_NEVER:
+                if self.relayed(v, sent_s - HEARD_AGES[code] * self.period_s, now_s):
+                    revived.append(v)
+        return revived
 
     def snapshot(self) -> dict[int, tuple[str, float]]:
         return {v: (p.status, p.since_s) for v, p in self.peers.items()}

@@ -117,6 +117,7 @@ class FleetSim:
         self.records: list[FaultRecord] = []
         self.oracle: dict[str, Any] = {}
         self._captured: list[bytes] = []  # frames the intruder overheard, for replay
+        self._stuck = 0
         self._pending_restarts = {f.vid for f in self.faults if f.kind == "restart"}
         self.net.add_listener(self._overhear)
 
@@ -160,6 +161,12 @@ class FleetSim:
         assert agent is not None
         self._handle(vid, slot, agent.step(inp))
         due = agent.next_wakeup()
+        if due <= self.loop.now() and isinstance(inp, Tick):
+            self._stuck += 1
+            if self._stuck > 10_000:  # a logic bug must fail loudly, never hang a test
+                raise RuntimeError(f"agent {vid} makes no progress at t={self.loop.now()}")
+        else:
+            self._stuck = 0
         if slot.handle is not None:
             if slot.handle.t_s <= due and not slot.handle.cancelled:
                 return
@@ -219,7 +226,7 @@ class FleetSim:
             codec = Codec.for_problem(self.problem, rng.bytes(16))
             sender = int(rng.integers(self.problem.n_vehicles))
             frame = codec.encode(Pose(sender, int(self.loop.now()) + 10**6, (0.0, 0.0, 0.0), 0,
-                                      "home", 0, Digest(0, 0)))
+                                      "home", Digest(0, 0)))
         self.net.send(INTRUDER, frame, "data")
 
     def _snapshot_oracle(self, vid: str, now: float) -> None:

@@ -187,22 +187,31 @@ class Vehicle:
         self._retarget()
 
     def advance(self, until_s: float) -> list[Cleared | Arrived]:
-        """Move to time ``until_s``; return what happened on the way, in time order."""
+        """Move to time ``until_s``; return what happened on the way, in time order.
+
+        An event due at ``until_s`` (as `next_event_s` announced it) is settled now, so
+        waking at the announced time always makes progress."""
         events: list[Cleared | Arrived] = []
-        while self.t_s < until_s - _EPS and self.mode != HOME:
+        while self.mode != HOME:
             if self.mode == INJECTING:
                 end = self.inject_until_s if self.inject_until_s is not None else self.t_s
                 if end > until_s:
-                    self.t_s = until_s
                     break
-                self.t_s = end
+                self.t_s = max(self.t_s, end)
                 task = self.route.pop(0)
-                events.append(Cleared(task, end))
+                events.append(Cleared(task, self.t_s))
                 self.inject_until_s = None
                 self.mode = TRANSIT
                 self._retarget()
                 continue
-            self._move(until_s - self.t_s, events)
+            left_m = self._leg_left_m()
+            arrive = self.t_s + left_m / self.speed_mps
+            if arrive > until_s:
+                self._move((until_s - self.t_s) * self.speed_mps)
+                break
+            self._move(left_m + 1.0)  # to the end of the leg (the budget cannot overshoot)
+            self.t_s = max(self.t_s, arrive)
+            self._arrive(events)
         self.t_s = max(self.t_s, until_s)
         return events
 
@@ -241,30 +250,23 @@ class Vehicle:
         _, self._waypoints = self.paths(self.pos, self._target_pos(target))
         self._waypoints = list(self._waypoints)
 
-    def _move(self, dt_s: float, events: list[Cleared | Arrived]) -> None:
-        t0 = self.t_s
-        budget_m = dt_s * self.speed_mps
-        while self._waypoints and budget_m > _EPS:
+    def _move(self, budget_m: float) -> None:
+        """Run up to ``budget_m`` metres along the leg's waypoints (position and distance)."""
+        while self._waypoints and budget_m > 0:
             w = self._waypoints[0]
             d = math.dist(self.pos, w)
             if d > _EPS:
                 self._heading(w)
-            if d <= budget_m + _EPS:
+            if d <= budget_m:
                 budget_m -= d
                 self.distance_m += d
-                self.t_s += d / self.speed_mps
                 self.pos = w
                 self._waypoints.pop(0)
             else:
                 f = budget_m / d
                 self.pos = tuple(a + (b - a) * f for a, b in zip(self.pos, w))  # type: ignore
                 self.distance_m += budget_m
-                self.t_s += budget_m / self.speed_mps
                 budget_m = 0.0
-        if self._waypoints:
-            self.t_s = t0 + dt_s  # the whole interval was spent on the leg
-        else:
-            self._arrive(events)
 
     def _arrive(self, events: list[Cleared | Arrived]) -> None:
         if self._target is not None and self._target >= 0:

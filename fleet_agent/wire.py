@@ -7,9 +7,11 @@ Layout of every frame::
     body        a msgpack array of small ints (and one bin for id lists / bitmaps)
     last 4      HMAC-SHA256(fleet key, header + body), truncated
 
-The sequence number is the first body field. It is the send time in whole simulation
-seconds, bumped by one when two frames would share a second: strictly increasing per sender
-(replay protection) and a timestamp at once, so no separate time field is needed. Positions
+Every body starts with ``[seq, heard, ...]``. The sequence number is the send time in whole
+simulation seconds, bumped by one when two frames would share a second: strictly increasing
+per sender (replay protection) and a timestamp at once, so no separate time field is needed.
+``heard`` packs, two bits per vehicle index, how long ago the sender last heard each peer
+(`HEARD_AGES`): the piggybacked, SWIM-style evidence `fleet_agent.membership` uses. Positions
 are decimetres from the scenario's south-west corner (coarser only for fields wider than
 6.5 km), depth in decimetres, yaw in whole degrees. Task ids travel as their index in the
 scenario (one byte for up to 256 spots). Every frame is at most 64 bytes and a pose at most 32
@@ -34,10 +36,14 @@ MAC_BYTES = 4
 HEADER_BYTES = 2
 MAX_FRAME_BYTES = 64
 MAX_POSE_BYTES = 32
-MAX_VEHICLES = 16  # the "heard" bitmask of a pose stays within 16 bits
+MAX_VEHICLES = 8  # two "heard" bits per vehicle stay within 16 bits
 MAX_SEQ = 2**32 - 1
 SEGMENT_BITS = 320  # tasks covered by one cleared-set bitmap segment (40 bytes)
-MAX_ID_BYTES = 44  # room for task ids in a claim/release frame
+MAX_ID_BYTES = 41  # room for task ids in a claim/release frame
+# "heard" codes 0, 1, 2: the peer was heard at most this many heartbeat periods (TDMA cycles)
+# before the frame was sent; code 3: not within the last of them (or never).
+HEARD_AGES = (1, 2, 4)
+HEARD_NEVER = 3
 
 # States a pose can report (telemetry names).
 POSE_STATES = ("transit", "injecting", "returning", "home", "aborted")
@@ -81,8 +87,8 @@ class Pose:
     pos: tuple[float, float, float]  # metres, as quantised on the wire
     yaw_deg: int
     state: str
-    heard: int  # bit v: the sender heard vehicle v within its heard window
     digest: Digest
+    heard: int = 0  # 2 bits per vehicle index: `HEARD_AGES` code
 
 
 @dataclass(frozen=True)
@@ -92,6 +98,7 @@ class ClearedSegment:
     digest: Digest  # of the sender's whole set
     segment: int
     bits: bytes  # bit i of byte j: task index segment * SEGMENT_BITS + 8 j + i
+    heard: int = 0
 
 
 @dataclass(frozen=True)
@@ -100,6 +107,7 @@ class Claim:
     seq: int
     t_s: int
     tasks: tuple[int, ...]
+    heard: int = 0
 
 
 @dataclass(frozen=True)
@@ -108,6 +116,7 @@ class Release:
     seq: int
     t_s: int
     tasks: tuple[int, ...]
+    heard: int = 0
 
 
 @dataclass(frozen=True)
@@ -115,6 +124,7 @@ class Abort:
     sender: int
     seq: int
     t_s: int
+    heard: int = 0
 
 
 Message = Union[Pose, ClearedSegment, Claim, Release, Abort]
@@ -165,7 +175,10 @@ class Codec:
             raise ValueError(f"sender index {msg.sender} outside the roster")
         if not 0 <= msg.seq <= MAX_SEQ:
             raise ValueError(f"sequence number {msg.seq} out of range")
-        body = msgpack.packb(self._fields(msg), use_bin_type=True)
+        if not 0 <= msg.heard < (1 << (2 * self.n_vehicles)):
+            raise ValueError("heard field outside the roster")
+        fields = self._fields(msg)
+        body = msgpack.packb([fields[0], msg.heard, *fields[1:]], use_bin_type=True)
         head = bytes(((VERSION << 4) | int(kind), msg.sender))
         frame = head + body + self._mac(head + body)
         limit = MAX_POSE_BYTES if kind == Kind.POSE else MAX_FRAME_BYTES
@@ -178,9 +191,7 @@ class Codec:
             x, y, z = self.quantise(msg.pos)
             yaw = int(round(msg.yaw_deg)) % 360
             yaw = yaw - 360 if yaw >= 180 else yaw
-            if not 0 <= msg.heard < (1 << self.n_vehicles):
-                raise ValueError("heard mask outside the roster")
-            return [msg.seq, x, y, z, yaw, POSE_STATES.index(msg.state), msg.heard,
+            return [msg.seq, x, y, z, yaw, POSE_STATES.index(msg.state),
                     msg.digest.count & 0x7F, msg.digest.hash16 & 0xFFFF]
         if isinstance(msg, ClearedSegment):
             if not 0 <= msg.segment < self.n_segments:
@@ -256,7 +267,7 @@ class Codec:
             raise WireError("malformed", repr(exc)) from None
 
     def _message(self, kind: Kind, sender: int, f: list) -> Message:
-        arity = {Kind.POSE: 9, Kind.CLEARED: 5, Kind.CLAIM: 3, Kind.RELEASE: 3, Kind.ABORT: 2}
+        arity = {Kind.POSE: 9, Kind.CLEARED: 6, Kind.CLAIM: 4, Kind.RELEASE: 4, Kind.ABORT: 3}
         if not isinstance(f, list) or len(f) != arity[kind]:
             raise WireError("malformed", "wrong field count")
         blob = f[-1] if kind in (Kind.CLEARED, Kind.CLAIM, Kind.RELEASE) else None
@@ -265,37 +276,38 @@ class Codec:
             raise WireError("malformed", "non-integer field")
         if blob is not None and not isinstance(blob, bytes):
             raise WireError("malformed", "expected a byte string")
-        seq = f[0]
+        seq, heard, f = f[0], f[1], f[2:]
         if not 0 <= seq <= MAX_SEQ:
             raise WireError("malformed", "sequence number out of range")
+        if not 0 <= heard < (1 << (2 * self.n_vehicles)):
+            raise WireError("malformed", "heard field outside the roster")
         if kind == Kind.POSE:
-            _, x, y, z, yaw, state, heard, count, h16 = f
+            x, y, z, yaw, state, count, h16 = f
             if not (0 <= x <= 65535 and 0 <= y <= 65535 and -32768 <= z <= 32767
                     and -180 <= yaw < 180 and 0 <= state < len(POSE_STATES)
-                    and 0 <= heard < (1 << self.n_vehicles) and 0 <= count < 128
-                    and 0 <= h16 <= 0xFFFF):
+                    and 0 <= count < 128 and 0 <= h16 <= 0xFFFF):
                 raise WireError("malformed", "pose field out of range")
-            return Pose(sender, seq, self.dequantise(x, y, z), yaw, POSE_STATES[state], heard,
-                        Digest(count, h16))
+            return Pose(sender, seq, self.dequantise(x, y, z), yaw, POSE_STATES[state],
+                        Digest(count, h16), heard)
         if kind == Kind.CLEARED:
-            _, count, h16, segment, bits = f
+            count, h16, segment, bits = f
             if not (0 <= count < 128 and 0 <= h16 <= 0xFFFF and 0 <= segment < self.n_segments
                     and len(bits) == self._segment_bytes(segment)):
                 raise WireError("malformed", "cleared segment out of range")
-            return ClearedSegment(sender, seq, Digest(count, h16), segment, bits)
+            return ClearedSegment(sender, seq, Digest(count, h16), segment, bits, heard)
         if kind in (Kind.CLAIM, Kind.RELEASE):
-            _, t_s, raw = f
+            t_s, raw = f
             w = self.id_width
             if not (0 <= t_s <= MAX_SEQ and raw and len(raw) % w == 0):
                 raise WireError("malformed", "claim out of range")
             tasks = tuple(int.from_bytes(raw[i:i + w], "little") for i in range(0, len(raw), w))
             if any(t >= self.n_tasks for t in tasks):
                 raise WireError("malformed", "unknown spot")
-            return (Claim if kind == Kind.CLAIM else Release)(sender, seq, t_s, tasks)
-        _, t_s = f
+            return (Claim if kind == Kind.CLAIM else Release)(sender, seq, t_s, tasks, heard)
+        (t_s,) = f
         if not 0 <= t_s <= MAX_SEQ:
             raise WireError("malformed", "abort time out of range")
-        return Abort(sender, seq, t_s)
+        return Abort(sender, seq, t_s, heard)
 
     # -- limits ----------------------------------------------------------------------------
 
@@ -305,14 +317,15 @@ class Codec:
         far = (self.origin_xy[0] + 65535 * self.unit_m, self.origin_xy[1] + 65535 * self.unit_m,
                -32768 * self.unit_m)
         digest = Digest(127, 0xFFFF)
+        heard = (1 << (2 * self.n_vehicles)) - 1
         if kind == Kind.POSE:
-            return Pose(top, MAX_SEQ, far, -180, "aborted", (1 << self.n_vehicles) - 1, digest)
+            return Pose(top, MAX_SEQ, far, -180, "aborted", digest, heard)
         if kind == Kind.CLEARED:
             sizes = [self._segment_bytes(s) for s in range(self.n_segments)]
             seg = max(range(self.n_segments), key=lambda s: (sizes[s], s))
-            return ClearedSegment(top, MAX_SEQ, digest, seg, b"\xff" * sizes[seg])
+            return ClearedSegment(top, MAX_SEQ, digest, seg, b"\xff" * sizes[seg], heard)
         if kind in (Kind.CLAIM, Kind.RELEASE):
             n = min(self.max_ids, self.n_tasks)
             ids = tuple(range(self.n_tasks - n, self.n_tasks))
-            return (Claim if kind == Kind.CLAIM else Release)(top, MAX_SEQ, MAX_SEQ, ids)
-        return Abort(top, MAX_SEQ, MAX_SEQ)
+            return (Claim if kind == Kind.CLAIM else Release)(top, MAX_SEQ, MAX_SEQ, ids, heard)
+        return Abort(top, MAX_SEQ, MAX_SEQ, heard)

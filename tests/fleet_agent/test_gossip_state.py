@@ -94,21 +94,21 @@ def test_replay_window_restored_after_restart_refuses_old_frames() -> None:
 # -- failure detector -------------------------------------------------------------------------
 
 def test_silent_peer_is_lost_after_the_timeout_and_revived_by_its_own_frame() -> None:
-    m = Membership(3, 0, lost_after_s=30.0, heard_window_s=20.0)
-    m.heard(1, 10.0)
-    m.heard(2, 10.0)
+    m = Membership(3, 0, lost_after_s=30.0, period_s=7.5)
+    m.heard(1, 10.0, 11.0)
+    m.heard(2, 10.0, 11.0)
     assert m.check(39.9) == []
     assert m.next_deadline_s() == 40.0
     assert sorted(m.check(40.0)) == [1, 2]
     assert m.status(1) == LOST and not m.alive(1)
-    assert m.heard(1, 50.0) is True  # a frame of its own: alive again
+    assert m.heard(1, 50.0, 51.0) is True  # a frame of its own: alive again
     assert m.status(1) == ALIVE
 
 
 def test_relayed_evidence_delays_detection_but_stale_evidence_never_revives() -> None:
-    m = Membership(3, 0, lost_after_s=30.0, heard_window_s=20.0)
-    m.heard(1, 10.0)
-    m.heard(2, 40.0)
+    m = Membership(3, 0, lost_after_s=30.0, period_s=7.5)
+    m.heard(1, 10.0, 11.0)
+    m.heard(2, 40.0, 41.0)
     m.relayed(1, 25.0, now_s=26.0)  # vehicle 2 heard vehicle 1 later than we did
     assert m.check(45.0) == []
     assert m.check(55.0) == [1]
@@ -116,14 +116,26 @@ def test_relayed_evidence_delays_detection_but_stale_evidence_never_revives() ->
     assert m.relayed(1, 56.0, now_s=70.0) is True  # heard after we declared it: revived
 
 
+def test_heard_field_carries_ages_and_yields_conservative_evidence() -> None:
+    a = Membership(3, 0, lost_after_s=30.0, period_s=10.0)
+    a.heard(1, 100.0, 101.0)
+    a.heard(2, 85.0, 86.0)
+    field = a.heard_field(104.0)
+    # self: never; vehicle 1 heard 4 s ago (code 0: <= 1 period); vehicle 2 19 s ago (code 1)
+    assert (field & 3, field >> 2 & 3, field >> 4 & 3) == (3, 0, 1)
+    b = Membership(3, 2, lost_after_s=30.0, period_s=10.0)
+    b.take_heard(0, field, sent_s=104.0, now_s=105.0)
+    assert b.peers[1].evidence_s == 94.0  # sent minus one period: never later than the truth
+    assert b.peers[0].evidence_s == 0.0  # the sender's own entry is not evidence
+
+
 def test_abort_and_home_are_final() -> None:
-    m = Membership(3, 0, lost_after_s=30.0, heard_window_s=20.0)
+    m = Membership(3, 0, lost_after_s=30.0, period_s=7.5)
     assert m.mark(1, ABORTED, 5.0)
-    m.heard(1, 6.0)
+    m.heard(1, 6.0, 6.5)
     assert m.status(1) == ABORTED
     assert m.mark(2, HOME, 7.0)
     assert m.check(1000.0) == []
-    assert m.heard_mask(6.0) == 0b010
 
 
 # -- claims -----------------------------------------------------------------------------------

@@ -18,8 +18,8 @@ KEY = bytes(range(16))
 
 def codecs() -> list[Codec]:
     # Small and large rosters and fields: the limits must hold for all of them.
-    return [Codec(KEY, 3, 90), Codec(KEY, 16, 256), Codec(KEY, 16, 257), Codec(KEY, 1, 1),
-            Codec(KEY, 8, 65536, (-5000.0, -5000.0), 0.2), Codec(KEY, 16, 321)]
+    return [Codec(KEY, 3, 90), Codec(KEY, 8, 256), Codec(KEY, 8, 257), Codec(KEY, 1, 1),
+            Codec(KEY, 8, 65536, (-5000.0, -5000.0), 0.2), Codec(KEY, 8, 321)]
 
 
 @pytest.mark.parametrize("codec", codecs(), ids=lambda c: f"k{c.n_vehicles}-n{c.n_tasks}")
@@ -41,11 +41,11 @@ def test_an_oversized_claim_is_refused() -> None:
 def test_round_trip_of_every_kind() -> None:
     codec = Codec(KEY, 3, 90, (-100.0, -100.0))
     msgs = [
-        Pose(1, 1234, (512.3, 77.7, -12.4), -45, "injecting", 0b101, Digest(17, 0xBEEF)),
-        ClearedSegment(2, 99, Digest(3, 7), 0, bytes(12)[:11] + b"\x03"),
-        Claim(0, 5, 4, (1, 2, 89)),
+        Pose(1, 1234, (512.3, 77.7, -12.4), -45, "injecting", Digest(17, 0xBEEF), 0b110011),
+        ClearedSegment(2, 99, Digest(3, 7), 0, bytes(12)[:11] + b"\x03", 0b001111),
+        Claim(0, 5, 4, (1, 2, 89), 0b111100),
         Release(0, 6, 5, (89,)),
-        Abort(2, 1200, 1199),
+        Abort(2, 1200, 1199, 0b000001),
     ]
     for m in msgs:
         back = codec.decode(codec.encode(m))
@@ -59,8 +59,8 @@ def test_round_trip_of_every_kind() -> None:
 
 def test_typical_pose_is_well_under_the_limit() -> None:
     codec = Codec(KEY, 3, 90, (-100.0, -100.0))
-    frame = codec.encode(Pose(2, 3599, (999.9, 999.9, -18.0), 179, "transit", 3,
-                              Digest(90, 65535)))
+    frame = codec.encode(Pose(2, 3599, (999.9, 999.9, -18.0), 179, "transit",
+                              Digest(90, 65535), 0b111111))
     assert len(frame) <= 30
 
 
@@ -90,9 +90,9 @@ def _signed(body: bytes, kind: int = 1, sender: int = 0) -> bytes:
 @pytest.mark.parametrize("body", [
     msgpack.packb([1, 2, 3]),  # wrong field count
     msgpack.packb({"a": 1}),  # not an array
-    msgpack.packb([1, 0, 0, 0, 400, 0, 0, 0, 0]),  # yaw out of range
-    msgpack.packb([1, 0, 0, 0, 0, 9, 0, 0, 0]),  # unknown state
-    msgpack.packb([1, 0, 0, 0, 0, 0, 8, 0, 0]),  # heard bit outside a 3-vehicle roster
+    msgpack.packb([1, 0, 0, 0, 0, 400, 0, 0, 0]),  # yaw out of range
+    msgpack.packb([1, 0, 0, 0, 0, 0, 9, 0, 0]),  # unknown state
+    msgpack.packb([1, 64, 0, 0, 0, 0, 0, 0, 0]),  # heard bits outside a 3-vehicle roster
     msgpack.packb([1.5, 0, 0, 0, 0, 0, 0, 0, 0]),  # float seq
     msgpack.packb([True, 0, 0, 0, 0, 0, 0, 0, 0]),  # bool is not an int
     b"\xc1",  # never-used msgpack byte
@@ -105,7 +105,7 @@ def test_authentic_but_malformed_bodies_are_refused(body: bytes) -> None:
 
 
 def test_claims_of_unknown_spots_are_malformed() -> None:
-    body = msgpack.packb([1, 1, bytes([90])], use_bin_type=True)
+    body = msgpack.packb([1, 0, 1, bytes([90])], use_bin_type=True)
     with pytest.raises(WireError) as err:
         Codec(KEY, 3, 90).decode(_signed(body, kind=int(Kind.CLAIM)))
     assert err.value.reason == "malformed"
