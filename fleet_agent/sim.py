@@ -117,6 +117,7 @@ class FleetSim:
         self.records: list[FaultRecord] = []
         self.oracle: dict[str, Any] = {}
         self._captured: list[bytes] = []  # frames the intruder overheard, for replay
+        self.at_kill: dict[str, tuple[Status, frozenset[int]]] = {}  # status, cleared set
         self._stuck = 0
         self._pending_restarts = {f.vid for f in self.faults if f.kind == "restart"}
         self.net.add_listener(self._overhear)
@@ -196,6 +197,7 @@ class FleetSim:
         elif f.kind == "kill" and slot is not None and slot.agent is not None:
             self._snapshot_oracle(f.vid, now)
             slot.status = slot.agent.status(now)
+            self.at_kill[f.vid] = (slot.status, frozenset(slot.agent.cleared))
             slot.agent = None
             if slot.handle is not None:
                 slot.handle.cancel()

@@ -34,11 +34,9 @@ def straight_path(p: Point3, q: Point3) -> tuple[float, list[Point3]]:
 
 def path_function(problem: Problem) -> PathFn:
     """Straight legs in open water; shortest waypoint paths around land otherwise."""
-    if not problem.forbidden:
+    land = problem.land  # the planner's land metric (`hfc_core.geometry.LandMap`)
+    if land is None:
         return straight_path
-    from hfc_core.geometry import LandMap  # land metric of the planner (issue 3)
-
-    land = LandMap(problem.forbidden)
 
     def around_land(p: Point3, q: Point3) -> tuple[float, list[Point3]]:
         length, waypoints = land.shortest_path(p, q)

@@ -1,0 +1,192 @@
+"""Fleet properties on the in-process simulation, many seeds (paper preset, 3 AUVs, 1 h)."""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from fleet_agent.config import AgentConfig
+from fleet_agent.sim import Fault, FleetSim, SimResult
+from hfc_core.check import check_routes
+from hfc_core.generate import GeneratorParams, generate_doc, paper_preset_doc
+from hfc_core.problem import Problem
+from hfc_core.scenario import problem_from_dict
+
+CONFIG = AgentConfig()
+CYCLE_S = CONFIG.slot_s * 3  # heartbeat period of a 3-AUV fleet
+SEEDS = range(6)
+
+
+@functools.lru_cache(maxsize=None)
+def paper(seed: int) -> Problem:
+    return problem_from_dict(paper_preset_doc(seed))
+
+
+@functools.lru_cache(maxsize=None)
+def run(seed: int, loss: float = 0.0, faults: tuple[Fault, ...] = ()) -> tuple[FleetSim, SimResult]:
+    sim = FleetSim(paper(seed), CONFIG, seed=seed, loss=loss, faults=faults)
+    return sim, sim.run()
+
+
+def executed_routes(problem: Problem, result: SimResult) -> dict[str, list[int]]:
+    """Each vehicle's treated spots in the order it treated them (from the event log)."""
+    routes: dict[str, list[int]] = {v.id: [] for v in problem.vehicles}
+    for e in result.events:
+        if e.kind == "cleared":
+            routes[e.id] += e.tasks
+    return routes
+
+
+def assert_knowledge_converged(result: SimResult) -> None:
+    """Every agent still running knows every spot anyone treated (nothing forgotten)."""
+    treated = {t for s in result.statuses.values() for t in s.treated}
+    for vid, agent in result.agents.items():
+        if agent is not None:
+            known = {agent.problem.tasks[t].id for t in agent.cleared}
+            assert treated <= known, f"{vid} does not know {sorted(treated - known)}"
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_without_loss_no_spot_is_treated_twice_and_all_come_home(seed: int) -> None:
+    problem = paper(seed)
+    _, result = run(seed)
+    fleet = result.report["fleet"]
+    assert fleet["duplicate_treatments"] == 0
+    assert fleet["vehicles_home"] == problem.n_vehicles
+    for v in result.report["vehicles"]:
+        assert v["home"] and v["t_diff_s"] >= 0.0  # arrived with battery to spare
+        assert v["battery_used_s"] <= problem.vehicles[0].battery_s
+    # The independent checker agrees: no spot twice, straight-line time within the battery.
+    assert check_routes(problem, executed_routes(problem, result)) == []
+    assert_knowledge_converged(result)
+    assert fleet["false_alarms"] == 0
+    assert result.report["messages"]["largest_frame_bytes"] <= 64
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_thirty_percent_extra_loss_costs_little(seed: int) -> None:
+    _, lossless = run(seed)
+    _, lossy = run(seed, 0.3)
+    f = lossy.report["fleet"]
+    assert f["duplicate_treatments"] <= 0.02 * f["treatments"]
+    assert f["spots_cleared"] >= 0.9 * lossless.report["fleet"]["spots_cleared"]
+    assert f["vehicles_home"] == 3
+    assert_knowledge_converged(lossy)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_silent_kill_is_detected_in_time_and_work_is_taken_over(seed: int) -> None:
+    kill = Fault("kill", 1200.0, "auv2")  # one third of the one-hour mission
+    sim, result = run(seed, 0.0, (kill,))
+    delays = result.report["fleet"]["detection_delay_s"]["auv2"]
+    assert set(delays) == {"auv1", "auv3"}
+    for vid, delay in delays.items():
+        assert delay is not None and delay <= 5 * CYCLE_S, (vid, delay)
+    oracle = result.report["oracle"]
+    assert oracle["ratio"] >= 0.85, oracle
+    assert result.report["fleet"]["duplicate_treatments"] == 0
+    assert result.report["fleet"]["vehicles_home"] == 2
+
+
+@pytest.mark.parametrize("seed", SEEDS[:3])
+def test_silent_kill_under_thirty_percent_loss(seed: int) -> None:
+    _, result = run(seed, 0.3, (Fault("kill", 1200.0, "auv2"),))
+    for vid, delay in result.report["fleet"]["detection_delay_s"]["auv2"].items():
+        assert delay is not None and delay <= 5 * CYCLE_S, (vid, delay)
+    assert result.report["oracle"]["ratio"] >= 0.85
+
+
+@pytest.mark.parametrize("seed", SEEDS[:3])
+def test_announced_abort_is_known_at_once_and_taken_over(seed: int) -> None:
+    _, result = run(seed, 0.0, (Fault("abort", 1200.0, "auv2"),))
+    f = result.report["fleet"]
+    for delay in f["detection_delay_s"]["auv2"].values():
+        assert delay is not None and delay <= CYCLE_S  # the next slot of the aborting AUV
+    assert f["spots_taken_over"] > 0
+    assert f["duplicate_treatments"] == 0
+    auv2 = next(v for v in result.report["vehicles"] if v["id"] == "auv2")
+    assert auv2["aborted"] and auv2["home"]  # it went straight home
+    lost = [e for e in result.events if e.kind == "lost" and e.peer == "auv2"]
+    assert lost and all(e.detail == "aborted" for e in lost)
+
+
+@pytest.mark.parametrize("seed", SEEDS[:3])
+def test_killed_agent_restarts_from_its_journal_without_forgetting(seed: int) -> None:
+    faults = (Fault("kill", 1200.0, "auv2"), Fault("restart", 1500.0, "auv2"))
+    sim, result = run(seed, 0.0, faults)
+    status_at_kill, known_at_kill = sim.at_kill["auv2"]
+    agent = result.agents["auv2"]
+    assert agent is not None and agent.restarted
+    assert known_at_kill <= set(agent.cleared)  # nothing it knew is forgotten
+    treated = [agent.problem.tasks[t].id for t, _ in agent.treated]
+    assert treated[: len(status_at_kill.treated)] == status_at_kill.treated
+    assert len(treated) == len(set(treated))  # and it treats none of them again
+    assert result.report["fleet"]["duplicate_treatments"] == 0
+    assert result.report["fleet"]["vehicles_home"] == 3
+    assert_knowledge_converged(result)
+
+
+@pytest.mark.parametrize("seed", SEEDS[:3])
+def test_partition_that_heals(seed: int) -> None:
+    _, result = run(seed, 0.0, (Fault("partition", 1000.0, "auv1", 400.0),))
+    f = result.report["fleet"]
+    assert f["vehicles_home"] == 3
+    # Cut off for 400 s, auv1 is presumed lost; afterwards the fleet reconciles.
+    assert any(e.kind == "lost" and e.peer == "auv1" for e in result.events)
+    assert any(e.kind == "revived" and e.peer == "auv1" for e in result.events)
+    assert f["duplicate_treatments"] <= 0.05 * f["treatments"]
+    assert_knowledge_converged(result)
+
+
+@pytest.mark.parametrize("seed", SEEDS[:3])
+def test_forged_replayed_and_garbage_frames_are_dropped_and_counted(seed: int) -> None:
+    attacks = tuple(Fault(kind, t, "", 15) for kind, t in
+                    (("garbage", 300.0), ("forge", 900.0), ("replay", 1500.0)))
+    _, result = run(seed, 0.0, attacks)
+    _, clean = run(seed)
+    dropped = result.report["messages"]["dropped_by_agents"]
+    assert dropped.get("mac", 0) > 0  # forged (and most garbage)
+    assert dropped.get("replay", 0) > 0
+    f = result.report["fleet"]
+    assert f["duplicate_treatments"] == 0 and f["vehicles_home"] == 3
+    assert f["spots_cleared"] >= 0.9 * clean.report["fleet"]["spots_cleared"]
+    assert_knowledge_converged(result)
+
+
+def test_the_simulation_is_deterministic() -> None:
+    faults = (Fault("kill", 900.0, "auv3"),)
+    a = FleetSim(paper(4), CONFIG, seed=4, loss=0.2, faults=faults).run()
+    b = FleetSim(paper(4), CONFIG, seed=4, loss=0.2, faults=faults).run()
+    assert a.report == b.report
+    assert a.events == b.events
+
+
+def test_vehicles_route_around_land() -> None:
+    params = GeneratorParams(
+        name="island", n_tasks=30, n_vehicles=3, size_m=800.0, battery_s=2400.0,
+        service_s=60.0, land=(((300.0, 250.0), (520.0, 250.0), (520.0, 520.0), (300.0, 520.0)),),
+        land_forbidden=True, start=(40.0, 40.0, 0.0), rendezvous=(760.0, 760.0, 0.0))
+    problem = problem_from_dict(generate_doc(params, np.random.default_rng(3)))
+    assert problem.land is not None
+    sim = FleetSim(problem, CONFIG, seed=3, faults=(Fault("abort", 800.0, "auv1"),))
+    inside: list[bool] = []
+    original = sim._positions
+
+    def watch(t_s: float):  # every position the channel ever asks for must be in the water
+        pos = original(t_s)
+        inside.extend(problem.land.inside(np.array(list(pos.values()))[:, :2]).tolist())
+        return pos
+
+    sim._positions = watch  # type: ignore[method-assign]
+    sim.net._positions = watch
+    result = sim.run()
+    assert inside and not any(inside)
+    f = result.report["fleet"]
+    assert f["vehicles_home"] == 3 and f["duplicate_treatments"] == 0
+    for v in result.report["vehicles"]:
+        assert v["t_diff_s"] >= 0.0
+    routes = executed_routes(problem, result)
+    assert check_routes(problem, routes) == []
