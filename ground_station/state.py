@@ -40,6 +40,7 @@ class _Vehicle:
     yaw_deg: float = 0.0
     state: str = ""
     last_heard_s: float = -math.inf
+    last_truth_s: float = -math.inf
     status: Status | None = None
     trail: list[tuple[float, float]] = field(default_factory=list)
     lost_by: set[str] = field(default_factory=set)  # peers that declared it lost
@@ -76,7 +77,7 @@ class FleetPicture:
 
     def initial(self) -> list[Drawing]:
         """The picture before any telemetry: every spot pending, at t = 0."""
-        return [self._spots(0.0, force=True)]
+        return [self._spots(force=True)]
 
     def apply(self, vid: str, record: Record) -> list[Drawing]:
         t = float(record.t_s)
@@ -131,6 +132,9 @@ class FleetPicture:
     def _on_truth(self, vid: str, truth: Truth) -> list[Drawing]:
         v = self._vehicle(vid)
         out = self._heard(v, truth.t_s)
+        if truth.t_s < v.last_truth_s:
+            return out  # overtaken by a newer pose already drawn
+        v.last_truth_s = truth.t_s
         v.xy = (truth.pos[0], truth.pos[1])
         v.yaw_deg = truth.yaw_deg
         out += self._set_state(v, truth.state, truth.t_s)
@@ -144,22 +148,25 @@ class FleetPicture:
     def _on_status(self, s: Status) -> list[Drawing]:
         v = self._vehicle(s.id)
         out = self._heard(v, s.t_s)
+        out += [Scalar(s.t_s, f"battery_s/{s.id}", s.battery_s),
+                Scalar(s.t_s, f"t_diff_s/{s.id}", s.t_diff_s)]
+        self._treated(s.id, s.treated)  # cumulative: safe in any order
+        if v.status is not None and s.t_s < v.status.t_s:
+            return out + self._treated_scalars(s.id)  # route and state: the newer status rules
         v.status = s
         if v.xy is None:  # no truth yet (late join): the status position will do
             v.xy = (s.pos[0], s.pos[1])
-        self._treated(s.id, s.treated)
         out += self._set_state(v, s.state, s.t_s)
-        out += [
-            Scalar(s.t_s, f"battery_s/{s.id}", s.battery_s),
-            Scalar(s.t_s, f"t_diff_s/{s.id}", s.t_diff_s),
-            Scalar(s.t_s, f"spots_treated/{s.id}", float(len(self.treated_by[s.id]))),
-            self._route(v, s.t_s),
-            self._spots(s.t_s),
-        ]
-        return out + self._fleet_scalars(s.t_s)
+        out += [self._route(v, s.t_s), self._spots()]
+        return out + self._treated_scalars(s.id)
 
-    def _fleet_scalars(self, t: float) -> list[Drawing]:
-        return [Scalar(t, f"fleet/{k}", val) for k, val in self.fleet_figures().items()]
+    def _treated_scalars(self, vid: str) -> list[Drawing]:
+        """Counts over the whole picture (statuses and events, every vehicle), stamped with the
+        picture's clock: samples of different vehicles may arrive out of order, and a row
+        stamped earlier must never carry a newer picture than a row stamped later."""
+        t = self.now_s
+        return [Scalar(t, f"spots_treated/{vid}", float(len(self.treated_by[vid]))),
+                *(Scalar(t, f"fleet/{k}", val) for k, val in self.fleet_figures().items())]
 
     def _on_event(self, e: Event) -> list[Drawing]:
         v = self._vehicle(e.id)
@@ -173,9 +180,8 @@ class FleetPicture:
         out: list[Drawing] = [LogLine(e.t_s, text, WARN_EVENTS.get(e.kind, "INFO"))]
         if e.kind == "cleared":
             self._treated(e.id, e.tasks)
-            out.append(self._spots(e.t_s))
-            out.append(Scalar(e.t_s, f"spots_treated/{e.id}", float(len(self.treated_by[e.id]))))
-            out += self._fleet_scalars(e.t_s)
+            out.append(self._spots())
+            out += self._treated_scalars(e.id)
         elif e.kind == "abort":
             out += self._set_state(v, "aborted", e.t_s)
         elif e.kind in ("lost", "revived") and e.peer:
@@ -222,7 +228,7 @@ class FleetPicture:
             out.append(LogLine(t, f"{v.vid} is {state}", level))
         if state in STOPPED or state in FINISHED:
             out.append(self._route(v, t))
-            out.append(self._spots(t))
+            out.append(self._spots())
         return out + self._update_mark(v, t)
 
     def _update_mark(self, v: _Vehicle, t: float) -> list[Drawing]:
@@ -248,7 +254,7 @@ class FleetPicture:
                 v.silent = True
                 out.append(LogLine(t, f"{v.vid} silent since t={v.last_heard_s:.0f} s", "ERROR"))
                 out += self._update_mark(v, t)
-                out += [self._route(v, t), self._spots(t)]
+                out += [self._route(v, t), self._spots()]
         return out
 
     def _active(self, v: _Vehicle) -> bool:
@@ -262,7 +268,8 @@ class FleetPicture:
             pts.append(np.array([v.rendezvous]))
         return Route(t, v.vid, np.concatenate(pts), v.color)
 
-    def _spots(self, t: float, force: bool = False) -> Spots | None:
+    def _spots(self, force: bool = False) -> Spots | None:
+        """Every spot's state, stamped with the picture's clock (see `_treated_scalars`)."""
         planned: dict[int, str] = {}
         claimed: dict[int, str] = {}
         orphaned: set[int] = set()
@@ -292,7 +299,7 @@ class FleetPicture:
         if new == self._spot_states and not force:
             return None
         self._spot_states = new
-        return Spots(t, new, np.array([self._spot_color(s) for s in new], np.uint8).reshape(-1, 3))
+        return Spots(self.now_s, new, np.array([self._spot_color(s) for s in new], np.uint8).reshape(-1, 3))
 
     def _spot_color(self, state: str) -> palette.Rgb:
         kind, _, vid = state.partition(":")

@@ -154,3 +154,25 @@ def test_late_join_rebuilds_the_picture_from_statuses_alone(small_doc):
     out = late.apply("auv2", status(901, "auv2", route=[], treated=[12], state="home"))
     assert of_type(out, Spots)[0].states[:3] == ("cleared", "planned:auv1", "cleared")
     assert late.vehicles["auv1"].xy == (0.0, 0.0)  # from the status until a truth arrives
+
+
+def test_out_of_order_samples_never_stamp_a_newer_picture_earlier(picture):
+    """Zenoh may deliver different vehicles' samples out of order: the row with the latest
+    time must hold the latest picture, whatever the arrival order."""
+    rows = []
+    rows += of_type(picture.apply("auv2", status(30, "auv2", route=[12])), Spots)
+    rows += of_type(picture.apply("auv1", status(10, "auv1", route=[10])), Spots)  # late
+    assert [r.t_s for r in rows] == [30, 30]  # on a tie Rerun shows the row logged last
+    assert rows[-1].states[:3] == ("planned:auv1", "pending", "planned:auv2")
+    # a stale status of the same vehicle cannot roll its route back
+    picture.apply("auv1", status(40, "auv1", route=[11]))
+    out = picture.apply("auv1", status(35, "auv1", route=[10]))
+    assert of_type(out, Spots) == [] and of_type(out, Route) == []
+    assert picture.vehicles["auv1"].status.route == [11]
+    assert {s.path for s in of_type(out, Scalar)} >= {"battery_s/auv1", "t_diff_s/auv1"}
+
+
+def test_a_stale_pose_is_not_drawn_over_a_newer_one(picture):
+    picture.apply("auv1", Truth(10, (5.0, 0.0, -2.0)))
+    assert of_type(picture.apply("auv1", Truth(9, (4.0, 0.0, -2.0))), Pose) == []
+    assert picture.vehicles["auv1"].xy == (5.0, 0.0)
