@@ -694,12 +694,11 @@ class Agent:
             self.last_seq = int(ckpt.get("seq", -1))
             self.replay.restore({int(s): int(q) for s, q in ckpt.get("hw", {}).items()})
             route = [int(t) for t in ckpt.get("route", [])]
-            self.vehicle.restore(tuple(ckpt["pos"]), float(ckpt.get("dist", 0.0)), route,
+            self.vehicle.restore(now, tuple(ckpt["pos"]), float(ckpt.get("dist", 0.0)), route,
                                  aborted, home_at)
         else:
-            self.vehicle.restore(self.vehicle.pos, 0.0, self.fleet.base_routes[self.index],
+            self.vehicle.restore(now, self.vehicle.pos, 0.0, self.fleet.base_routes[self.index],
                                  aborted, home_at)
-        self.vehicle.t_s = now
         if aborted:
             self._abort_left = self.config.abort_repeats
         self._push_cleared = 1  # tell the fleet what we know as soon as we can

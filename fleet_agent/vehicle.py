@@ -91,6 +91,7 @@ class Vehicle:
         self.home_at_s: float | None = None
         self._waypoints: list[Point3] = []
         self._target: int | None = None  # task index, or -1 for the rendezvous
+        self._origin, self._origin_t, self._origin_dist = self.pos, self.t_s, 0.0
         self._retarget()
 
     # -- queries ---------------------------------------------------------------------------
@@ -148,7 +149,7 @@ class Vehicle:
             return None
         if self.mode == INJECTING:
             return self.inject_until_s
-        return self.t_s + self._leg_left_m() / self.speed_mps
+        return max(self.t_s, self._leg_end_s())
 
     # -- commands --------------------------------------------------------------------------
 
@@ -168,13 +169,17 @@ class Vehicle:
         self.aborted = True
         self.set_route([])
 
-    def restore(self, pos: Point3, distance_m: float, route: Sequence[int], aborted: bool,
-                home_at_s: float | None) -> None:
-        """Resume from a journal checkpoint (an injection in progress is started again)."""
+    def restore(self, t_s: float, pos: Point3, distance_m: float, route: Sequence[int],
+                aborted: bool, home_at_s: float | None) -> None:
+        """Resume at ``t_s`` from a journal checkpoint (an injection in progress is started
+        again: it never completed)."""
+        self.t_s = float(t_s)
         self.pos = tuple(float(c) for c in pos)  # type: ignore[assignment]
         self.distance_m = float(distance_m)
         self.aborted = aborted
         self.inject_until_s = None
+        self._target, self._waypoints = None, []
+        self._origin, self._origin_t, self._origin_dist = self.pos, self.t_s, self.distance_m
         if home_at_s is not None:
             self.home_at_s = float(home_at_s)
             self.mode = HOME
@@ -202,13 +207,22 @@ class Vehicle:
                 self.mode = TRANSIT
                 self._retarget()
                 continue
-            left_m = self._leg_left_m()
-            arrive = self.t_s + left_m / self.speed_mps
-            if arrive > until_s:
-                self._move((until_s - self.t_s) * self.speed_mps)
+            # Transit: hop over the waypoints reached by ``until_s``, then interpolate. Every
+            # position is computed from the current segment's origin and start time, so it
+            # does not depend on how often the vehicle was advanced on the way.
+            while self._waypoints:
+                w = self._waypoints[0]
+                seg_m = math.dist(self._origin, w)
+                reach = self._origin_t + seg_m / self.speed_mps
+                if reach > until_s:
+                    break
+                self._waypoints.pop(0)
+                self._start_segment(w, max(self._origin_t, reach), self._origin_dist + seg_m)
+            if self._waypoints:
+                self.t_s = until_s
+                self.pos, self.distance_m = self._interpolate(until_s)
                 break
-            self._move(left_m + 1.0)  # to the end of the leg (the budget cannot overshoot)
-            self.t_s = max(self.t_s, arrive)
+            self.t_s = max(self.t_s, self._origin_t)
             self._arrive(events)
         self.t_s = max(self.t_s, until_s)
         return events
@@ -237,6 +251,28 @@ class Vehicle:
             prev = w
         return total
 
+    def _leg_end_s(self) -> float:
+        """When the current leg ends (from the segment origin, independent of stepping)."""
+        total, prev = 0.0, self._origin
+        for w in self._waypoints:
+            total += math.dist(prev, w)
+            prev = w
+        return self._origin_t + total / self.speed_mps
+
+    def _start_segment(self, origin: Point3, t_s: float, distance_m: float) -> None:
+        self._origin, self._origin_t, self._origin_dist = origin, t_s, distance_m
+        self.pos, self.distance_m = origin, distance_m
+        if self._waypoints:
+            self._heading(origin, self._waypoints[0])
+
+    def _interpolate(self, t_s: float) -> tuple[Point3, float]:
+        w = self._waypoints[0]
+        seg_m = math.dist(self._origin, w)
+        run_m = min(seg_m, (t_s - self._origin_t) * self.speed_mps)
+        f = run_m / seg_m if seg_m > _EPS else 1.0
+        pos = tuple(a + (b - a) * f for a, b in zip(self._origin, w))
+        return pos, self._origin_dist + run_m  # type: ignore[return-value]
+
     def _retarget(self) -> None:
         if self.mode in (HOME, INJECTING):
             return
@@ -245,26 +281,9 @@ class Vehicle:
             return
         self._target = target
         self.mode = TRANSIT if target >= 0 else RETURNING
-        _, self._waypoints = self.paths(self.pos, self._target_pos(target))
-        self._waypoints = list(self._waypoints)
-
-    def _move(self, budget_m: float) -> None:
-        """Run up to ``budget_m`` metres along the leg's waypoints (position and distance)."""
-        while self._waypoints and budget_m > 0:
-            w = self._waypoints[0]
-            d = math.dist(self.pos, w)
-            if d > _EPS:
-                self._heading(w)
-            if d <= budget_m:
-                budget_m -= d
-                self.distance_m += d
-                self.pos = w
-                self._waypoints.pop(0)
-            else:
-                f = budget_m / d
-                self.pos = tuple(a + (b - a) * f for a, b in zip(self.pos, w))  # type: ignore
-                self.distance_m += budget_m
-                budget_m = 0.0
+        _, waypoints = self.paths(self.pos, self._target_pos(target))
+        self._waypoints = list(waypoints)
+        self._start_segment(self.pos, self.t_s, self.distance_m)
 
     def _arrive(self, events: list[Cleared | Arrived]) -> None:
         if self._target is not None and self._target >= 0:
@@ -276,9 +295,11 @@ class Vehicle:
             self.home_at_s = self.t_s
             events.append(Arrived(self.t_s))
 
-    def _heading(self, w: Point3) -> None:
-        """Yaw (eq. 5) and pitch (eq. 6) of the motion toward ``w``; NED, degrees."""
-        dx, dy, dz = (b - a for a, b in zip(self.pos, w))
+    def _heading(self, p: Point3, w: Point3) -> None:
+        """Yaw (eq. 5) and pitch (eq. 6) of the motion from ``p`` toward ``w``; NED, degrees."""
+        dx, dy, dz = (b - a for a, b in zip(p, w))
+        if math.hypot(dx, dy, dz) <= _EPS:
+            return
         horizontal = math.hypot(dx, dy)
         if horizontal > _EPS:
             self.yaw_deg = math.degrees(math.atan2(dy, dx))
