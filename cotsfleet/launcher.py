@@ -94,6 +94,9 @@ class Launcher:
         self.faults: list[FaultRecord] = []
         self._lock = threading.Lock()
         self._alive: set[str] = set()
+        self._pids: dict[str, list[int]] = {}
+        self.started = threading.Event()  # set once the mission record is served
+        self.endpoint = ""
         self.horizon_s = opts.horizon_s or max(v.battery_s for v in self.problem.vehicles) + 120
 
     # -- processes -------------------------------------------------------------------------
@@ -119,6 +122,9 @@ class Launcher:
 
         threading.Thread(target=pump, name=f"pump-{name}", daemon=True).start()
         self.procs[name] = proc
+        self._pids.setdefault(name, []).append(popen.pid)
+        # Every process group this run ever started, for whoever must clean up after a crash.
+        (self.run_dir / "pids.json").write_text(json.dumps(self._pids), encoding="utf-8")
         return proc
 
     def _wait_ready(self, proc: _Proc, timeout_s: float) -> None:
@@ -230,6 +236,7 @@ class Launcher:
                 with session.declare_queryable(bus.MISSION,
                                                lambda q: q.reply(bus.MISSION, payload)):
                     self._wait_ready(relay, opts.startup_timeout_s)
+                    self.started.set()
                     self.out(f"mission {self.run_id}: {len(self.ids)} vehicles, warp "
                              f"{opts.warp:g}, loss {opts.loss:g}, run dir {self.run_dir}")
                     try:

@@ -63,8 +63,9 @@ def build_report(problem: Problem, statuses: Mapping[str, Status], events: Seque
     for gone, t0 in sorted({**aborted, **killed}.items()):
         row: dict[str, float | None] = {}
         for v in problem.vehicles:
-            if v.id == gone or v.id in killed and killed[v.id] <= t0:
-                continue
+            out_before = [t for t in (killed.get(v.id), aborted.get(v.id)) if t is not None]
+            if v.id == gone or any(t <= t0 for t in out_before):
+                continue  # only vehicles still in the mission can detect anything
             seen = [e.t_s for e in events
                     if e.id == v.id and e.kind == "lost" and e.peer == gone and e.t_s >= t0]
             row[v.id] = round(min(seen) - t0, 1) if seen else None

@@ -1,0 +1,135 @@
+"""A real multi-process mission: router, relay and one agent process per AUV on loopback,
+with an abort, a SIGKILL and a restart from the journal, while an intruder on the bus
+publishes garbage, forged and replayed frames and malformed commands."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zenoh
+
+from comms_sim import bus
+from comms_sim.session import client_config
+from cotsfleet.launcher import LaunchOptions, Launcher
+from fleet_agent.config import AgentConfig
+from fleet_agent.wire import Abort, Codec, Digest, Pose
+from hfc_core.generate import GeneratorParams, generate_doc
+from hfc_core.scenario import problem_from_dict
+
+pytestmark = pytest.mark.integration
+CYCLE_S = AgentConfig().slot_s * 3
+
+
+def small_scenario() -> dict:
+    params = GeneratorParams(name="small", n_tasks=30, n_vehicles=3, size_m=600.0,
+                             battery_s=1500.0, service_s=60.0)
+    return generate_doc(params, np.random.default_rng(11))
+
+
+def intruder(endpoint: str, doc: dict, stop: threading.Event, sent: dict[str, int]) -> None:
+    """Garbage and forged frames straight onto an agent's rx key (an attacker on the bus)
+    and through the relay (an attacker in the water), replays of overheard deliveries, and
+    malformed commands."""
+    problem = problem_from_dict(doc)
+    forger = Codec.for_problem(problem, b"a different key!")
+    rng = np.random.default_rng(0)
+    overheard: list[bytes] = []
+    with zenoh.open(client_config([endpoint])) as s, \
+            s.declare_subscriber(bus.rx_key("auv1"), lambda x: overheard.append(
+                x.payload.to_bytes())):
+        while not stop.wait(0.05):
+            now = int(time.time()) % 100000
+            frames = [rng.bytes(int(rng.integers(1, 70))),
+                      forger.encode(Abort(1, now, now)),
+                      forger.encode(Pose(2, now, (0.0, 0.0, 0.0), 0, "home", Digest(1, 2)))]
+            if overheard:
+                frames.append(overheard[int(rng.integers(len(overheard)))])
+            for f in frames:
+                s.put(bus.rx_key("auv1"), f)
+                sent["rx"] = sent.get("rx", 0) + 1
+            s.put(bus.tx_key("auv3"), forger.encode(Abort(2, now, now)))
+            s.put(bus.ctl_key("auv1"), rng.bytes(8))  # a malformed command
+            sent["ctl"] = sent.get("ctl", 0) + 1
+
+
+@pytest.fixture(scope="module")
+def mission(tmp_path_factory):
+    run_dir: Path = tmp_path_factory.mktemp("fleet-mission")
+    doc = small_scenario()
+    opts = LaunchOptions(scenario=doc, seed=3, warp=100.0, run_dir=run_dir,
+                         aborts=(("auv2", 400.0),), kills=(("auv3", 500.0),),
+                         restarts=(("auv3", 650.0),), progress_every_s=0)
+    launcher = Launcher(opts, out=lambda line: None)
+    result: dict = {}
+    thread = threading.Thread(target=lambda: result.update(report=launcher.run()), daemon=True)
+    thread.start()
+    stop, sent = threading.Event(), {}
+    try:
+        assert launcher.started.wait(120), "mission never started"
+        attacker = threading.Thread(target=intruder, args=(launcher.endpoint, doc, stop, sent),
+                                    daemon=True)
+        attacker.start()
+        thread.join(timeout=180)
+    finally:
+        stop.set()
+        if thread.is_alive():  # last resort: never leave processes behind
+            for p in launcher.procs.values():
+                if p.popen.poll() is None:
+                    os.killpg(p.popen.pid, 9)
+    assert not thread.is_alive(), "the launcher did not finish"
+    return result["report"], launcher, sent
+
+
+def test_every_process_ended_and_nothing_crashed(mission):
+    report, launcher, _ = mission
+    for name, p in launcher.procs.items():
+        assert p.popen.poll() is not None, f"{name} still running"
+    codes = report["exit_codes"]
+    assert all(code == 0 for name, code in codes.items()), codes  # the restarted auv3 too
+    assert not report["interrupted"]
+
+
+def test_fleet_outcome(mission):
+    report, _, _ = mission
+    f = report["fleet"]
+    assert f["spots_cleared"] > 0
+    assert f["duplicate_treatments"] <= 0.02 * f["treatments"]
+    v = {x["id"]: x for x in report["vehicles"]}
+    assert v["auv2"]["aborted"] and v["auv3"]["killed"] and v["auv3"]["restarted"]
+    assert v["auv2"]["state"] in ("aborted", "home")  # heading straight home, or there
+    for vid in ("auv1", "auv3"):
+        assert v[vid]["home"] and v[vid]["t_diff_s"] >= 0, v[vid]
+    assert report["messages"]["largest_frame_bytes"] <= 64
+
+
+def test_the_lost_vehicles_were_detected_in_time(mission):
+    report, _, _ = mission
+    det = report["fleet"]["detection_delay_s"]
+    assert det["auv2"]["auv1"] is not None and det["auv2"]["auv1"] <= CYCLE_S * 2
+    assert det["auv3"]["auv1"] is not None and det["auv3"]["auv1"] <= 5 * CYCLE_S
+    assert report["fleet"]["spots_taken_over"] > 0
+
+
+def test_hostile_traffic_was_refused_and_counted(mission):
+    report, _, sent = mission
+    auv1 = next(x for x in report["vehicles"] if x["id"] == "auv1")
+    c = auv1["counters"]
+    assert sent.get("rx", 0) > 20
+    assert c.get("drop_mac", 0) > 0 and c.get("drop_replay", 0) > 0
+    assert c.get("ctl_malformed", 0) > 0
+
+
+def test_the_restarted_agent_kept_what_it_had_treated(mission):
+    report, launcher, _ = mission
+    log = (launcher.run_dir / "auv3.log").read_text()
+    assert "restart" in log
+    events = [e for e in launcher.events if e.id == "auv3" and e.kind == "cleared"]
+    treated = [t for e in events for t in e.tasks]
+    assert len(treated) == len(set(treated))  # nothing treated twice across the restart
+    final = launcher.statuses["auv3"].treated
+    assert set(treated) <= set(final)
