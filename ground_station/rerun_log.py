@@ -37,6 +37,8 @@ from ground_station.mapview import MapLayers
 TIMELINE = "sim_time"
 SERIES = "series"
 PER_VEHICLE_SERIES = ("battery_s", "t_diff_s", "spots_treated")
+COUNT_SERIES = ("spots_treated",)  # counts are logged when they change: draw them as steps
+STEP = rr.components.InterpolationMode.StepAfter
 UI = rr.components.Radius.ui_points  # radii that stay readable at any zoom
 
 
@@ -161,10 +163,12 @@ class RerunDashboard:
             # name and colour each line once, static: legends match the map's colours
             metric, _, rest = d.path.partition("/")
             if metric in PER_VEHICLE_SERIES:
-                self.rec.log(path, rr.SeriesLines(names=rest, widths=2.0,
-                                                  colors=self.color_of(rest)), static=True)
-            elif metric == "fleet" and rest in palette.FLEET_SERIES:
-                self.rec.log(path, rr.SeriesLines(names=rest, widths=2.0,
-                                                  colors=palette.FLEET_SERIES[rest]), static=True)
+                self.rec.log(path, rr.SeriesLines(
+                    names=rest, widths=2.0, colors=self.color_of(rest),
+                    interpolation_mode=STEP if metric in COUNT_SERIES else None), static=True)
+            elif metric == "fleet":
+                self.rec.log(path, rr.SeriesLines(
+                    names=rest, widths=2.0, colors=palette.FLEET_SERIES.get(rest),
+                    interpolation_mode=STEP), static=True)
             self._styled.add(path)
         self.rec.log(path, rr.Scalars(d.value))

@@ -53,6 +53,7 @@ class Tuning:
     link_ttl_s: float = 20.0  # how long a message line stays on the map
     trail_step_m: float = 10.0  # trail resolution
     silent_after_s: float = 120.0  # no truth/status for this long while others report: dead?
+    counter_heartbeat_s: float = 30.0  # an unchanged count is repeated this often, not more
 
 
 class FleetPicture:
@@ -71,6 +72,7 @@ class FleetPicture:
         self._spot_states: tuple[str, ...] = ()
         self._link_expiry: dict[tuple[str, str], float] = {}
         self.link_counts: Counter[str] = Counter()
+        self._counted: dict[str, tuple[float, float]] = {}  # series -> (t, value) last drawn
         self.now_s = 0.0
 
     # -- public -------------------------------------------------------------------------------
@@ -164,9 +166,20 @@ class FleetPicture:
         """Counts over the whole picture (statuses and events, every vehicle), stamped with the
         picture's clock: samples of different vehicles may arrive out of order, and a row
         stamped earlier must never carry a newer picture than a row stamped later."""
+        out = [self._count(f"spots_treated/{vid}", float(len(self.treated_by[vid])))]
+        out += [self._count(f"fleet/{k}", val) for k, val in self.fleet_figures().items()]
+        return [d for d in out if d is not None]
+
+    def _count(self, path: str, value: float) -> Scalar | None:
+        """A cumulative count, drawn when it changes (and as a heartbeat while it does not):
+        statuses repeat counts every few seconds, and the viewer need not redraw them all."""
         t = self.now_s
-        return [Scalar(t, f"spots_treated/{vid}", float(len(self.treated_by[vid]))),
-                *(Scalar(t, f"fleet/{k}", val) for k, val in self.fleet_figures().items())]
+        last = self._counted.get(path)
+        if last is not None and last[1] == value and t - last[0] < \
+                self.tuning.counter_heartbeat_s:
+            return None
+        self._counted[path] = (t, value)
+        return Scalar(t, path, value)
 
     def _on_event(self, e: Event) -> list[Drawing]:
         v = self._vehicle(e.id)
@@ -199,14 +212,13 @@ class FleetPicture:
             self.link_counts["bytes"] += e.nbytes
         else:
             self.link_counts[f"drop:{e.reason}"] += 1
-        out: list[Drawing] = [
-            Scalar(e.t_s, "fleet/messages/delivered", float(self.link_counts["delivered"])),
-            Scalar(e.t_s, "fleet/messages/dropped", float(self.link_counts["dropped"])),
-            Scalar(e.t_s, "fleet/bytes/delivered", float(self.link_counts["bytes"])),
-        ]
+        counts = [("fleet/messages/delivered", self.link_counts["delivered"]),
+                  ("fleet/messages/dropped", self.link_counts["dropped"]),
+                  ("fleet/bytes/delivered", self.link_counts["bytes"])]
         if not e.delivered:
-            out.append(Scalar(e.t_s, f"fleet/drops/{e.reason}",
-                              float(self.link_counts[f"drop:{e.reason}"])))
+            counts.append((f"fleet/drops/{e.reason}", self.link_counts[f"drop:{e.reason}"]))
+        out: list[Drawing] = [d for d in (self._count(p, float(n)) for p, n in counts)
+                              if d is not None]
         src = self.vehicles.get(e.src)
         dst = self.vehicles.get(e.dst) if e.dst != BROADCAST else None
         if src is not None and dst is not None and src.xy is not None and dst.xy is not None:

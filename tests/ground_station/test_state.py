@@ -100,8 +100,9 @@ def test_link_lines_join_the_vehicles_and_expire(picture):
     out = picture.apply("auv2", LinkEvent("auv2", "auv1", 2.0, 2.5, 30, False, "collision", b""))
     assert of_type(out, LinkLine)[0].reason == "collision"
     scalars = {s.path: s.value for s in of_type(out, Scalar)}
-    assert scalars == {"fleet/messages/delivered": 1, "fleet/messages/dropped": 1,
-                       "fleet/bytes/delivered": 24, "fleet/drops/collision": 1}
+    assert scalars == {"fleet/messages/dropped": 1, "fleet/drops/collision": 1}  # what changed
+    assert picture.link_counts == {"delivered": 1, "bytes": 24, "dropped": 1,
+                                   "drop:collision": 1}
     assert of_type(picture.apply("auv1", Truth(21.0, (1.0, 0.0, -2.0))), LinkClear) == []
     out = picture.apply("auv1", Truth(30.0, (2.0, 0.0, -2.0)))
     assert [(c.t_s, c.src, c.dst) for c in of_type(out, LinkClear)] == [
@@ -124,8 +125,16 @@ def test_fleet_figures_count_each_spot_once_and_duplicates_apart(picture):
     # a vehicle killed before its next status still announced its treatment as an event
     out = picture.apply("auv3", Event(12, "auv3", "cleared", [13]))
     scalars = {s.path: s.value for s in of_type(out, Scalar)}
-    assert scalars["spots_treated/auv3"] == 1
-    assert scalars["fleet/duplicates"] == 2 and scalars["fleet/spots_cleared"] == 3
+    assert scalars == {"spots_treated/auv3": 1, "fleet/duplicates": 2}  # only what changed
+    assert picture.fleet_figures()["spots_cleared"] == 3
+
+
+def test_unchanged_counts_are_repeated_only_as_a_heartbeat(picture):
+    counts = []
+    for t in range(0, 70, 5):
+        out = picture.apply("auv1", status(t, "auv1", treated=[10]))
+        counts += [s.t_s for s in of_type(out, Scalar) if s.path == "fleet/spots_cleared"]
+    assert counts == [0, 30, 60]
 
 
 def test_trail_is_decimated_and_pose_carries_heading(picture):

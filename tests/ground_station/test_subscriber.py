@@ -119,7 +119,9 @@ def test_a_restarted_station_picks_up_from_current_statuses(bus, tmp_path):
     spots = second["/map/spots"].series("Points2D:colors")
     assert spots[0][0] == 0.0 and spots[1][0] >= first_t  # initial picture, then rebuilt
     for vid, s in final.items():
+        got = second[f"/series/battery_s/{vid}"].series("Scalars:scalars")[-1]
+        assert got == (s.t_s, [s.battery_s])
         got = second[f"/series/spots_treated/{vid}"].series("Scalars:scalars")[-1]
-        assert got == (s.t_s, [float(len(s.treated))])
+        assert got[1] == [float(len(s.treated))]
     assert read_recording(tmp_path / "mission.rrd")["/series/battery_s/auv1"].rows, \
         "the first part survives the restart"
