@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import rerun.blueprint as rrb
+from rerun.blueprint.encodings import TextLogColumn
 
 from ground_station.rerun_log import SERIES, TIMELINE
 
@@ -40,7 +41,9 @@ def live_blueprint(bounds: Bounds) -> rrb.Blueprint:
         _series("Acoustic bytes delivered", "fleet/bytes/**"),
     )
     below = rrb.Horizontal(
-        rrb.TextLogView(name="Events", origin="/events"),
+        rrb.TextLogView(name="Events", origin="/events", columns=rrb.TextLogColumns(
+            text_log_columns=[TextLogColumn("LogLevel"), TextLogColumn("Body"),
+                              TextLogColumn("EntityPath", visible=False)])),
         rrb.TextDocumentView(name="Mission", origin="/mission"),
         column_shares=[3, 1],
     )
