@@ -23,7 +23,7 @@ def mission(tmp_path_factory):
     rrd, report = run_dir / "mission.rrd", run_dir / "report.json"
     proc = subprocess.run(
         [sys.executable, "-m", "cotsfleet", "run", "--viewer", "none", "--rrd", str(rrd),
-         "--warp", "150", "--seed", "2", "--abort", "auv2@1200", "--run-dir", str(run_dir / "run"),
+         "--warp", "150", "--seed", "2", "--abort", "auv2@1200", "--kill", "auv3@1600", "--run-dir", str(run_dir / "run"),
          "--report", str(report)],
         cwd=REPO, capture_output=True, text=True, timeout=240)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
@@ -62,6 +62,17 @@ def test_acoustic_traffic_matches_the_relay_counters(mission):
         path = f"/series/fleet/drops/{reason}"
         assert (last(ents, path) if path in ents else 0) == link[reason]
     assert any(p.startswith("/map/links/") for p in ents)
+
+
+def test_a_killed_agent_is_marked_and_the_station_keeps_going(mission):
+    report, ents, gs_log = mission
+    assert {v["id"]: v["state"] for v in report["vehicles"]}["auv3"] == "dead"
+    # the mission goes on long after the kill, so the station's own silence verdict (120 sim s
+    # without telemetry) outranks the peers' "lost"
+    assert ents["/series/battery_s/auv1"].series("Scalars:scalars")[-1][0] > 1600 + 150
+    assert ents["/map/vehicles/auv3/mark"].latest("LineStrips2D:labels")[0] == "auv3 SILENT"
+    texts = [row["TextLog:text"][0] for _, row in ents["/events"].sorted_rows()]
+    assert any(t.startswith("auv3 silent since") for t in texts)
 
 
 def test_map_abort_mark_and_event_log(mission):
