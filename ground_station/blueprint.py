@@ -24,8 +24,9 @@ WHOLE_MISSION = rrb.TimeAxis(view_range=rrb.TimeRange(
 
 
 def _series(name: str, *contents: str) -> rrb.TimeSeriesView:
-    return rrb.TimeSeriesView(name=name, origin="/", contents=[f"+ /{SERIES}/{c}" for c in contents],
-                              plot_legend=rrb.PlotLegend(corner="LeftTop"), axis_x=WHOLE_MISSION)
+    return rrb.TimeSeriesView(
+        name=name, origin="/", contents=[f"+ /{SERIES}/{c}" for c in contents],
+        plot_legend=rrb.PlotLegend(corner="LeftTop"), axis_x=WHOLE_MISSION)
 
 
 def live_blueprint(bounds: Bounds) -> rrb.Blueprint:

@@ -311,7 +311,8 @@ class FleetPicture:
         if new == self._spot_states and not force:
             return None
         self._spot_states = new
-        return Spots(self.now_s, new, np.array([self._spot_color(s) for s in new], np.uint8).reshape(-1, 3))
+        colors = np.array([self._spot_color(s) for s in new], np.uint8).reshape(-1, 3)
+        return Spots(self.now_s, new, colors)
 
     def _spot_color(self, state: str) -> palette.Rgb:
         kind, _, vid = state.partition(":")

@@ -52,9 +52,11 @@ def scripted_mission(doc: dict, routes: dict[str, list[int]], end_s: float,
                 continue
             if abort and a.vid == abort[0] and t >= abort[1]:
                 a.state = "aborted"
-                out.append((bus.event_key(a.vid), Event(t, a.vid, "abort", detail="fault").encode()))
+                abort_event = Event(t, a.vid, "abort", detail="fault")
+                out.append((bus.event_key(a.vid), abort_event.encode()))
                 if taker:
-                    out.append((bus.event_key(taker), Event(t + 1, taker, "lost", peer=a.vid).encode()))
+                    lost = Event(t + 1, taker, "lost", peer=a.vid)
+                    out.append((bus.event_key(taker), lost.encode()))
                     auvs[taker].route += a.route
                     auvs[taker].claims += a.route
                     out.append((bus.event_key(taker), Event(t + 1, taker, "takeover", list(a.route),
@@ -69,7 +71,8 @@ def scripted_mission(doc: dict, routes: dict[str, list[int]], end_s: float,
                 left = a.battery_s - t
                 out.append((bus.status_key(a.vid), Status(
                     t, a.vid, a.state, (*a.xy, -2.0), left, left - _route_time(a, tasks),
-                    list(a.route), list(a.treated), len({x for b in auvs.values() for x in b.treated}),
+                    list(a.route), list(a.treated),
+                    len({x for b in auvs.values() for x in b.treated}),
                     a.priority, a.distance_m, claims=list(a.claims)).encode()))
         if int(t) % 30 == 0:
             for a in auvs.values():

@@ -22,7 +22,8 @@ def test_web_viewer_url_points_the_bundled_viewer_at_the_grpc_server():
 
 
 def test_no_viewer_and_no_file_means_a_disabled_stream():
-    rec, url = open_recording("cotsfleet", "r0", ViewerOptions("none"), live_blueprint((0, 1, 0, 1)))
+    rec, url = open_recording("cotsfleet", "r0", ViewerOptions("none"),
+                              live_blueprint((0, 1, 0, 1)))
     assert url is None and not rec.is_enabled()
 
 

@@ -23,7 +23,8 @@ def mission(tmp_path_factory):
     rrd, report = run_dir / "mission.rrd", run_dir / "report.json"
     proc = subprocess.run(
         [sys.executable, "-m", "cotsfleet", "run", "--viewer", "none", "--rrd", str(rrd),
-         "--warp", "150", "--seed", "2", "--abort", "auv2@1200", "--kill", "auv3@1600", "--run-dir", str(run_dir / "run"),
+         "--warp", "150", "--seed", "2", "--abort", "auv2@1200", "--kill", "auv3@1600",
+         "--run-dir", str(run_dir / "run"),
          "--report", str(report)],
         cwd=REPO, capture_output=True, text=True, timeout=240)
     assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
