@@ -58,9 +58,9 @@ def open_recording(application_id: str, recording_id: str, opts: ViewerOptions,
     wants_sink = opts.viewer != "none" or opts.rrd is not None
     rec = rr.RecordingStream(application_id, recording_id=recording_id,
                              default_enabled=wants_sink)
-    rr.set_log_time_enabled(False, recording=rec)  # one timeline: the fleet's own sim_time
     if not wants_sink:
         return rec, None
+    rr.set_log_time_enabled(False, recording=rec)  # one timeline: the fleet's own sim_time
     sinks: list = []
     url = None
     grpc_port = opts.grpc_port or free_port(opts.host)
@@ -84,6 +84,8 @@ def open_recording(application_id: str, recording_id: str, opts: ViewerOptions,
 
 def close_recording(rec: rr.RecordingStream) -> None:
     """Flush everything (the .rrd footer included) before the process goes."""
+    if not rec.is_enabled():
+        return
     rec.flush(timeout_sec=3.0)  # the launcher allows 5 s after SIGTERM
     rec.disconnect()
 
