@@ -12,6 +12,12 @@ from hfc_core.top import parse_top
 
 def load_problem(path: str | Path) -> Problem:
     """A scenario JSON or a TOP instance (Chao's text format, recognised by its header)."""
+    return read_scenario(path)[0]
+
+
+def read_scenario(path: str | Path) -> tuple[Problem, dict | None]:
+    """The problem and, for a scenario JSON, its document (which may carry extra fields such
+    as the ``cots_map`` the dashboard draws); a TOP instance has no document."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -20,12 +26,12 @@ def load_problem(path: str | Path) -> Problem:
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{path}: cannot read: {exc}") from None
     if text.lstrip().startswith("n "):
-        return parse_top(text, name=path.stem)
+        return parse_top(text, name=path.stem), None
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
         raise ScenarioError(f"{path}: not valid JSON: {exc}") from None
     try:
-        return problem_from_dict(doc)
+        return problem_from_dict(doc), doc
     except ScenarioError as exc:
         raise ScenarioError(f"{path}: {exc}") from None

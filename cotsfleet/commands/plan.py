@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from cotsfleet.cli import UsageError
-from cotsfleet.io import load_problem
+from cotsfleet.io import read_scenario
 from hfc_core.check import check_routes
 from hfc_core.plan import plan_to_dict, vehicle_figures
 from hfc_core.problem import Problem
@@ -129,7 +129,8 @@ def plan_document(problem: Problem, result: SolveResult) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     try:
-        problem = select_vehicles(load_problem(args.scenario), args.vehicles)
+        problem, doc = read_scenario(args.scenario)
+        problem = select_vehicles(problem, args.vehicles)
     except NotImplementedError as exc:  # e.g. land polygons before the land metric exists
         raise UsageError(f"{args.scenario}: {exc}") from None
     stop = budget(args)
@@ -154,5 +155,5 @@ def run(args: argparse.Namespace) -> int:
     if args.rrd:
         from ground_station.plan_recording import record_plan
 
-        record_plan(problem, result, args.rrd)
+        record_plan(problem, result, args.rrd, scenario=doc)
     return 0
