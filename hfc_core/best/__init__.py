@@ -17,7 +17,7 @@ from hfc_core.best.engine import SearchParams, search
 from hfc_core.best.instance import Instance, instance_from_problem
 from hfc_core.best.state import State
 from hfc_core.cost import CostWeights, RouteModel
-from hfc_core.operators.clustering import METHODS, clusters_of_vehicles
+from hfc_core.operators.clustering import METHODS, clusters_of_vehicles, lloyd, vehicle_of_cluster
 from hfc_core.plan import Plan
 from hfc_core.problem import Problem
 from hfc_core.solve import IterationRecord, SolveResult, Stop
@@ -41,12 +41,25 @@ def _record(
     )
 
 
-def paper_clusters(problem: Problem, rng: np.random.Generator, method: str) -> np.ndarray:
-    """Vehicle label per task from the paper's clustering operator (``method``)."""
-    labels = np.full(problem.n_tasks, -1, dtype=np.int64)
-    for v, members in enumerate(clusters_of_vehicles(RouteModel(problem), rng, method=method)):
-        labels[members] = v
-    return labels
+# Later runs of the search restart from these, in turn: one k-means++ seeding (not the best of
+# several, which would give the same clusters every time), fuzzy clusters drawn by membership,
+# and k-medoids on the travel metric. Diverse starts are what the restarts are for.
+RESTART_CLUSTERINGS = ("lloyd", "fcm-roulette", "medoids")
+
+
+def cluster_vehicle(problem: Problem, rng: np.random.Generator, method: str) -> np.ndarray | None:
+    """Vehicle label per task from the paper's clustering operator (``method``: one of its
+    `METHODS`, ``"lloyd"`` for a single k-means++ run), or None for k-medoids."""
+    if method == "medoids":
+        return None
+    model = RouteModel(problem)
+    if method == "lloyd":
+        labels = lloyd(np.asarray(problem.xyz[: problem.n_tasks]), problem.n_vehicles, rng)[0]
+        return vehicle_of_cluster(labels, model)[labels]
+    out = np.full(problem.n_tasks, -1, dtype=np.int64)
+    for v, members in enumerate(clusters_of_vehicles(model, rng, method=method)):
+        out[members] = v
+    return out
 
 
 def solve_best(
@@ -70,11 +83,15 @@ def solve_best(
     def on_best(iteration: int, state: State) -> None:
         history.append(_record(model, weights, state.routes, iteration, stop.elapsed_s()))
 
-    def fresh() -> State:
-        labels = None if clustering == "medoids" else paper_clusters(problem, rng, clustering)
-        return construct(inst, rng, labels)
+    restarts = 0
 
-    start = fresh()
+    def fresh() -> State:
+        nonlocal restarts
+        restarts += 1
+        method = RESTART_CLUSTERINGS[(restarts - 1) % len(RESTART_CLUSTERINGS)]
+        return construct(inst, rng, cluster_vehicle(problem, rng, method))
+
+    start = construct(inst, rng, cluster_vehicle(problem, rng, clustering))
     on_best(0, start)
     best, iterations = search(start, rng, stop, search_params, on_best, fresh)
     return SolveResult(
@@ -84,5 +101,5 @@ def solve_best(
         iterations=iterations,
         elapsed_s=stop.elapsed_s(),
         history=history,
-        extra={"construction_priority": history[0].priority},
+        extra={"construction_priority": history[0].priority, "restarts": restarts},
     )

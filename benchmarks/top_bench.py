@@ -1,0 +1,151 @@
+"""TOP benchmark: `best` vs PyVRP vs OR-Tools on the 33 Chao et al. instances, same time limit.
+
+Every (solver, instance) run is its own process pinned to one core (``taskset``), so each
+solver gets one core and a fresh interpreter; ``--jobs`` runs that many at once on distinct
+cores. Every returned plan is checked with the exact-float checker; a reference plan that is
+infeasible after the solvers' integer rounding is repaired (spots dropped until it fits) and
+counted. Figures: mean gap to the best-known score, number matched, worst gap.
+
+    python -m benchmarks.top_bench            # 5 s per instance, all 33, all three solvers
+    python -m benchmarks.top_bench --quick    # 1 s, 8 instances
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from statistics import mean, median
+
+from benchmarks.results import markdown_table, write_section
+from benchmarks.top_common import gap_pct, instances
+from hfc_core.check import check_routes
+from hfc_core.problem import Problem
+
+SOLVERS = ("best", "pyvrp", "ortools")
+QUICK = ("p2.3.g", "p3.3.m", "p4.2.m", "p4.3.m", "p5.3.u", "p6.4.n", "p7.2.p", "p7.4.h")
+
+
+def run_solver(solver: str, problem: Problem, time_limit_s: float, seed: int) -> list[list[int]]:
+    """Task indices per vehicle from ``solver`` (called in the worker process)."""
+    if solver == "best":
+        from hfc_core.solve import solve
+
+        return [list(r) for r in solve(problem, "best", time_limit_s=time_limit_s, seed=seed).plan.routes]
+    from benchmarks import reference_solvers
+
+    return getattr(reference_solvers, f"solve_{solver}")(problem, time_limit_s, seed)
+
+
+def worker(solver: str, name: str, time_limit_s: float, seed: int) -> None:
+    problem = next(i for i in instances() if i.name == name).problem()
+    started = time.perf_counter()
+    routes = run_solver(solver, problem, time_limit_s, seed)
+    print(json.dumps({"routes": routes, "elapsed_s": time.perf_counter() - started}))
+
+
+def repaired(problem: Problem, routes: list[list[int]]) -> list[list[int]]:
+    """Drop the spot earning least per second saved from each route until it fits."""
+    from hfc_core.best.construct import screen
+    from hfc_core.best.instance import instance_from_problem
+
+    inst = instance_from_problem(problem)
+    return [screen(inst, v, r) for v, r in enumerate(routes)]
+
+
+def score(problem: Problem, routes: list[list[int]]) -> tuple[float, bool]:
+    """(priority collected, whether a repair was needed) of a checked plan."""
+    def ids(rs):
+        return {problem.vehicles[v].id: [problem.tasks[u].id for u in r] for v, r in enumerate(rs)}
+
+    fixed = False
+    if check_routes(problem, ids(routes)):
+        routes, fixed = repaired(problem, routes), True
+        errors = check_routes(problem, ids(routes))
+        if errors:
+            raise RuntimeError(f"{problem.name}: repair failed: {errors[:2]}")
+    return sum(problem.route_priority(r) for r in routes), fixed
+
+
+def launch(jobs: list[tuple[str, str]], time_limit_s: float, seed: int, parallel: int) -> dict:
+    """Run (solver, instance) jobs, ``parallel`` at a time, each pinned to its own core."""
+    cores = sorted(os.sched_getaffinity(0))[: max(1, parallel)]
+    free, running, results = list(cores), {}, {}
+    queue = list(jobs)
+    while queue or running:
+        while queue and free:
+            solver, name = queue.pop(0)
+            core = free.pop(0)
+            cmd = ["taskset", "-c", str(core), sys.executable, "-m", "benchmarks.top_bench",
+                   "--worker", solver, name, "--time-limit", str(time_limit_s), "--seed", str(seed)]
+            running[subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                     text=True)] = (solver, name, core)
+        for proc in list(running):
+            if proc.poll() is None:
+                continue
+            solver, name, core = running.pop(proc)
+            free.append(core)
+            out = proc.stdout.read() if proc.stdout else ""
+            if proc.returncode != 0 or not out.strip():
+                raise RuntimeError(f"{solver} on {name} failed (exit {proc.returncode})")
+            results[(solver, name)] = json.loads(out.strip().splitlines()[-1])
+        time.sleep(0.05)
+    return results
+
+
+def main(time_limit_s: float, names: list[str] | None, solvers: list[str], seed: int,
+         parallel: int, write: bool) -> None:
+    chosen = [i for i in instances() if names is None or i.name in names]
+    raw = launch([(s, i.name) for i in chosen for s in solvers], time_limit_s, seed, parallel)
+    rows, gaps, repairs = [], {s: [] for s in solvers}, {s: 0 for s in solvers}
+    for inst in chosen:
+        problem = inst.problem()
+        row: list[object] = [inst.name, problem.n_tasks, problem.n_vehicles, inst.bks]
+        for s in solvers:
+            got, fixed = score(problem, raw[(s, inst.name)]["routes"])
+            gaps[s].append(gap_pct(got, inst.bks))
+            repairs[s] += fixed
+            row.append(f"{got:g}" + ("*" if fixed else ""))
+        rows.append(row)
+        print(" ".join(str(c) for c in row), flush=True)
+    summary = [[s, f"{mean(gaps[s]):.2f}%", f"{median(gaps[s]):.2f}%",
+                f"{sum(g <= 1e-9 for g in gaps[s])}/{len(chosen)}", f"{max(gaps[s]):.2f}%",
+                repairs[s]] for s in solvers]
+    head = ["solver", "mean gap", "median gap", "matched", "worst gap", "repaired"]
+    print(markdown_table(head, summary))
+    if write:
+        body = (
+            f"{len(chosen)} instances, {time_limit_s:g} s per instance and solver, seed {seed}, "
+            f"each run a separate process pinned to one core ({parallel} at a time). Gap = "
+            "(best-known - score) / best-known. `repaired`: reference plans infeasible in exact "
+            "arithmetic after the solver's integer rounding (x1e4), cut until they fit "
+            "(marked * below).\n\n"
+            + markdown_table(head, summary)
+            + "\n\n<details><summary>Per instance (priority collected)</summary>\n\n"
+            + markdown_table(["instance", "n", "k", "bks", *solvers], rows)
+            + "\n\n</details>\n"
+        )
+        write_section("top_bench", "TOP benchmark: best vs PyVRP vs OR-Tools", body)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--time-limit", type=float, default=None, help="seconds per run (5)")
+    parser.add_argument("--quick", action="store_true", help="1 s on 8 instances, no write")
+    parser.add_argument("--instances", nargs="*", default=None)
+    parser.add_argument("--solvers", nargs="*", default=list(SOLVERS), choices=SOLVERS)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--jobs", type=int, default=1, help="runs at once, one core each")
+    parser.add_argument("--no-write", action="store_true")
+    parser.add_argument("--worker", nargs=2, metavar=("SOLVER", "INSTANCE"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    limit = args.time_limit or (1.0 if args.quick else 5.0)
+    if args.worker:
+        worker(args.worker[0], args.worker[1], limit, args.seed)
+    else:
+        names = args.instances or (list(QUICK) if args.quick else None)
+        main(limit, names, args.solvers, args.seed, args.jobs,
+             write=not (args.no_write or args.quick or args.instances))
