@@ -149,6 +149,7 @@ class Agent:
         self._last_claim_refresh_slot = 0
         self._abort_left = 0
         self._home_left = 0
+        self._relay_aborts: list[tuple[int, int]] = []  # (vehicle, abort time) to pass on
         # schedules
         self._next_status = now
         self._next_truth = now
@@ -257,8 +258,9 @@ class Agent:
             self._on_cleared(msg, now, out)
         elif isinstance(msg, (Claim, Release)):
             self._on_claim(msg, now, out)
-        elif isinstance(msg, Abort):
-            self._peer_gone(v, mb.ABORTED, now, out)
+        elif isinstance(msg, Abort) and msg.who != self.index:
+            if self._peer_gone(msg.who, mb.ABORTED, now, out, msg.t_s) and msg.who != v:
+                self._count("abort_relayed_in")
 
     def _on_pose(self, msg: Pose, now: float, out: list[Output]) -> None:
         v = msg.sender
@@ -308,16 +310,23 @@ class Agent:
 
     # -- membership, takeover, cooperation -------------------------------------------------
 
-    def _peer_gone(self, v: int, status: str, now: float, out: list[Output]) -> None:
+    def _peer_gone(self, v: int, status: str, now: float, out: list[Output],
+                   t_event: int | None = None) -> bool:
+        """Record an announced abort or arrival home; True if it was news."""
         before = self.members.status(v)
         if not self.members.mark(v, status, now):
-            return
+            return False
         self._dirty = True
         out.append(self._record({"k": "peer", "v": v, "s": status, "t": now}))
         if status == mb.ABORTED:
             out.append(self._event(now, "lost", [], peer=self._vid(v), detail="aborted"))
-        if before == mb.ALIVE and status == mb.ABORTED:
-            self._takeover(v, now, out)
+            # Pass the news on once: a peer that missed every announcement learns it from us
+            # instead of waiting for the silence to be noticed.
+            if not (self.vehicle.done or self.vehicle.aborted):
+                self._relay_aborts.append((v, int(now) if t_event is None else t_event))
+            if before == mb.ALIVE:
+                self._takeover(v, now, out)
+        return True
 
     def _detect(self, now: float, out: list[Output]) -> None:
         if self.vehicle.done or self.vehicle.aborted:
@@ -555,6 +564,9 @@ class Agent:
                 return self._pose(now)
             return None
         self._since_pose += 1
+        if self._relay_aborts:
+            who, t = self._relay_aborts.pop(0)
+            return Abort(self.index, self._next_seq(now), t, self._heard(now), who)
         if self._since_pose >= cfg.pose_every_cycles:
             return self._pose(now)
         if self._outgoing:

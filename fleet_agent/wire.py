@@ -57,7 +57,8 @@ class Kind(IntEnum):
     CLEARED = 2  # a segment of the cleared-set bitmap (grow-only set, full state)
     CLAIM = 3  # "I will treat these spots" (claim time, ids)
     RELEASE = 4  # "I no longer hold these spots" (release time, ids)
-    ABORT = 5  # "I abort at t": my claims die, my spots are free
+    ABORT = 5  # "vehicle s aborted at t": its claims die, its spots are free (s may be the
+    # sender, or a vehicle whose abort the sender heard: aborts spread epidemically)
 
 
 class WireError(ValueError):
@@ -125,6 +126,11 @@ class Abort:
     seq: int
     t_s: int
     heard: int = 0
+    subject: int | None = None  # the vehicle that aborted; None: the sender
+
+    @property
+    def who(self) -> int:
+        return self.sender if self.subject is None else self.subject
 
 
 Message = Union[Pose, ClearedSegment, Claim, Release, Abort]
@@ -206,7 +212,9 @@ class Codec:
             if not 0 <= msg.t_s <= MAX_SEQ:
                 raise ValueError("claim time out of range")
             return [msg.seq, msg.t_s, self._pack_ids(msg.tasks)]
-        return [msg.seq, msg.t_s]
+        if not 0 <= msg.who < self.n_vehicles:
+            raise ValueError(f"abort subject {msg.who} outside the roster")
+        return [msg.seq, msg.t_s, msg.who]
 
     def quantise(self, pos: Sequence[float]) -> tuple[int, int, int]:
         u = self.unit_m
@@ -267,7 +275,7 @@ class Codec:
             raise WireError("malformed", repr(exc)) from None
 
     def _message(self, kind: Kind, sender: int, f: list) -> Message:
-        arity = {Kind.POSE: 9, Kind.CLEARED: 6, Kind.CLAIM: 4, Kind.RELEASE: 4, Kind.ABORT: 3}
+        arity = {Kind.POSE: 9, Kind.CLEARED: 6, Kind.CLAIM: 4, Kind.RELEASE: 4, Kind.ABORT: 4}
         if not isinstance(f, list) or len(f) != arity[kind]:
             raise WireError("malformed", "wrong field count")
         blob = f[-1] if kind in (Kind.CLEARED, Kind.CLAIM, Kind.RELEASE) else None
@@ -304,10 +312,10 @@ class Codec:
             if any(t >= self.n_tasks for t in tasks):
                 raise WireError("malformed", "unknown spot")
             return (Claim if kind == Kind.CLAIM else Release)(sender, seq, t_s, tasks, heard)
-        (t_s,) = f
-        if not 0 <= t_s <= MAX_SEQ:
-            raise WireError("malformed", "abort time out of range")
-        return Abort(sender, seq, t_s, heard)
+        t_s, who = f
+        if not (0 <= t_s <= MAX_SEQ and 0 <= who < self.n_vehicles):
+            raise WireError("malformed", "abort out of range")
+        return Abort(sender, seq, t_s, heard, None if who == sender else who)
 
     # -- limits ----------------------------------------------------------------------------
 
@@ -328,4 +336,4 @@ class Codec:
             n = min(self.max_ids, self.n_tasks)
             ids = tuple(range(self.n_tasks - n, self.n_tasks))
             return (Claim if kind == Kind.CLAIM else Release)(top, MAX_SEQ, MAX_SEQ, ids, heard)
-        return Abort(top, MAX_SEQ, MAX_SEQ, heard)
+        return Abort(top, MAX_SEQ, MAX_SEQ, heard, max(0, top - 1))

@@ -190,3 +190,10 @@ def test_vehicles_route_around_land() -> None:
         assert v["t_diff_s"] >= 0.0
     routes = executed_routes(problem, result)
     assert check_routes(problem, routes) == []
+
+
+@pytest.mark.parametrize("seed", SEEDS[:3])
+def test_abort_news_spreads_even_when_the_announcements_are_lost(seed: int) -> None:
+    _, result = run(seed, 0.3, (Fault("abort", 1200.0, "auv2"),))
+    for vid, delay in result.report["fleet"]["detection_delay_s"]["auv2"].items():
+        assert delay is not None and delay <= 5 * CYCLE_S, (vid, delay)

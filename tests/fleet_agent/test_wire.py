@@ -46,6 +46,7 @@ def test_round_trip_of_every_kind() -> None:
         Claim(0, 5, 4, (1, 2, 89), 0b111100),
         Release(0, 6, 5, (89,)),
         Abort(2, 1200, 1199, 0b000001),
+        Abort(0, 1210, 1199, 0, subject=2),  # passed on by another vehicle
     ]
     for m in msgs:
         back = codec.decode(codec.encode(m))
