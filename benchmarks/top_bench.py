@@ -14,12 +14,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import subprocess
-import sys
 import time
 from statistics import mean, median
 
+from benchmarks.pinned import run_pinned
 from benchmarks.results import markdown_table, write_section
 from benchmarks.top_common import gap_pct, instances
 from hfc_core.check import check_routes
@@ -70,36 +68,13 @@ def score(problem: Problem, routes: list[list[int]]) -> tuple[float, bool]:
     return sum(problem.route_priority(r) for r in routes), fixed
 
 
-def launch(jobs: list[tuple[str, str]], time_limit_s: float, seed: int, parallel: int) -> dict:
-    """Run (solver, instance) jobs, ``parallel`` at a time, each pinned to its own core."""
-    cores = sorted(os.sched_getaffinity(0))[: max(1, parallel)]
-    free, running, results = list(cores), {}, {}
-    queue = list(jobs)
-    while queue or running:
-        while queue and free:
-            solver, name = queue.pop(0)
-            core = free.pop(0)
-            cmd = ["taskset", "-c", str(core), sys.executable, "-m", "benchmarks.top_bench",
-                   "--worker", solver, name, "--time-limit", str(time_limit_s), "--seed", str(seed)]
-            running[subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                     text=True)] = (solver, name, core)
-        for proc in list(running):
-            if proc.poll() is None:
-                continue
-            solver, name, core = running.pop(proc)
-            free.append(core)
-            out = proc.stdout.read() if proc.stdout else ""
-            if proc.returncode != 0 or not out.strip():
-                raise RuntimeError(f"{solver} on {name} failed (exit {proc.returncode})")
-            results[(solver, name)] = json.loads(out.strip().splitlines()[-1])
-        time.sleep(0.05)
-    return results
-
-
 def main(time_limit_s: float, names: list[str] | None, solvers: list[str], seed: int,
          parallel: int, write: bool) -> None:
     chosen = [i for i in instances() if names is None or i.name in names]
-    raw = launch([(s, i.name) for i in chosen for s in solvers], time_limit_s, seed, parallel)
+    jobs = [(s, i.name) for i in chosen for s in solvers]
+    commands = [["benchmarks.top_bench", "--worker", s, name, "--time-limit", str(time_limit_s),
+                 "--seed", str(seed)] for s, name in jobs]
+    raw = dict(zip(jobs, run_pinned(commands, parallel)))
     rows, gaps, repairs = [], {s: [] for s in solvers}, {s: 0 for s in solvers}
     for inst in chosen:
         problem = inst.problem()

@@ -29,14 +29,14 @@ import numpy as np
 from scipy.spatial.distance import cdist
 
 from hfc_core.best.construct import construct, screen
-from hfc_core.best.engine import SearchParams, search, shorten
+from hfc_core.best.engine import SearchParams, local_search, search, shorten
 from hfc_core.best.insert import fill
 from hfc_core.best.instance import Instance
 from hfc_core.best.state import State
 from hfc_core.problem import Problem, ScenarioError
 from hfc_core.solve import Stop
 
-DEFAULT_ITERATIONS = 150
+DEFAULT_ITERATIONS = 60
 DEFAULT_STABILITY = 0.1
 
 
@@ -78,10 +78,12 @@ def replan(
     inst = setup.instance()
     rng = np.random.default_rng(seed)
     stop = Stop(time_limit_s=time_limit_s, max_iterations=max_iterations)
-    warm = setup.warm_start(inst)
-    scratch = construct(inst, rng)
+    warm = setup.warm_start(inst, rng)
     tie = inst.tie_weight()
-    start = scratch if scratch.objective(tie) > warm.objective(tie) + 1e-12 else warm
+    start = warm
+    if not any(v.route for v in vehicles):  # nothing to keep: build from scratch too
+        scratch = construct(inst, rng)
+        start = scratch if scratch.objective(tie) > warm.objective(tie) + 1e-12 else warm
     best, _ = search(start, rng, stop, SearchParams(restart=100))
     if best.objective(tie) <= warm.objective(tie) + setup.penalty:
         best = warm
@@ -209,8 +211,9 @@ class _Setup:
                     home[u] = i
         return home
 
-    def warm_start(self, inst: Instance) -> State:
-        """The current routes, minus what is off limits, screened to fit and then topped up."""
+    def warm_start(self, inst: Instance, rng: np.random.Generator) -> State:
+        """The current routes, minus what is off limits, cut to fit, then improved by local
+        search only (shorten, swap in richer spots, insert what fits): no ruin."""
         home = self._home()
         routes = []
         for i, v in enumerate(self.vehicles):
@@ -219,4 +222,4 @@ class _Setup:
             routes.append(screen(inst, i, route))
         state = State(inst, routes)
         shorten(state, list(range(inst.k)))
-        return fill(state)
+        return local_search(fill(state), State(inst), rng)

@@ -22,7 +22,8 @@ MARGIN_S = 1e-7
 class State:
     """Mutable; operators work on a `copy` and return it."""
 
-    __slots__ = ("inst", "routes", "length_m", "service_s", "owner", "ins_len", "ins_pos", "stale")
+    __slots__ = ("inst", "routes", "length_m", "service_s", "owner", "ins_len", "ins_pos", "stale",
+                 "_nodes")
 
     def __init__(self, inst: Instance, routes: list[list[int]] | None = None) -> None:
         self.inst = inst
@@ -31,6 +32,7 @@ class State:
         self.owner = np.full(n, UNASSIGNED, dtype=np.int64)
         for v, route in enumerate(self.routes):
             self.owner[route] = v
+        self._nodes = [self._terminals(v) for v in range(k)]
         self.length_m = [self._length(v) for v in range(k)]
         self.service_s = [self._service(v) for v in range(k)]
         self.ins_len = np.zeros((k, n))
@@ -41,6 +43,7 @@ class State:
         other = State.__new__(State)
         other.inst = self.inst
         other.routes = [list(r) for r in self.routes]
+        other._nodes = list(self._nodes)  # arrays are never modified in place
         other.length_m = list(self.length_m)
         other.service_s = list(self.service_s)
         other.owner = self.owner.copy()
@@ -51,7 +54,10 @@ class State:
 
     # --- figures -------------------------------------------------------------------------
     def nodes(self, v: int) -> np.ndarray:
-        """Route ``v`` with its terminals: start, tasks..., end."""
+        """Route ``v`` with its terminals: start, tasks..., end (read only)."""
+        return self._nodes[v]
+
+    def _terminals(self, v: int) -> np.ndarray:
         inst = self.inst
         return np.array([inst.start[v], *self.routes[v], inst.end[v]], dtype=np.int64)
 
@@ -64,6 +70,7 @@ class State:
         return float(self.inst.service_s[route].sum()) if route else 0.0
 
     def _changed(self, v: int) -> None:
+        self._nodes[v] = self._terminals(v)
         self.length_m[v] = self._length(v)
         self.service_s[v] = self._service(v)
         self.stale[v] = True
