@@ -29,7 +29,7 @@ from comms_sim.clock import WarpClock
 from comms_sim.session import client_config, free_tcp_endpoint
 from comms_sim.stats import decode_stats
 from fleet_agent.config import AgentConfig, dump_config
-from fleet_agent.node import ALIVE_PREFIX, alive_key, encode_command
+from fleet_agent.node import ALIVE_PREFIX, encode_command
 from fleet_agent.report import FaultRecord, build_report, format_report
 from fleet_agent.telemetry import Event, Status
 from hfc_core.problem import Problem

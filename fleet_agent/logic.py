@@ -3,8 +3,8 @@
 Inputs are `Tick`, `Frame` (bytes off the radio) and `Command` (fault injection), each with
 the simulation time ``now``; outputs are `Send` (a frame for the radio), `Publish`
 (telemetry: status, event, truth) and `Record` (a journal record). No I/O, no clock, no
-global random state: given the same inputs and seeded Generator an agent does the same
-thing, under the Zenoh shell (`fleet_agent.node`) and in the simulation (`fleet_agent.sim`).
+randomness at all (the TDMA schedule needs no jitter): the same inputs give the same outputs,
+under the Zenoh shell (`fleet_agent.node`) and in the simulation (`fleet_agent.sim`).
 
 What it does (paper section II and IV-A):
 - executes its route of the shared initial plan (`Planner.initial_routes`) on the vehicle
@@ -21,95 +21,31 @@ What it does (paper section II and IV-A):
 
 from __future__ import annotations
 
-import math
 from collections import deque
-from dataclasses import dataclass, field
-from typing import Any, Iterable, Sequence, Union
-
-import numpy as np
+from typing import Any, Iterable, Sequence
 
 from comms_sim.bus import Truth
 from fleet_agent import membership as mb
 from fleet_agent.cleared import ClearedSet
 from fleet_agent.config import AgentConfig
+from fleet_agent.cooperation import (cheapest_insertion, cooperation_route, detour_fits,
+                                     live_peer, live_self, takeover_share)
+from fleet_agent.fleet import Fleet
+from fleet_agent.io_types import (Command, Frame, Input, Output, Publish, Record, Send,
+                                  Tick)
 from fleet_agent.membership import Membership
 from fleet_agent.negotiation import Holdings
-from fleet_agent.plans import Live, Planner
+from fleet_agent.radio import Slots
 from fleet_agent.replay import ReplayWindow
 from fleet_agent.telemetry import Event, Status
-from fleet_agent.vehicle import (HOME, INJECTING, Arrived, Cleared, PathFn, Vehicle, fit_route,
-                                 path_function, position_along)
-from fleet_agent.wire import (Abort, Claim, ClearedSegment, Codec, Message, Pose, Release,
-                              WireError, radio_kind)
-from hfc_core.problem import Problem
+from fleet_agent.vehicle import Arrived, Cleared, Vehicle, fit_route
+from fleet_agent.wire import (Abort, Claim, ClearedSegment, Message, Pose, Release, WireError,
+                              radio_kind)
+
+__all__ = ["Agent", "Fleet", "step", "Tick", "Frame", "Command", "Input", "Send", "Publish",
+           "Record", "Output"]
 
 JOURNAL_VERSION = 1
-
-
-# -- inputs and outputs ----------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Tick:
-    now: float
-
-
-@dataclass(frozen=True)
-class Frame:
-    data: bytes
-    now: float
-
-
-@dataclass(frozen=True)
-class Command:
-    name: str  # "abort"
-    now: float
-
-
-Input = Union[Tick, Frame, Command]
-
-
-@dataclass(frozen=True)
-class Send:
-    frame: bytes
-    kind: str  # the relay's queue class: "pose" or "data"
-    message: str  # wire kind name, for counters
-
-
-@dataclass(frozen=True)
-class Publish:
-    topic: str  # "status" | "event" | "truth"
-    payload: Status | Event | Truth
-
-
-@dataclass(frozen=True)
-class Record:
-    doc: dict[str, Any]
-    durable: bool = False  # fsync before going on (what was cleared or promised)
-
-
-Output = Union[Send, Publish, Record]
-
-
-# -- what a whole fleet shares ---------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Fleet:
-    """The mission as every agent knows it before the first message."""
-
-    problem: Problem
-    codec: Codec
-    planner: Planner
-    paths: PathFn
-    seed: int
-    base_routes: tuple[tuple[int, ...], ...] = field(default=())
-
-    @staticmethod
-    def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
-              planner: Planner | None = None) -> "Fleet":
-        planner = planner or Planner(problem, seed, config.plan_iterations,
-                                     config.replan_iterations)
-        return Fleet(problem, Codec.for_problem(problem, key), planner, path_function(problem),
-                     seed, planner.initial_routes())
 
 
 # -- the agent -------------------------------------------------------------------------------
@@ -117,14 +53,14 @@ class Fleet:
 class Agent:
     """One vehicle's brain. Use `step` (or the module function `step`)."""
 
-    def __init__(self, fleet: Fleet, index: int, config: AgentConfig, rng: np.random.Generator,
-                 now: float = 0.0, journal: Sequence[dict[str, Any]] = ()) -> None:
+    def __init__(self, fleet: Fleet, index: int, config: AgentConfig, now: float = 0.0,
+                 journal: Sequence[dict[str, Any]] = ()) -> None:
         p = fleet.problem
         self.fleet, self.problem, self.index, self.config = fleet, p, index, config
         self.id = p.vehicles[index].id
         self.k = p.n_vehicles
-        self.rng = rng
-        self.cycle_s = config.slot_s * self.k
+        self.slots = Slots(index, self.k, config.slot_s)
+        self.cycle_s = self.slots.cycle_s
         self.vehicle = Vehicle(p, index, fleet.paths)
         self.cleared = ClearedSet(p.n_tasks)
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
@@ -140,7 +76,7 @@ class Agent:
         self.t = float(now)
         self.restarted = bool(journal)
         # radio
-        self._slot_no = self._first_slot(now)
+        self._slot_no = self.slots.first_from(now)
         self._since_pose = 10**6
         self._outgoing: deque[list] = deque()  # [message factory args..., repeats left]
         self._push_cleared = 0  # full-state pushes still owed
@@ -186,7 +122,7 @@ class Agent:
 
     def next_wakeup(self) -> float:
         """The next time `step(Tick(...))` has something to do."""
-        times = [self._slot_time(self._slot_no), self._next_status, self._next_truth,
+        times = [self.slots.time(self._slot_no), self._next_status, self._next_truth,
                  self._next_ckpt]
         ev = self.vehicle.next_event_s()
         if ev is not None:
@@ -344,13 +280,12 @@ class Agent:
         free = self._free_spots()
         if not free:
             return
-        live = [self._live_self()] + [self._live_peer(v, now) for v in self._active_peers()]
-        held = self._held_map()
-        unavailable = frozenset(self.cleared) | frozenset(
-            t for t, h in held.items() if h not in {lv.index for lv in live})
-        seed = self.fleet.seed * 1000 + gone
-        routes = self.fleet.planner.replan(live, unavailable, held, seed)
-        mine = [t for t in routes.get(self.index, []) if t not in self.cleared]
+        peers = [live_peer(self.problem, v, self.peer_pose.get(v), self._peer_route(v), now)
+                 for v in self._active_peers()]
+        # The same seed on every survivor: equal views give equal answers.
+        mine = takeover_share(self.fleet.planner, live_self(self.vehicle), peers,
+                              frozenset(self.cleared), self._held_map(),
+                              seed=self.fleet.seed * 1000 + gone)
         gained = [t for t in mine if t in free]
         if gained:
             self._claim(gained, now, out)
@@ -369,34 +304,15 @@ class Agent:
         if slack < self.config.coop_min_slack_s:
             return
         free = self._free_spots()
-        if not free or not self._any_insertion_fits(free, slack):
+        if not free or not detour_fits(self.vehicle, free, slack):
             return
-        held = {t: h for t, h in self._held_map().items() if h == self.index}
-        others = frozenset(t for t, h in self._held_map().items() if h != self.index)
-        unavailable = frozenset(self.cleared) | others
-        seed = self.fleet.seed * 1000 + 100 + self.index
-        routes = self.fleet.planner.replan([self._live_self()], unavailable, held, seed)
-        mine = [t for t in routes.get(self.index, []) if t not in self.cleared]
+        mine = cooperation_route(self.fleet.planner, live_self(self.vehicle),
+                                 frozenset(self.cleared), self._held_map(),
+                                 seed=self.fleet.seed * 1000 + 100 + self.index)
         gained = [t for t in mine if t in free]
         if gained:
             self._claim(gained, now, out)
             self._set_route(mine, now, out, why="cooperation")
-
-    def _any_insertion_fits(self, free: set[int], slack: float) -> bool:
-        """Cheap pre-check before running the replanner: does any free spot fit as a detour?"""
-        p, v = self.problem, self.vehicle
-        speed = v.speed_mps
-        nodes = list(v.route) + [p.end_node(self.index)]
-        pos = np.asarray(v.pos)
-        cand = np.fromiter(free, dtype=int)
-        from_here = np.linalg.norm(p.xyz[cand] - pos, axis=1)
-        first = nodes[0]
-        here_to_first = float(np.linalg.norm(p.xyz[first] - pos))
-        detour = from_here + p.dist_m[cand, first] - here_to_first
-        for a, b in zip(nodes[:-1], nodes[1:]):
-            detour = np.minimum(detour, p.dist_m[a, cand] + p.dist_m[cand, b] - p.dist_m[a, b])
-        cost = detour / speed + p.service_s[cand]
-        return bool((cost <= slack).any())
 
     def _claim(self, tasks: list[int], now: float, out: list[Output]) -> None:
         t = int(now)
@@ -435,18 +351,8 @@ class Agent:
                  if t not in self.cleared and (t == injecting or self._holder(t) == self.index)]
         orphans = [t for t in self._held_by_me() if t not in route and t not in self.cleared]
         for t in orphans:
-            route = self._insert(route, t)
+            route = cheapest_insertion(self.vehicle, route, t)
         self._set_route(route, now, out, why="sync")
-
-    def _insert(self, route: list[int], task: int) -> list[int]:
-        start = 1 if route and route[0] == self.vehicle.injecting else 0
-        best, best_time = None, math.inf
-        for i in range(start, len(route) + 1):
-            cand = route[:i] + [task] + route[i:]
-            t = self.vehicle.time_to_finish_s(cand)
-            if t < best_time:
-                best, best_time = cand, t
-        return best if best is not None else route
 
     def _set_route(self, route: list[int], now: float, out: list[Output], why: str) -> None:
         fitted = fit_route(self.vehicle, route, self.config.battery_reserve_s)
@@ -485,26 +391,6 @@ class Agent:
                        key=lambda t: (self.holdings.claim_time(t, v) or 0, t))
         return base + extra
 
-    def _live_self(self) -> Live:
-        v = self.vehicle
-        locked = (v.injecting,) if v.injecting is not None else ()
-        return Live(self.index, tuple(round(c, 3) for c in v.pos),  # type: ignore[arg-type]
-                    round(v.battery_left_s(), 3), tuple(v.route), locked)
-
-    def _live_peer(self, v: int, now: float) -> Live:
-        """Dead reckoning: the peer's last pose, moved along its known route since then."""
-        route = self._peer_route(v)
-        if v in self.peer_pose:
-            pos, t, state = self.peer_pose[v]
-            service_left = 0.5 * float(self.problem.service_s[route[0]]) \
-                if state == "injecting" and route else 0.0
-        else:
-            pos, t, service_left = self.problem.vehicles[v].start, 0.0, 0.0
-        est = position_along(self.problem, v, pos, route, max(0.0, now - t), service_left)
-        battery = self.problem.vehicles[v].battery_s - now
-        return Live(v, tuple(round(c, 3) for c in est), round(max(0.0, battery), 3),  # type: ignore
-                    tuple(route))
-
     def _vid(self, v: int) -> str:
         return self.problem.vehicles[v].id
 
@@ -513,21 +399,11 @@ class Agent:
 
     # -- radio out -------------------------------------------------------------------------
 
-    def _first_slot(self, now: float) -> int:
-        return max(0, math.ceil((now - self.index * self.config.slot_s) / self.cycle_s))
-
-    def _slot_time(self, n: int) -> float:
-        # A small offset into the slot leaves room for clock skew between processes.
-        return n * self.cycle_s + self.index * self.config.slot_s + 0.05 * self.config.slot_s
-
     def _radio(self, now: float, out: list[Output]) -> None:
-        due = self._slot_time(self._slot_no)
-        if now < due:
+        if now < self.slots.time(self._slot_no):
             return
-        late = now - due > 0.5 * self.config.slot_s  # missed it (a slow host): wait for the next
-        self._slot_no = self._first_slot(now + 1e-9)
-        while self._slot_time(self._slot_no) <= now:
-            self._slot_no += 1
+        late = self.slots.missed(self._slot_no, now)
+        self._slot_no = self.slots.first_from(now + 1e-9)
         if late:
             self._count("slots_missed")
             return

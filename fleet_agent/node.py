@@ -21,7 +21,6 @@ from pathlib import Path
 from typing import Any
 
 import msgpack
-import numpy as np
 import zenoh
 
 from comms_sim import bus
@@ -131,8 +130,7 @@ def main(conf: zenoh.Config, vid: str, scenario_path: Path, config: AgentConfig,
             while clock.now() < 0 and not stop.is_set():
                 stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
             now = clock.now()
-            rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(index,)))
-            agent = Agent(fleet, index, config, rng, now, journal.records)
+            agent = Agent(fleet, index, config, now, journal.records)
             out = _Outbox(session, vid, journal)
             print(f"fleet_agent {vid}: running at t={now:.1f} s "
                   f"({'restart, ' + str(len(journal.records)) + ' records' if journal.records else 'fresh'})",

@@ -94,7 +94,7 @@ class FleetSim:
         self.problem = problem
         self.seed = seed
         root = np.random.SeedSequence(seed)
-        agent_seeds, channel_seed, attack_seed, key_seed = root.spawn(4)
+        channel_seed, attack_seed, key_seed = root.spawn(3)
         key = key or np.random.default_rng(key_seed).bytes(16)
         self.config = config.with_key(key)
         self.fleet = Fleet.build(problem, key, seed, self.config, planner)
@@ -107,8 +107,6 @@ class FleetSim:
         self.loop = EventLoop()
         self.channel = Channel(cfg, np.random.default_rng(channel_seed))
         self.net = InProcessNetwork(self.channel, self.loop, self._positions)
-        self._agent_seeds = {v.id: s for v, s in zip(problem.vehicles, agent_seeds.spawn(
-            problem.n_vehicles))}
         self._attack_rng = np.random.default_rng(attack_seed)
         self.horizon_s = horizon_s or max(v.battery_s for v in problem.vehicles) + 120.0
         self.oracle_iterations = oracle_iterations
@@ -124,9 +122,6 @@ class FleetSim:
 
     # -- wiring ----------------------------------------------------------------------------
 
-    def _rng(self, vid: str, generation: int) -> np.random.Generator:
-        return np.random.default_rng(self._agent_seeds[vid].spawn(generation + 1)[-1])
-
     def _positions(self, t_s: float) -> dict[str, tuple[float, float, float]]:
         out = {vid: s.agent.vehicle.pos for vid, s in self.slots.items() if s.agent is not None}
         for vid, s in self.slots.items():
@@ -134,10 +129,9 @@ class FleetSim:
                 out[vid] = s.status.pos  # dead in the water where it stopped
         return out
 
-    def _start(self, vid: str, now: float, journal: MemoryJournal, generation: int) -> None:
+    def _start(self, vid: str, now: float, journal: MemoryJournal) -> None:
         idx = self.problem.vehicle_index[vid]
-        agent = Agent(self.fleet, idx, self.config, self._rng(vid, generation), now,
-                      journal.records)
+        agent = Agent(self.fleet, idx, self.config, now, journal.records)
         slot = self.slots.get(vid)
         if slot is None:
             slot = self.slots[vid] = _Slot(agent, journal)
@@ -203,8 +197,7 @@ class FleetSim:
                 slot.handle.cancel()
                 slot.handle = None
         elif f.kind == "restart" and slot is not None and slot.agent is None:
-            generation = sum(1 for r in self.records if r.kind == "restart" and r.vid == f.vid)
-            self._start(f.vid, now, slot.journal.reopen(), generation)
+            self._start(f.vid, now, slot.journal.reopen())
         elif f.kind == "partition":
             self.channel.add_partition(Partition(now, now + max(f.value, 1.0), ((f.vid,),)))
         elif f.kind == "loss":
@@ -261,7 +254,7 @@ class FleetSim:
     def run(self, progress: Callable[[float], None] | None = None) -> SimResult:
         wall = time.perf_counter()
         for v in self.problem.vehicles:
-            self._start(v.id, 0.0, MemoryJournal(), 0)
+            self._start(v.id, 0.0, MemoryJournal())
         if any(f.kind in ("forge", "replay", "garbage") for f in self.faults):
             self.channel.set_position(INTRUDER, self._centroid(), 0.0)
         for f in self.faults:

@@ -29,7 +29,7 @@ def fleet() -> Fleet:
 
 
 def agent(index: int, now: float = 0.0, journal=()) -> Agent:
-    return Agent(fleet(), index, CONFIG, np.random.default_rng(index), now, journal)
+    return Agent(fleet(), index, CONFIG, now, journal)
 
 
 class Lockstep:

@@ -1,0 +1,95 @@
+"""Takeover and the online cooperation operator: what to ask the replanner, and how.
+
+Pure functions over what an agent knows. Both end in `hfc_core.replan` (through `Planner`,
+iteration budgets only, a seed shared where the fleet should agree):
+
+- takeover: all survivors (this vehicle at its true state, the others dead-reckoned), spots
+  held by live vehicles locked to them, the freed spots open; returns this vehicle's share;
+- cooperation (the paper's operator, online): this vehicle alone, every spot held by another
+  live vehicle off limits; returns its route with free spots inserted.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Collection, Mapping, Sequence
+
+import numpy as np
+
+from fleet_agent.plans import Live, Planner
+from fleet_agent.vehicle import Vehicle, position_along
+from hfc_core.problem import Problem
+
+Pose3 = tuple[float, float, float]
+
+
+def live_self(vehicle: Vehicle) -> Live:
+    """This vehicle as the replanner sees it (rounded: equal inputs memoise)."""
+    locked = (vehicle.injecting,) if vehicle.injecting is not None else ()
+    return Live(vehicle.index, tuple(round(c, 3) for c in vehicle.pos),  # type: ignore[arg-type]
+                round(vehicle.battery_left_s(), 3), tuple(vehicle.route), locked)
+
+
+def live_peer(problem: Problem, v: int, pose: tuple[Pose3, float, str] | None,
+              route: Sequence[int], now_s: float) -> Live:
+    """Dead reckoning: peer ``v``'s last pose (position, time, state) moved along its known
+    route since then; without a pose, from its start at time 0. Battery: capacity minus
+    mission time (constant power, Assumption 1)."""
+    if pose is not None:
+        pos, t, state = pose
+        service_left = 0.5 * float(problem.service_s[route[0]]) \
+            if state == "injecting" and route else 0.0
+    else:
+        pos, t, service_left = problem.vehicles[v].start, 0.0, 0.0
+    est = position_along(problem, v, pos, route, max(0.0, now_s - t), service_left)
+    battery = max(0.0, problem.vehicles[v].battery_s - now_s)
+    return Live(v, tuple(round(c, 3) for c in est), round(battery, 3),  # type: ignore[arg-type]
+                tuple(route))
+
+
+def takeover_share(planner: Planner, me: Live, peers: Sequence[Live], cleared: Collection[int],
+                   held: Mapping[int, int], seed: int) -> list[int]:
+    """This vehicle's new route after replanning all survivors over the free spots."""
+    live = [me, *peers]
+    present = {lv.index for lv in live}
+    unavailable = frozenset(cleared) | frozenset(t for t, h in held.items() if h not in present)
+    routes = planner.replan(live, unavailable, held, seed)
+    return [t for t in routes.get(me.index, []) if t not in cleared]
+
+
+def cooperation_route(planner: Planner, me: Live, cleared: Collection[int],
+                      held: Mapping[int, int], seed: int) -> list[int]:
+    """This vehicle's route with free spots inserted (single-vehicle replan)."""
+    mine = {t: h for t, h in held.items() if h == me.index}
+    others = frozenset(t for t, h in held.items() if h != me.index)
+    routes = planner.replan([me], frozenset(cleared) | others, mine, seed)
+    return [t for t in routes.get(me.index, []) if t not in cleared]
+
+
+def detour_fits(vehicle: Vehicle, free: Collection[int], slack_s: float) -> bool:
+    """Cheap pre-check before the replanner: does any free spot fit as a detour (cheapest
+    insertion into the current route, service included) within ``slack_s``?"""
+    p = vehicle.problem
+    nodes = list(vehicle.route) + [p.end_node(vehicle.index)]
+    pos = np.asarray(vehicle.pos)
+    cand = np.fromiter(free, dtype=int)
+    first = nodes[0]
+    detour = (np.linalg.norm(p.xyz[cand] - pos, axis=1) + p.dist_m[cand, first]
+              - float(np.linalg.norm(p.xyz[first] - pos)))
+    for a, b in zip(nodes[:-1], nodes[1:]):
+        detour = np.minimum(detour, p.dist_m[a, cand] + p.dist_m[cand, b] - p.dist_m[a, b])
+    cost = detour / vehicle.speed_mps + p.service_s[cand]
+    return bool((cost <= slack_s).any())
+
+
+def cheapest_insertion(vehicle: Vehicle, route: list[int], task: int) -> list[int]:
+    """``route`` with ``task`` where it lengthens the remaining mission least (never before
+    the spot being injected)."""
+    start = 1 if route and route[0] == vehicle.injecting else 0
+    best, best_time = route, math.inf
+    for i in range(start, len(route) + 1):
+        cand = route[:i] + [task] + route[i:]
+        t = vehicle.time_to_finish_s(cand)
+        if t < best_time:
+            best, best_time = cand, t
+    return best
