@@ -74,10 +74,11 @@ def test_best_is_reproducible_and_improves_on_its_construction():
     )
 
 
-def test_best_reaches_the_best_known_score_of_a_small_top_instance(top_dir):
-    problem = parse_top((top_dir / "p2.3.g.txt").read_text(), "p2.3.g")
-    result = solve(problem, "best", max_iterations=300, seed=0)
-    assert sum(problem.route_priority(r) for r in result.plan.routes) == 145
+def test_best_reaches_the_best_known_scores_of_small_top_instances(top_dir):
+    for name, bks in (("p2.3.g", 145), ("p1.3.l", 155)):
+        problem = parse_top((top_dir / f"{name}.txt").read_text(), name)
+        result = solve(problem, "best", max_iterations=1000, seed=0)
+        assert sum(problem.route_priority(r) for r in result.plan.routes) == bks
 
 
 def test_best_keeps_every_route_within_budget_under_a_time_limit():
