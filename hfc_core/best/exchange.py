@@ -13,6 +13,21 @@ import numpy as np
 from hfc_core.best.state import MARGIN_S, State
 
 
+# Up to this many (routed, unrouted) pairs every pair is evaluated; beyond, each routed task
+# is paired with its NEIGHBOURS nearest unrouted tasks only (granular neighbourhood).
+DENSE_PAIRS = 20_000
+NEIGHBOURS = 40
+
+
+def _pairs(state: State, cur: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(row into ``cur``, unrouted task) candidate pairs."""
+    if len(cur) * len(free) <= DENSE_PAIRS:
+        return np.repeat(np.arange(len(cur)), len(free)), np.tile(free, len(cur))
+    near = state.inst.nearest_tasks(NEIGHBOURS)[cur]  # (R, M)
+    rows, cols = np.nonzero(state.owner[near] < 0)
+    return rows, near[rows, cols]
+
+
 def best_replaces(state: State) -> list[tuple[float, int, int, int, int]]:
     """Each route's best move as (gain, vehicle, route index, task, insert index after the
     removal), richest gain first; empty if no route has one."""
@@ -23,43 +38,35 @@ def best_replaces(state: State) -> list[tuple[float, int, int, int, int]]:
     state.refresh()
     dist = inst.dist_m
     lengths = [len(r) for r in state.routes]
-    veh = np.repeat(np.arange(inst.k), lengths)
-    idx = np.concatenate([np.arange(n) for n in lengths])
     terms = [state.nodes(v) for v in range(inst.k)]
-    prev = np.concatenate([t[:-2] for t in terms])
     cur = np.concatenate([t[1:-1] for t in terms])
-    nxt = np.concatenate([t[2:] for t in terms])
-    speed = inst.speed_mps[veh][:, None]
-    saving_s = (dist[prev, cur] + dist[cur, nxt] - dist[prev, nxt]) / speed[:, 0] + inst.service_s[cur]
-    gap_m = dist[prev[:, None], free[None, :]] + dist[nxt[:, None], free[None, :]]
-    gap_m -= dist[prev, nxt][:, None]
-    rows, cols = veh[:, None], free[None, :]
-    pos = state.ins_pos[rows, cols]
-    touching = (pos == idx[:, None]) | (pos == idx[:, None] + 1)
-    elsewhere_m = np.where(touching, np.inf, state.ins_len[rows, cols])
+    row, w = _pairs(state, cur, free)
+    veh = np.repeat(np.arange(inst.k), lengths)[row]
+    idx = np.concatenate([np.arange(n) for n in lengths])[row]
+    prev = np.concatenate([t[:-2] for t in terms])[row]
+    nxt = np.concatenate([t[2:] for t in terms])[row]
+    u = cur[row]
+    speed = inst.speed_mps[veh]
+    saving_s = (dist[prev, u] + dist[u, nxt] - dist[prev, nxt]) / speed + inst.service_s[u]
+    gap_m = dist[prev, w] + dist[w, nxt] - dist[prev, nxt]
+    pos = state.ins_pos[veh, w]
+    elsewhere_m = np.where((pos == idx) | (pos == idx + 1), np.inf, state.ins_len[veh, w])
     use_gap = gap_m <= elsewhere_m
     times = np.array([state.time_s(v) for v in range(inst.k)])
-    new_time = (times[veh] - saving_s)[:, None] + np.minimum(gap_m, elsewhere_m) / speed
-    new_time += inst.service_s[free][None, :]
-    gain = inst.value[rows, cols] - inst.value[veh, cur][:, None]
-    ok = (gain > 0) & (new_time <= (inst.budget_s[veh] - MARGIN_S)[:, None])
-    ok &= inst.allowed[rows, cols]
+    new_time = times[veh] - saving_s + np.minimum(gap_m, elsewhere_m) / speed + inst.service_s[w]
+    gain = inst.value[veh, w] - inst.value[veh, u]
+    ok = (gain > 0) & (new_time <= inst.budget_s[veh] - MARGIN_S) & inst.allowed[veh, w]
     if not ok.any():
         return []
-    score = np.where(ok, gain, -np.inf)
+    # Per vehicle: richest gain first, then the shortest resulting mission.
+    ok = np.flatnonzero(ok)
+    order = ok[np.lexsort((new_time[ok], -gain[ok], veh[ok]))]
+    firsts = order[np.flatnonzero(np.diff(veh[order], prepend=-1))]
     moves = []
-    ends = np.cumsum(lengths)
-    for v in range(inst.k):
-        lo, hi = ends[v] - lengths[v], ends[v]
-        block = score[lo:hi]
-        if not lengths[v] or block.max() == -np.inf:
-            continue
-        # Richest gain first; among equal gains the shortest resulting mission.
-        tie = np.where(block == block.max(), -new_time[lo:hi], -np.inf)
-        r, c = np.unravel_index(int(tie.argmax()), block.shape)
-        i = int(idx[lo + r])
-        at = i if use_gap[lo + r, c] else int(pos[lo + r, c]) - (1 if pos[lo + r, c] > i else 0)
-        moves.append((float(block[r, c]), v, i, int(free[c]), at))
+    for p in firsts:
+        i = int(idx[p])
+        at = i if use_gap[p] else int(pos[p]) - (1 if pos[p] > i else 0)
+        moves.append((float(gain[p]), int(veh[p]), i, int(w[p]), at))
     return sorted(moves, key=lambda m: (-m[0], m[1]))
 
 

@@ -56,6 +56,18 @@ class Instance:
         length = float(self.dist_m[nodes[:-1], nodes[1:]].sum()) if len(nodes) > 1 else 0.0
         return length / float(self.speed_mps[v]) + float(sum(self.service_s[route]))
 
+    def nearest_tasks(self, m: int) -> np.ndarray:
+        """(n, min(m, n-1)) the nearest other tasks of each task, nearest first (cached)."""
+        cache = self.__dict__.setdefault("_nearest", {})
+        if m not in cache:
+            d = self.dist_m[: self.n, : self.n].copy()
+            np.fill_diagonal(d, np.inf)
+            m_eff = max(0, min(m, self.n - 1))
+            part = np.argpartition(d, m_eff - 1, axis=1)[:, :m_eff] if m_eff else np.zeros((self.n, 0), int)
+            keys = np.take_along_axis(d, part, axis=1)
+            cache[m] = np.take_along_axis(part, np.argsort(keys, axis=1, kind="stable"), axis=1)
+        return cache[m]
+
     def tie_weight(self) -> float:
         """Weight of one second of mission time in the objective: small enough that saving the
         whole fleet's budget is worth less than a thousandth of the smallest positive value,
