@@ -10,6 +10,7 @@ every vehicle is home, aborted or dead (or the battery horizon passed), and writ
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import secrets
@@ -102,7 +103,7 @@ class Launcher:
     # -- processes -------------------------------------------------------------------------
 
     def _spawn(self, name: str, argv: Sequence[str], ready_prefix: str | None = None,
-               env: dict[str, str] | None = None) -> _Proc:
+               env: dict[str, str] | None = None, echo: bool = False) -> _Proc:
         log = open(self.run_dir / f"{name}.log", "ab")
         popen = subprocess.Popen(
             list(argv), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
@@ -116,6 +117,8 @@ class Launcher:
                 log.flush()
                 line = raw.decode(errors="replace").rstrip()
                 proc.lines.append(line)
+                if echo:  # e.g. the ground station's viewer address: the user needs it
+                    self.out(line)
                 if ready_prefix and line.startswith(ready_prefix):
                     proc.ready.set()
             log.close()
@@ -225,7 +228,7 @@ class Launcher:
                           "--viewer", opts.viewer, "--web-port", str(opts.web_port)]
                     if opts.rrd is not None:
                         gs += ["--rrd", str(opts.rrd)]
-                    self._spawn("ground_station", gs)
+                    self._spawn("ground_station", gs, echo=True)
                 for vid in self.ids:
                     self._spawn(vid, self._agent_argv(vid))
                 self._wait_agents(opts.startup_timeout_s)
@@ -265,6 +268,9 @@ class Launcher:
                    "loss": opts.loss, "wall_s": round(time.monotonic() - wall0, 2),
                    "interrupted": interrupted,
                    "exit_codes": {n: p.popen.returncode for n, p in self.procs.items()}})
+        with open(self.run_dir / "events.jsonl", "w", encoding="utf-8") as fh:
+            for e in events:  # the whole event log, for whoever wants to dig deeper
+                fh.write(json.dumps(dataclasses.asdict(e)) + "\n")
         path = opts.report or self.run_dir / "report.json"
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(report, indent=2), encoding="utf-8")
@@ -375,7 +381,6 @@ def scenario_doc(path: Path | None, vehicles: int | None, seed: int) -> dict[str
             problem_to_dict(load_problem(path))
         problem_from_dict(doc)  # validate now, with a clear message
         return doc
-    import dataclasses
 
     import numpy as np
 

@@ -104,12 +104,14 @@ def main(conf: zenoh.Config, vid: str, scenario_path: Path, config: AgentConfig,
         print(f"fleet_agent: {vid!r} is not a vehicle of the scenario", file=sys.stderr)
         return 2
     index = problem.vehicle_index[vid]
-    inbox: queue.SimpleQueue[tuple[str, bytes]] = queue.SimpleQueue()
+    # Items carry their arrival (wall) time: after a long computation the agent still sees
+    # each frame at the moment it came, not all of them at once.
+    inbox: queue.SimpleQueue[tuple[str, bytes, float]] = queue.SimpleQueue()
     with Journal(journal_path) as journal, zenoh.open(conf) as session, \
             session.declare_subscriber(bus.rx_key(vid),
-                                       lambda s: inbox.put(("rx", s.payload.to_bytes()))), \
+                                       lambda s: inbox.put(("rx", s.payload.to_bytes(), time.time()))), \
             session.declare_subscriber(bus.ctl_key(vid),
-                                       lambda s: inbox.put(("ctl", s.payload.to_bytes()))):
+                                       lambda s: inbox.put(("ctl", s.payload.to_bytes(), time.time()))):
         mission = None
         if seed is None:
             mission = fetch_mission(session, stop, mission_timeout_s)
@@ -140,7 +142,7 @@ def main(conf: zenoh.Config, vid: str, scenario_path: Path, config: AgentConfig,
     return 0
 
 
-def _loop(agent: Agent, out: _Outbox, inbox: "queue.SimpleQueue[tuple[str, bytes]]",
+def _loop(agent: Agent, out: _Outbox, inbox: "queue.SimpleQueue[tuple[str, bytes, float]]",
           clock: WarpClock, stop: threading.Event) -> None:
     out.handle(agent.step(Tick(clock.now())))
     while not stop.is_set():
@@ -150,12 +152,13 @@ def _loop(agent: Agent, out: _Outbox, inbox: "queue.SimpleQueue[tuple[str, bytes
         except queue.Empty:
             item = None
         while item is not None:
-            kind, payload = item
+            kind, payload, wall = item
+            at = (wall - clock.epoch_unix) * clock.warp
             if kind == "rx":
-                out.handle(agent.step(Frame(payload, clock.now())))
+                out.handle(agent.step(Frame(payload, at)))
             else:
                 try:
-                    out.handle(agent.step(Command(decode_command(payload), clock.now())))
+                    out.handle(agent.step(Command(decode_command(payload), at)))
                 except ValueError:
                     agent.counters["ctl_malformed"] = agent.counters.get("ctl_malformed", 0) + 1
             try:
