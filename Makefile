@@ -19,7 +19,7 @@ $(VENV)/.bench: $(STAMP)
 
 # The main job: an emulated mission with the live dashboard, on embedded defaults.
 demo: $(STAMP)
-	$(VENV)/bin/cotsfleet demo
+	$(VENV)/bin/cotsfleet run --abort auv2@1200
 
 test: $(STAMP)
 	$(PY) -m pytest -q

@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from benchmarks.results import markdown_table, write_section
-from cotsfleet.commands.demo import format_text
+from cotsfleet.commands.compare import format_text
 from hfc_core.check import check_routes
 from hfc_core.cost import CostWeights, RouteModel
 from hfc_core.generate import paper_preset_doc

@@ -12,7 +12,7 @@ import statistics
 import time
 
 from benchmarks.results import markdown_table, write_section
-from cotsfleet.commands.demo import (
+from cotsfleet.commands.compare import (
     FAITHFUL_MODES, PAPER_TASKS, TABLE_HEADER, format_text, run_modes, table_rows,
 )
 from hfc_core.generate import paper_preset_doc

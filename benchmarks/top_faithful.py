@@ -14,7 +14,7 @@ import time
 
 from benchmarks.results import markdown_table, write_section
 from benchmarks.top_common import gap_pct, instances
-from cotsfleet.commands.demo import format_text
+from cotsfleet.commands.compare import format_text
 from hfc_core.check import check_routes
 from hfc_core.plan import vehicle_figures
 from hfc_core.solve import solve

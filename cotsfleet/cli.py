@@ -20,7 +20,7 @@ COMMANDS = {
     "plan": "plan",
     "run": "run",
     "sim": "sim",
-    "demo": "demo",
+    "compare": "compare",
 }
 
 

@@ -57,6 +57,9 @@ class LaunchOptions:
     agent_config: AgentConfig = field(default_factory=AgentConfig)
     horizon_s: float | None = None
     progress_every_s: float = 3.0  # wall seconds between progress lines (0: none)
+    # Keep the ground station (and so the web viewer it serves) up after the mission until
+    # Ctrl-C: an operator watching in a browser should not lose the picture at the end.
+    hold_viewer: bool = False
     startup_timeout_s: float = 90.0
 
     def __post_init__(self) -> None:
@@ -255,7 +258,8 @@ class Launcher:
             interrupted = True
             link = None
         finally:
-            self._stop([n for n in self.procs if n not in ("router",)])
+            held = ("ground_station",) if opts.hold_viewer and not interrupted else ()
+            self._stop([n for n in self.procs if n not in ("router", *held)])
             self._stop(["router"])
         if end_s is None:
             end_s = max(0.0, clock.now()) if clock is not None else 0.0
@@ -276,7 +280,19 @@ class Launcher:
         path.write_text(json.dumps(report, indent=2), encoding="utf-8")
         self.out(format_report(report))
         self.out(f"report: {path}")
+        if "ground_station" in self.procs and self.procs["ground_station"].popen.poll() is None:
+            self._hold_viewer()
         return report
+
+    def _hold_viewer(self) -> None:
+        """Serve the finished mission's dashboard until Ctrl-C (or the station exits)."""
+        self.out("mission over: the dashboard stays up; press Ctrl-C to quit")
+        try:
+            self.procs["ground_station"].popen.wait()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self._stop(["ground_station"])
 
     def _wait_agents(self, timeout_s: float) -> None:
         deadline = time.monotonic() + timeout_s
@@ -373,14 +389,11 @@ def scenario_doc(path: Path | None, vehicles: int | None, seed: int) -> dict[str
     """The mission's scenario document: a file (JSON scenario or TOP instance), else the
     paper preset drawn with ``seed`` (``vehicles`` changes its fleet size)."""
     if path is not None:
-        from cotsfleet.io import load_problem
+        from cotsfleet.io import read_scenario
         from hfc_core.scenario import problem_to_dict
 
-        text = Path(path).read_text(encoding="utf-8") if Path(path).exists() else ""
-        doc = json.loads(text) if text.lstrip().startswith("{") else \
-            problem_to_dict(load_problem(path))
-        problem_from_dict(doc)  # validate now, with a clear message
-        return doc
+        problem, doc = read_scenario(path)  # validates, with a clear message
+        return doc if doc is not None else problem_to_dict(problem)
 
     import numpy as np
 

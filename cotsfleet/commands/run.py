@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from cotsfleet.cli import UsageError
@@ -31,6 +32,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--run-dir", type=Path, help="journals, logs, report (default: a new "
                    "directory under $TMPDIR/cotsfleet-runs)")
     p.add_argument("--config", type=Path, help="agent settings TOML (fleet_agent.config)")
+    p.add_argument("--hold-viewer", action=argparse.BooleanOptionalAction,
+                   help="keep the web dashboard up after the mission until Ctrl-C "
+                   "(default: yes for --viewer web in an interactive terminal)")
 
 
 def _faults(specs: list[str], what: str) -> tuple[tuple[str, float], ...]:
@@ -51,6 +55,9 @@ def run(args: argparse.Namespace) -> int:
         from ground_station.viewer import default_viewer
 
         viewer = default_viewer()
+    hold = args.hold_viewer
+    if hold is None:
+        hold = viewer == "web" and sys.stdin.isatty()
     try:
         config = load_config(args.config) if args.config else AgentConfig()
         opts = LaunchOptions(
@@ -58,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
             warp=args.warp, loss=args.loss, aborts=_faults(args.abort, "abort"),
             kills=_faults(args.kill, "kill"), restarts=_faults(args.restart, "restart"),
             viewer=viewer, rrd=args.rrd, web_port=args.web_port, run_dir=args.run_dir,
-            report=args.report, agent_config=config)
+            report=args.report, agent_config=config, hold_viewer=hold)
         report = run_mission(opts)
     except (RuntimeError, TimeoutError) as exc:  # TimeoutError first: it is an OSError
         print(f"cotsfleet run: failed: {exc}")

@@ -141,8 +141,8 @@ def test_subprocess_exit_code_and_no_traceback(scenario_doc, tmp_path):
     assert "duplicate task id" in proc.stderr
 
 
-def test_planning_demo_quick(capsys):
-    assert main(["demo", "--quick", "--best-time-limit", "0.5"]) == 0
+def test_planning_comparison_quick(capsys):
+    assert main(["compare", "--quick", "--best-time-limit", "0.5"]) == 0
     out = capsys.readouterr().out
     for mode in ("hfc-ncm1", "hfc-ncm2", "hfc-cm", "ga"):
         assert re.search(rf"{mode}\s+total", out), mode

@@ -1,4 +1,4 @@
-"""`cotsfleet demo`: the paper's scenario planned by every mode, summarised like its Table I."""
+"""`cotsfleet compare`: the paper's scenario planned by every mode, summarised like its Table I."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hfc_core.problem import Problem
 from hfc_core.scenario import problem_from_dict
 from hfc_core.solve import SolveResult, engine, solve
 
-HELP = "planning demo: the paper's scenario with NCM1, NCM2, CM, GA (and best): a Table I analog"
+HELP = "compare the planners: the paper's scenario with NCM1, NCM2, CM, GA (and best): a Table I analog"
 
 FAITHFUL_MODES = ("hfc-ncm1", "hfc-ncm2", "hfc-cm", "ga")
 ITERATIONS = {"hfc-ncm1": 150, "hfc-ncm2": 150, "hfc-cm": 150, "ga": 200}
