@@ -31,7 +31,9 @@ class SearchParams:
     ruin_max: int = 30  # most tasks one destroy unassigns
     ruin_share: float = 0.5  # ... and at most this share of the routed tasks
     threshold: float = 0.01  # accept down to this share below the run's best, shrinking to 0
-    noise: float = 0.5  # relative noise on the repair's insertion values
+    # Repair variants: relative noise on insertion values, one chosen per iteration by the same
+    # adaptive roulette as the destroy operators (TOP instances like ~0.5, the paper preset less).
+    noise_levels: tuple[float, ...] = (0.2, 0.5)
     reaction: float = 0.2  # how fast operator weights follow their recent scores
     segment: int = 50  # iterations between weight updates
     restart: int = 300  # iterations without a better plan before a run ends
@@ -43,9 +45,11 @@ class SearchParams:
         for name in ("ruin_share", "reaction"):
             if not 0 < getattr(self, name) <= 1:
                 raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)}")
-        for name in ("threshold", "noise", "explore"):
+        for name in ("threshold", "explore"):
             if not 0 <= getattr(self, name) <= 1:
                 raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)}")
+        if not self.noise_levels or not all(0 <= x < 1 for x in self.noise_levels):
+            raise ValueError(f"noise levels must be in [0, 1), got {self.noise_levels}")
         if self.segment < 1 or self.restart < 1:
             raise ValueError("segment and restart must be >= 1")
 
@@ -64,10 +68,10 @@ def shorten(state: State, vehicles: list[int]) -> bool:
     return shorter
 
 
-def recreate(state: State, before: State, rng: np.random.Generator, params: SearchParams) -> State:
+def recreate(state: State, before: State, rng: np.random.Generator, noise: float) -> State:
     """Greedy insertion (random criterion, noisy values), then `local_search`."""
     exponent = EXPONENTS[int(rng.integers(len(EXPONENTS)))]
-    fill(state, rng, exponent=exponent, noise=params.noise)
+    fill(state, rng, exponent=exponent, noise=noise)
     return local_search(state, before, rng, exponent)
 
 
@@ -75,13 +79,42 @@ def local_search(
     state: State, before: State, rng: np.random.Generator, exponent: float = 1.0, rounds: int = 3
 ) -> State:
     """Shorten the routes that differ from ``before``, swap in richer tasks, insert into the
-    time that frees; repeat while anything changes."""
+    time that frees; repeat on what changed while anything changes."""
+    k = state.inst.k
+    changed = [v for v in range(k) if state.routes[v] != before.routes[v]]
     for _ in range(rounds):
-        changed = [v for v in range(state.inst.k) if state.routes[v] != before.routes[v]]
-        if not (shorten(state, changed) | replace_improve(state)):
+        shorter = shorten(state, changed)
+        snapshot = [list(r) for r in state.routes]
+        if not (replace_improve(state) or shorter):
             break
         fill(state, rng, exponent=exponent)
+        changed = [v for v in range(k) if state.routes[v] != snapshot[v]]
+        if not changed:
+            break
     return state
+
+
+class _Roulette:
+    """Adaptive operator weights (ALNS): picked in proportion to the weights, which follow each
+    operator's mean outcome score over the last ``segment`` iterations."""
+
+    def __init__(self, size: int, params: SearchParams) -> None:
+        self.weights = np.ones(size)
+        self.scores, self.uses = np.zeros(size), np.zeros(size)
+        self.params = params
+
+    def pick(self, rng: np.random.Generator) -> int:
+        return int(rng.choice(len(self.weights), p=self.weights / self.weights.sum()))
+
+    def score(self, op: int, outcome: int, iteration: int) -> None:
+        self.scores[op] += OUTCOME_SCORES[outcome]
+        self.uses[op] += 1
+        if iteration % self.params.segment == 0:
+            used = self.uses > 0
+            recent = np.maximum(self.scores[used] / self.uses[used], 0.1)
+            reaction = self.params.reaction
+            self.weights[used] = (1 - reaction) * self.weights[used] + reaction * recent
+            self.scores[:], self.uses[:] = 0.0, 0.0
 
 
 def progress(stop: Stop, iteration: int) -> float:
@@ -113,14 +146,15 @@ def search(
     tie = start.inst.tie_weight()
     current, current_obj = start, start.objective(tie)
     best, best_obj, run_obj = start.copy(), current_obj, current_obj
-    weights = np.ones(len(RUIN_OPERATORS))
-    seg_score, seg_uses = np.zeros_like(weights), np.zeros_like(weights)
+    ruins = _Roulette(len(RUIN_OPERATORS), params)
+    noises = _Roulette(len(params.noise_levels), params)
     iteration = stale = 0
     while not stop.done(iteration):
-        op = int(rng.choice(len(weights), p=weights / weights.sum()))
+        op, level = ruins.pick(rng), noises.pick(rng)
         routed = int((current.owner >= 0).sum())
         size = int(rng.integers(1, max(1, min(params.ruin_max, params.ruin_share * routed)) + 1))
-        candidate = recreate(RUIN_OPERATORS[op](current.copy(), rng, size), current, rng, params)
+        destroyed = RUIN_OPERATORS[op](current.copy(), rng, size)
+        candidate = recreate(destroyed, current, rng, params.noise_levels[level])
         cand_obj = candidate.objective(tie)
         spent = progress(stop, iteration)
         iteration, stale = iteration + 1, stale + 1
@@ -137,13 +171,8 @@ def search(
             outcome = 3
         if outcome < 3:
             current, current_obj = candidate, cand_obj
-        seg_score[op] += OUTCOME_SCORES[outcome]
-        seg_uses[op] += 1
-        if iteration % params.segment == 0:
-            used = seg_uses > 0
-            recent = np.maximum(seg_score[used] / seg_uses[used], 0.1)
-            weights[used] = (1 - params.reaction) * weights[used] + params.reaction * recent
-            seg_score[:], seg_uses[:] = 0.0, 0.0
+        ruins.score(op, outcome, iteration)
+        noises.score(level, outcome, iteration)
         if stale >= params.restart:
             current = fresh() if fresh is not None and spent < params.explore else best.copy()
             current_obj = run_obj = current.objective(tie)

@@ -7,9 +7,17 @@ paths around land). ``nodes`` includes the route's terminals, which never move.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 EPS_M = 1e-9  # an improvement smaller than this is rounding, not progress
+
+
+@lru_cache(maxsize=256)
+def _lower(size: int) -> np.ndarray:
+    """Mask of the pairs (i, j) with j <= i + 1: not a 2-opt move."""
+    return np.tri(size, size, 1, dtype=bool)
 
 
 def two_opt_step(dist: np.ndarray, nodes: np.ndarray) -> np.ndarray | None:
@@ -20,7 +28,7 @@ def two_opt_step(dist: np.ndarray, nodes: np.ndarray) -> np.ndarray | None:
     edge = dist[a, b]
     # Reversing nodes[i+1..j] swaps edges (a_i, b_i), (a_j, b_j) for (a_i, a_j), (b_i, b_j).
     gain = dist[a[:, None], a[None, :]] + dist[b[:, None], b[None, :]] - edge[:, None] - edge[None, :]
-    gain[np.tril_indices(len(a), 1)] = np.inf
+    gain[_lower(len(a))] = np.inf
     flat = int(gain.argmin())
     i, j = divmod(flat, len(a))
     if gain[i, j] >= -EPS_M:
