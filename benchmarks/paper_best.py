@@ -20,7 +20,7 @@ import numpy as np
 
 from benchmarks.pinned import run_pinned
 from benchmarks.results import markdown_table, write_section
-from benchmarks.top_bench import score
+from benchmarks.top_bench import score, warm_up
 from hfc_core.generate import paper_preset_doc
 from hfc_core.problem import Problem
 from hfc_core.scenario import problem_from_dict
@@ -31,6 +31,7 @@ MODES = ("best", "pyvrp", "hfc-cm", "hfc-ncm2", "ga")
 
 def worker(mode: str, scenario_seed: int, seed: int, time_limit_s: float) -> None:
     problem = problem_from_dict(paper_preset_doc(scenario_seed))
+    warm_up(mode)
     started = time.perf_counter()
     if mode == "pyvrp":
         from benchmarks.reference_solvers import solve_pyvrp
