@@ -53,7 +53,9 @@ def quality_worker(scenario: int, limit_s: float) -> dict:
             "elapsed_s": result.elapsed_s, "iterations": result.iterations}
 
 
-def advance(problem: Problem, routes: list[list[int]], t_s: float) -> tuple[list[LiveVehicle], list[int]]:
+def advance(
+    problem: Problem, routes: list[list[int]], t_s: float
+) -> tuple[list[LiveVehicle], list[int]]:
     """Where each vehicle is after ``t_s`` seconds of its plan: at the last spot it finished
     (or its start), with the battery that leaves; and the spots cleared by then."""
     live, cleared = [], []
@@ -119,7 +121,8 @@ def main(scenarios: int, limits: tuple[float, ...], large_limit_s: float, parall
         block = quality[j * len(seeds): (j + 1) * len(seeds)]
         pr = np.array([q["priority"] for q in block])
         q_rows.append([f"{t:g}", f"{np.median(pr):.0f}", f"{np.median(pr / longest):.4f}",
-                       f"{np.min(pr / longest):.4f}", f"{np.median([q['iterations'] for q in block]):.0f}",
+                       f"{np.min(pr / longest):.4f}",
+                       f"{np.median([q['iterations'] for q in block]):.0f}",
                        f"{np.median([q['elapsed_s'] for q in block]):.2f}"])
     times = np.array(rep["times_s"])
     r_rows = [[len(times), f"{np.median(times):.3f}", f"{np.percentile(times, 90):.3f}",
@@ -145,7 +148,8 @@ def main(scenarios: int, limits: tuple[float, ...], large_limit_s: float, parall
             f"**`best` on the paper preset** ({len(seeds)} scenarios `paper_preset_doc(1000 + i)`, "
             "seed 0; priority relative to the same scenario at the longest limit):\n\n"
             + tables[0]
-            + f"\n\n**Replan after a loss** ({len(seeds)} scenarios: `best` plan of 600 iterations, "
+            + f"\n\n**Replan after a loss** ({len(seeds)} scenarios: `best` plan of 600 "
+            "iterations, "
             "the fleet advances 1200 s, vehicle i mod 3 is lost, the survivors call `replan` with "
             "its default budget; wall clock of the call):\n\n"
             + tables[1]

@@ -66,7 +66,8 @@ def solve_pyvrp(problem: Problem, time_limit_s: float, seed: int = 0) -> list[li
     profiles = {s: model.add_profile() for s in speeds} if len(speeds) > 1 else {speeds[0]: None}
     groups: dict[tuple, list[int]] = {}
     for v, vehicle in enumerate(problem.vehicles):
-        key = (tuple(vehicle.start), tuple(vehicle.rendezvous), vehicle.battery_s, vehicle.speed_mps)
+        key = (tuple(vehicle.start), tuple(vehicle.rendezvous), vehicle.battery_s,
+               vehicle.speed_mps)
         groups.setdefault(key, []).append(v)
     for (start, end, battery, speed), members in groups.items():
         model.add_vehicle_type(
@@ -118,7 +119,8 @@ def solve_ortools(problem: Problem, time_limit_s: float, seed: int = 0) -> list[
             lambda i, j, step=step: step[manager.IndexToNode(i)][manager.IndexToNode(j)]))
     budgets = [int(_scaled(v.battery_s)) for v in problem.vehicles]
     routing.AddDimensionWithVehicleTransitAndCapacity(time_callbacks, 0, budgets, True, "time")
-    penalty = np.rint(problem.priority * 100).astype(np.int64) * max(1, _prize_factor(problem) // 100)
+    per_point = max(1, _prize_factor(problem) // 100)
+    penalty = np.rint(problem.priority * 100).astype(np.int64) * per_point
     for u in range(n):
         routing.AddDisjunction([manager.NodeToIndex(u)], int(penalty[u]))
     params = pywrapcp.DefaultRoutingSearchParameters()

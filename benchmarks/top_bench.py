@@ -32,7 +32,8 @@ def run_solver(solver: str, problem: Problem, time_limit_s: float, seed: int) ->
     if solver == "best":
         from hfc_core.solve import solve
 
-        return [list(r) for r in solve(problem, "best", time_limit_s=time_limit_s, seed=seed).plan.routes]
+        plan = solve(problem, "best", time_limit_s=time_limit_s, seed=seed).plan
+        return [list(r) for r in plan.routes]
     from benchmarks import reference_solvers
 
     return getattr(reference_solvers, f"solve_{solver}")(problem, time_limit_s, seed)

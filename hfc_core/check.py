@@ -128,6 +128,7 @@ def _boundary_distance(pt: tuple[float, float], ring: list[tuple[float, float]])
     for (ax, ay), (bx, by) in zip(ring, ring[1:] + ring[:1]):
         ex, ey = bx - ax, by - ay
         length2 = ex * ex + ey * ey
-        t = 0.0 if length2 == 0 else max(0.0, min(1.0, ((pt[0] - ax) * ex + (pt[1] - ay) * ey) / length2))
+        along = ((pt[0] - ax) * ex + (pt[1] - ay) * ey) / length2 if length2 else 0.0
+        t = max(0.0, min(1.0, along))
         best = min(best, math.dist(pt, (ax + t * ex, ay + t * ey)))
     return best

@@ -109,7 +109,9 @@ class LandMap:
             raise LandError(f"position {p[0].tolist()} cannot reach every target around the land")
         return np.sqrt(flat**2 + (targets[:, 2] - p[0, 2]) ** 2)
 
-    def shortest_path(self, p: Sequence[float], q: Sequence[float]) -> tuple[float, list[tuple[float, float, float]]]:
+    def shortest_path(
+        self, p: Sequence[float], q: Sequence[float]
+    ) -> tuple[float, list[tuple[float, float, float]]]:
         """(length in metres, waypoints from ``p`` to ``q`` inclusive, 3-D, depth interpolated
         along the way) of the shortest path around the land."""
         pq = np.array([_xyz(p), _xyz(q)])
@@ -166,8 +168,8 @@ class LandMap:
         seen = self.visible(self.corners[ii], self.corners[jj])
         length = np.linalg.norm(self.corners[ii] - self.corners[jj], axis=1)
         i, j, d = ii[seen], jj[seen], length[seen]
-        graph = csr_matrix((np.concatenate([d, d]), (np.concatenate([i, j]), np.concatenate([j, i]))),
-                           shape=(w, w))
+        rows, cols = np.concatenate([i, j]), np.concatenate([j, i])
+        graph = csr_matrix((np.concatenate([d, d]), (rows, cols)), shape=(w, w))
         dist, pred = shortest_path(graph, method="D", directed=False, return_predecessors=True)
         return dist, pred
 
@@ -195,7 +197,9 @@ class LandMap:
         d2 = _cross(px, py, qx, qy, b[..., 0], b[..., 1])
         d3 = _cross(a[..., 0], a[..., 1], b[..., 0], b[..., 1], px, py)
         d4 = _cross(a[..., 0], a[..., 1], b[..., 0], b[..., 1], qx, qy)
-        proper = ((d1 > 0) & (d2 < 0) | (d1 < 0) & (d2 > 0)) & ((d3 > 0) & (d4 < 0) | (d3 < 0) & (d4 > 0))
+        proper = ((d1 > 0) & (d2 < 0) | (d1 < 0) & (d2 > 0)) & (
+            (d3 > 0) & (d4 < 0) | (d3 < 0) & (d4 > 0)
+        )
         blocked = proper.any(axis=1)
         # Without a proper crossing a segment can still enter land through corners it passes
         # exactly, or lie inside between two boundary points: split it at the corners it
@@ -213,7 +217,8 @@ class LandMap:
         if length2 == 0:
             return False
         t = ((self._a - p) @ d) / length2
-        off = np.abs(_cross(p[0], p[1], q[0], q[1], self._a[:, 0], self._a[:, 1])) / np.sqrt(length2)
+        cross = _cross(p[0], p[1], q[0], q[1], self._a[:, 0], self._a[:, 1])
+        off = np.abs(cross) / np.sqrt(length2)
         cuts = np.unique(np.concatenate([[0.0, 1.0], t[(off <= 1e-6) & (t > 0) & (t < 1)]]))
         mids = p + ((cuts[:-1] + cuts[1:]) / 2)[:, None] * d
         return bool(self.inside(mids).any())

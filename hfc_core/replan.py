@@ -199,7 +199,8 @@ class _Setup:
         n = self.problem.n_tasks
         nodes = [n + 2 * i, *self.locked[i]]
         travel = sum(float(dist[a, b]) for a, b in zip(nodes[:-1], nodes[1:]))
-        return travel / float(speed[i]) + sum(float(self.problem.service_s[u]) for u in self.locked[i])
+        service = sum(float(self.problem.service_s[u]) for u in self.locked[i])
+        return travel / float(speed[i]) + service
 
     def _home(self) -> np.ndarray:
         """Which live vehicle's current route each task is in (first one wins), -1 if none."""

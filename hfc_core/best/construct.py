@@ -84,7 +84,8 @@ def screen(inst: Instance, v: int, route: list[int]) -> list[int]:
     route = list(route)
     while route and inst.route_time_s(v, route) > inst.budget_s[v] - MARGIN_S:
         nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)
-        saving = dist[nodes[:-2], nodes[1:-1]] + dist[nodes[1:-1], nodes[2:]] - dist[nodes[:-2], nodes[2:]]
+        prev, cur, nxt = nodes[:-2], nodes[1:-1], nodes[2:]
+        saving = dist[prev, cur] + dist[cur, nxt] - dist[prev, nxt]
         saving_s = saving / inst.speed_mps[v] + inst.service_s[route] + 1e-9
         route.pop(int((inst.value[v, route] / saving_s).argmin()))
     return route
@@ -98,7 +99,8 @@ def construct(inst: Instance, rng: np.random.Generator, labels: np.ndarray | Non
     routes = []
     for v in range(inst.k):
         members = [
-            int(u) for u in np.flatnonzero(labels == v) if inst.allowed[v, u] and inst.value[v, u] > 0
+            int(u) for u in np.flatnonzero(labels == v)
+            if inst.allowed[v, u] and inst.value[v, u] > 0
         ]
         route = screen(inst, v, order(inst, v, members))
         nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)

@@ -18,7 +18,9 @@ from hfc_core.best.state import State
 EXPONENTS = (0.5, 1.0, 2.0)
 
 
-def _weighted(value: np.ndarray, extra_s: np.ndarray, exponent: float, floor_s: float) -> np.ndarray:
+def _weighted(
+    value: np.ndarray, extra_s: np.ndarray, exponent: float, floor_s: float
+) -> np.ndarray:
     d = np.maximum(extra_s, 0.0) + floor_s
     if exponent == 0.0:
         return value.copy()

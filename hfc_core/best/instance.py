@@ -17,7 +17,7 @@ from hfc_core.problem import Problem
 
 @dataclass(frozen=True, eq=False)
 class Instance:
-    """Nodes ``0..n-1`` are tasks; ``start``/``end`` index vehicles' terminal nodes in ``dist_m``."""
+    """Nodes ``0..n-1`` are tasks; ``start``/``end`` index each vehicle's terminal nodes."""
 
     dist_m: np.ndarray  # (m, m) symmetric travel metric, m >= n
     service_s: np.ndarray  # (n,)
@@ -63,7 +63,10 @@ class Instance:
             d = self.dist_m[: self.n, : self.n].copy()
             np.fill_diagonal(d, np.inf)
             m_eff = max(0, min(m, self.n - 1))
-            part = np.argpartition(d, m_eff - 1, axis=1)[:, :m_eff] if m_eff else np.zeros((self.n, 0), int)
+            if m_eff:
+                part = np.argpartition(d, m_eff - 1, axis=1)[:, :m_eff]
+            else:
+                part = np.zeros((self.n, 0), dtype=np.int64)
             keys = np.take_along_axis(d, part, axis=1)
             cache[m] = np.take_along_axis(part, np.argsort(keys, axis=1, kind="stable"), axis=1)
         return cache[m]

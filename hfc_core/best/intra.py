@@ -27,7 +27,8 @@ def two_opt_step(dist: np.ndarray, nodes: np.ndarray) -> np.ndarray | None:
     a, b = nodes[:-1], nodes[1:]
     edge = dist[a, b]
     # Reversing nodes[i+1..j] swaps edges (a_i, b_i), (a_j, b_j) for (a_i, a_j), (b_i, b_j).
-    gain = dist[a[:, None], a[None, :]] + dist[b[:, None], b[None, :]] - edge[:, None] - edge[None, :]
+    gain = dist[a[:, None], a[None, :]] + dist[b[:, None], b[None, :]]
+    gain -= edge[:, None] + edge[None, :]
     gain[_lower(len(a))] = np.inf
     flat = int(gain.argmin())
     i, j = divmod(flat, len(a))

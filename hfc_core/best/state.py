@@ -28,7 +28,7 @@ class State:
     def __init__(self, inst: Instance, routes: list[list[int]] | None = None) -> None:
         self.inst = inst
         k, n = inst.k, inst.n
-        self.routes: list[list[int]] = [list(r) for r in routes] if routes else [[] for _ in range(k)]
+        self.routes = [list(r) for r in routes] if routes else [[] for _ in range(k)]
         self.owner = np.full(n, UNASSIGNED, dtype=np.int64)
         for v, route in enumerate(self.routes):
             self.owner[route] = v
@@ -89,7 +89,7 @@ class State:
         return sum(self.time_s(v) for v in range(self.inst.k))
 
     def objective(self, tie_weight: float) -> float:
-        """Value collected, less a tie-breaking touch of mission time (see `Instance.tie_weight`)."""
+        """Value collected, less a tie-breaking touch of mission time (`Instance.tie_weight`)."""
         return self.value() - tie_weight * self.total_time_s()
 
     def feasible(self) -> bool:

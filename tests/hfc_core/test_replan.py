@@ -158,7 +158,8 @@ def test_spots_held_by_a_gone_vehicle_are_free(paper, paper_plan):
 def test_an_empty_battery_keeps_only_the_locked_spots(paper, paper_plan):
     v = paper.vehicles[0]
     lock = (paper_plan[0][0],)
-    routes = replan(paper, [LiveVehicle(v.id, v.start, 5.0, route=tuple(paper_plan[0]), locked=lock)])
+    live = LiveVehicle(v.id, v.start, 5.0, route=tuple(paper_plan[0]), locked=lock)
+    routes = replan(paper, [live])
     assert routes == {v.id: list(lock)}
 
 
@@ -191,7 +192,8 @@ def island_problem() -> Problem:
     tasks = []
     for i in range(30):
         x = float(rng.choice([rng.uniform(0, 380), rng.uniform(620, 1000)]))
-        tasks.append(Task(i, (x, float(rng.uniform(0, 1000)), -3.0), float(rng.integers(1, 50)), 20.0))
+        pos = (x, float(rng.uniform(0, 1000)), -3.0)
+        tasks.append(Task(i, pos, float(rng.integers(1, 50)), 20.0))
     return Problem.build("island", vehicles, tasks, [island])
 
 
