@@ -110,7 +110,10 @@ def test_fleet_outcome(mission):
 def test_the_lost_vehicles_were_detected_in_time(mission):
     report, _, _ = mission
     det = report["fleet"]["detection_delay_s"]
-    assert det["auv2"]["auv1"] is not None and det["auv2"]["auv1"] <= CYCLE_S * 2
+    # An announced abort waits up to one cycle for auv2's slot, may lose one announcement to
+    # the water (another cycle) and then needs airtime and propagation: under 3 cycles, well
+    # before silence alone would give it away (4.5 cycles).
+    assert det["auv2"]["auv1"] is not None and det["auv2"]["auv1"] <= CYCLE_S * 3
     assert det["auv3"]["auv1"] is not None and det["auv3"]["auv1"] <= 5 * CYCLE_S
     assert report["fleet"]["spots_taken_over"] > 0
 
