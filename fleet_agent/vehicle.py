@@ -121,7 +121,7 @@ class Vehicle:
         if self.mode == HOME:
             return 0.0
         route = self.route if route is None else list(route)
-        xyz, dist = self.problem.xyz, self.problem.dist_m
+        dist = self.problem.dist_m
         total = 0.0
         i = 0
         if route and self.mode == INJECTING and route[0] == self.route[0]:

@@ -13,7 +13,7 @@ fits, the same rule finishes the job (``extra["repaired"]``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from functools import partial
 from typing import Any, Callable, Sequence
 
@@ -25,7 +25,7 @@ from hfc_core.operators.clustering import clusters_of_vehicles
 from hfc_core.operators.ordering import MOVES, order_route
 from hfc_core.plan import Plan
 from hfc_core.problem import Problem
-from hfc_core.solve import IterationRecord, SolveResult, Stop
+from hfc_core.solve import IterationRecord, SolveResult, Stop, engine_params
 
 
 @dataclass(frozen=True)
@@ -51,13 +51,6 @@ class GAParams:
         if self.mutation not in ("ordering", "move"):
             raise ValueError(f"mutation must be 'ordering' or 'move', got {self.mutation!r}")
 
-    @staticmethod
-    def of(params: dict[str, Any]) -> "GAParams":
-        known = {f.name for f in fields(GAParams)}
-        unknown = set(params) - known
-        if unknown:
-            raise ValueError(f"unknown GA parameter(s) {sorted(unknown)}; known: {sorted(known)}")
-        return GAParams(**params)
 
 
 def pmx(parent1: Sequence[int], parent2: Sequence[int], rng: np.random.Generator) -> list[int]:
@@ -142,7 +135,7 @@ def _drop_last_if_overdue(
 
 def solve_ga(problem: Problem, stop: Stop, rng: np.random.Generator, **raw: Any) -> SolveResult:
     """k-means + one GA per cluster, dropping last spots until each route fits (section IV-C)."""
-    params = GAParams.of(raw)
+    params = engine_params(GAParams, raw)
     model = RouteModel(problem)
     model.require_reachable()
     weights = params.weights or CostWeights().scaled_to(problem)

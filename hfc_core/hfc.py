@@ -22,7 +22,7 @@ screened until it fits (a final repair, reported as ``extra["repaired"]``).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -33,7 +33,7 @@ from hfc_core.operators.clustering import METHODS, clusters_of_vehicles
 from hfc_core.operators.screening import screen_route
 from hfc_core.plan import Plan
 from hfc_core.problem import Problem
-from hfc_core.solve import IterationRecord, SolveResult, Stop
+from hfc_core.solve import IterationRecord, SolveResult, Stop, engine_params
 
 Routes = list[list[int]]
 
@@ -59,13 +59,6 @@ class HFCParams:
         if not self.fuzzifier > 1:
             raise ValueError(f"fuzzifier must be > 1, got {self.fuzzifier}")
 
-    @staticmethod
-    def of(params: dict[str, Any]) -> "HFCParams":
-        known = {f.name for f in fields(HFCParams)}
-        unknown = set(params) - known
-        if unknown:
-            raise ValueError(f"unknown HFC parameter(s) {sorted(unknown)}; known: {sorted(known)}")
-        return HFCParams(**params)
 
 
 def record(
@@ -149,7 +142,7 @@ def solve_ncm1(
 ) -> SolveResult:
     """NCM1: ordering only (battery ignored by design)."""
     return run_hfc(problem, stop, rng, screening=False, cooperation=False, mode="hfc-ncm1",
-                   params=HFCParams.of(params))
+                   params=engine_params(HFCParams, params))
 
 
 def solve_ncm2(
@@ -157,7 +150,7 @@ def solve_ncm2(
 ) -> SolveResult:
     """NCM2: ordering and screening, no cooperation."""
     return run_hfc(problem, stop, rng, screening=True, cooperation=False, mode="hfc-ncm2",
-                   params=HFCParams.of(params))
+                   params=engine_params(HFCParams, params))
 
 
 def solve_cm(
@@ -165,4 +158,4 @@ def solve_cm(
 ) -> SolveResult:
     """CM: ordering, screening and cooperation (the full HFC)."""
     return run_hfc(problem, stop, rng, screening=True, cooperation=True, mode="hfc-cm",
-                   params=HFCParams.of(params))
+                   params=engine_params(HFCParams, params))

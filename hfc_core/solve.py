@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import importlib
 import time
-from dataclasses import dataclass, field
-from typing import Any, Callable, Protocol
+from dataclasses import dataclass, field, fields
+from typing import Any, Callable, Protocol, TypeVar
 
 import numpy as np
 
@@ -75,6 +75,19 @@ class Engine(Protocol):
     def __call__(
         self, problem: Problem, stop: Stop, rng: np.random.Generator, **params: Any
     ) -> SolveResult: ...
+
+
+P = TypeVar("P")
+
+
+def engine_params(cls: type[P], params: dict[str, Any]) -> P:
+    """``cls(**params)`` for an engine's parameter dataclass, refusing unknown names with
+    the list of known ones (a typo must not silently fall back to a default)."""
+    known = {f.name for f in fields(cls)}  # type: ignore[arg-type]
+    unknown = set(params) - known
+    if unknown:
+        raise ValueError(f"unknown {cls.__name__} field(s) {sorted(unknown)}; known: {sorted(known)}")
+    return cls(**params)
 
 
 # mode -> "module:function"; imported lazily so one broken engine never hides the others.

@@ -18,27 +18,12 @@ from hfc_core.best.instance import Instance, instance_from_problem
 from hfc_core.best.state import State
 from hfc_core.cost import CostWeights, RouteModel
 from hfc_core.operators.clustering import METHODS, clusters_of_vehicles, lloyd, vehicle_of_cluster
+from hfc_core.hfc import record
 from hfc_core.plan import Plan
 from hfc_core.problem import Problem
-from hfc_core.solve import IterationRecord, SolveResult, Stop
+from hfc_core.solve import IterationRecord, SolveResult, Stop, engine_params
 
 __all__ = ["SearchParams", "solve_best", "Instance", "State", "instance_from_problem"]
-
-
-def _record(
-    model: RouteModel, weights: CostWeights, routes: list[list[int]], iteration: int,
-    elapsed_s: float,
-) -> IterationRecord:
-    """A convergence point in the faithful modes' terms (eq. 9 cost, violation, T_diff)."""
-    times = model.times_s(routes)
-    return IterationRecord(
-        iteration=iteration,
-        elapsed_s=elapsed_s,
-        cost=tuple(model.costs(routes, weights).tolist()),
-        violation_s=tuple(np.maximum(0.0, times - model.battery_s).tolist()),
-        t_diff_s=tuple((model.battery_s - times).tolist()),
-        priority=float(model.priorities(routes).sum()),
-    )
 
 
 # Later runs of the search restart from these, in turn: one k-means++ seeding (not the best of
@@ -75,13 +60,13 @@ def solve_best(
     metric), then search. ``params`` are `SearchParams` fields."""
     if clustering not in (*METHODS, "medoids"):
         raise ValueError(f"unknown clustering {clustering!r}")
-    search_params = SearchParams(**params)
+    search_params = engine_params(SearchParams, params)
     inst = instance_from_problem(problem)
     model, weights = RouteModel(problem), CostWeights().scaled_to(problem)
     history: list[IterationRecord] = []
 
     def on_best(iteration: int, state: State) -> None:
-        history.append(_record(model, weights, state.routes, iteration, stop.elapsed_s()))
+        history.append(record(model, state.routes, weights, iteration, stop.elapsed_s()))
 
     restarts = 0
 
