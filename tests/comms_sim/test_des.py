@@ -95,6 +95,6 @@ def test_drops_are_never_delivered_and_runs_are_reproducible() -> None:
             assert frames == delivered  # exactly the model's deliveries, in order
         return events, inbox
 
-    (ev1, in1), (ev2, _) = once(), once()
-    assert ev1 == ev2
+    (ev1, in1), (ev2, in2) = once(), once()
+    assert ev1 == ev2 and in1 == in2
     assert {e.reason for e in ev1} >= {None, "random", "collision"}
