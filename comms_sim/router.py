@@ -1,7 +1,8 @@
 """The embedded Zenoh router: a Python session in router mode, so no zenohd is needed.
 
 ``python -m comms_sim.router --listen tcp/127.0.0.1:7447`` prints one ready line and routes
-until SIGTERM or SIGINT.
+until SIGTERM or SIGINT. ``--connect tcp/otherhost:7447`` links it to another router, which is
+how a mission spans machines: one router per host, linked, each host's processes on its own.
 """
 
 from __future__ import annotations
@@ -24,8 +25,8 @@ def stop_on_signals() -> threading.Event:
     return stop
 
 
-def main(listen: Sequence[str], stop: threading.Event) -> None:
-    with open_session(router_config(listen)):
+def main(listen: Sequence[str], stop: threading.Event, connect: Sequence[str] = ()) -> None:
+    with open_session(router_config(listen, connect)):
         print(f"{READY} {' '.join(listen)}", flush=True)
         while not stop.wait(1.0):  # a bounded wait keeps signal handling prompt
             pass
@@ -35,5 +36,7 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--listen", action="append", metavar="ENDPOINT",
                         help=f"endpoint to listen on (repeatable; default {DEFAULT_ENDPOINT})")
+    parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
+                        help="another router to link to (repeatable)")
     args = parser.parse_args()
-    main(args.listen or [DEFAULT_ENDPOINT], stop_on_signals())
+    main(args.listen or [DEFAULT_ENDPOINT], stop_on_signals(), args.connect)

@@ -22,10 +22,15 @@ def _base(mode: str) -> zenoh.Config:
     return conf
 
 
-def router_config(listen_endpoints: Sequence[str] = (DEFAULT_ENDPOINT,)) -> zenoh.Config:
-    """A session that is itself the router (embedded: no zenohd to install)."""
+def router_config(listen_endpoints: Sequence[str] = (DEFAULT_ENDPOINT,),
+                  connect_endpoints: Sequence[str] = ()) -> zenoh.Config:
+    """A session that is itself the router (embedded: no zenohd to install). With
+    ``connect_endpoints`` it also links to other routers, e.g. one per machine or vehicle, so
+    a fleet spread over several hosts forms one bus."""
     conf = _base("router")
     conf.insert_json5("listen/endpoints", json.dumps(list(listen_endpoints)))
+    if connect_endpoints:
+        conf.insert_json5("connect/endpoints", json.dumps(list(connect_endpoints)))
     return conf
 
 

@@ -49,6 +49,12 @@ def totals(counts: LinkCounts) -> dict[str, int]:
     return out
 
 
+def totals_by_sender(counts: LinkCounts) -> dict[str, dict[str, int]]:
+    """`totals` per transmitting node: which vehicle's traffic gets through, and why not."""
+    senders = sorted({src for src, _ in counts})
+    return {s: totals({k: row for k, row in counts.items() if k[0] == s}) for s in senders}
+
+
 def encode_stats(counts: LinkCounts, extra: Mapping[str, Any] | None = None) -> bytes:
     """The ``fleet/stats/link`` reply: ``{"links": [{"src", "dst", <counters>}...], ...extra}``."""
     links = [{"src": s, "dst": d, **row} for (s, d), row in sorted(counts.items())]

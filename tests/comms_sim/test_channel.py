@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from comms_sim.channel import Channel, ChannelConfig, LinkEvent, Partition, TdmaConfig
-from comms_sim.stats import totals
+from comms_sim.stats import totals, totals_by_sender
 
 # Range curve so flat that nothing within a few km is lost to it: isolates other effects.
 LOSSLESS = ChannelConfig(range_d50_m=1e7, max_range_m=5000.0)
@@ -238,6 +238,11 @@ def test_stats_add_up_per_link() -> None:
     total = totals(stats)
     assert total["delivered"] == sum(e.delivered for e in events)
     assert total["collision"] > 0 and total["range"] > 0 and total["oversize"] > 0
+    per_sender = totals_by_sender(stats)
+    assert set(per_sender) == {"a", "b", "c", "d"}
+    for src, row in per_sender.items():
+        assert row["delivered"] == sum(e.delivered for e in events if e.src == src)
+    assert sum(row["sent"] for row in per_sender.values()) == total["sent"]
 
 
 def test_same_seed_same_events() -> None:
