@@ -6,6 +6,11 @@ agent has its plan, shows progress, injects faults at simulation times (abort: a
 ``fleet/ctl/<id>``; kill: SIGKILL; restart: the agent again on the same journal), stops when
 every vehicle is home, aborted or dead (or the battery horizon passed), and writes the report
 (`fleet_agent.report`, the same format as `cotsfleet sim`). Ctrl-C stops everything cleanly.
+
+Across machines: with ``listen`` on a reachable address and ``remote`` vehicles, the launcher
+starts no agent for those; it prints the command to start each one elsewhere (against a router
+linked to this one), waits for their liveliness tokens like for its own agents, and ends them
+with a ``stop`` command. They must share the fleet key, so it comes from the agent config.
 """
 
 from __future__ import annotations
@@ -60,6 +65,8 @@ class LaunchOptions:
     # Keep the ground station (and so the web viewer it serves) up after the mission until
     # Ctrl-C: an operator watching in a browser should not lose the picture at the end.
     hold_viewer: bool = False
+    listen: str | None = None  # router endpoint (default: a free loopback port)
+    remote: tuple[str, ...] = ()  # vehicles whose agents run elsewhere (not started here)
     startup_timeout_s: float = 90.0
 
     def __post_init__(self) -> None:
@@ -89,6 +96,14 @@ class Launcher:
         for vid, _ in (*opts.aborts, *opts.kills, *opts.restarts):
             if vid not in known:
                 raise ValueError(f"unknown vehicle {vid!r}; the scenario has {sorted(known)}")
+        for vid in opts.remote:
+            if vid not in known:
+                raise ValueError(f"unknown remote vehicle {vid!r}; the scenario has {sorted(known)}")
+        if {v for v, _ in (*opts.kills, *opts.restarts)} & set(opts.remote):
+            raise ValueError("kill/restart need the agent's process here; not for --remote ones")
+        if opts.remote and not opts.agent_config.fleet_key_hex:
+            raise ValueError("remote agents need the fleet key they share with this launcher: "
+                             "set fleet_key_hex in the agent config (--config)")
         self.run_id = time.strftime("%Y%m%d-%H%M%S") + f"-{secrets.token_hex(2)}"
         self.run_dir = opts.run_dir or Path(os.environ.get("TMPDIR", "/tmp")) / \
             "cotsfleet-runs" / self.run_id
@@ -202,18 +217,23 @@ class Launcher:
         opts = self.opts
         self.run_dir.mkdir(parents=True, exist_ok=True)
         (self.run_dir / "scenario.json").write_text(json.dumps(opts.scenario), encoding="utf-8")
-        key = secrets.token_bytes(16)  # a fresh fleet key per run, never on the bus
+        # A fresh fleet key per run unless the config brings one (agents elsewhere must share
+        # it); never on the bus.
+        config = opts.agent_config
+        if not config.fleet_key_hex:
+            config = config.with_key(secrets.token_bytes(16))
         cfg_path = self.run_dir / "agent.toml"
         cfg_path.touch(mode=0o600)
-        cfg_path.write_text(dump_config(opts.agent_config.with_key(key)), encoding="utf-8")
-        self.endpoint = free_tcp_endpoint()
+        cfg_path.write_text(dump_config(config), encoding="utf-8")
+        listen = opts.listen or free_tcp_endpoint()
+        self.endpoint = local_endpoint(listen)
         wall0 = time.monotonic()
         interrupted = False
         clock: WarpClock | None = None
         end_s: float | None = None
         try:
             router = self._spawn("router", [sys.executable, "-m", "comms_sim.router",
-                                            "--listen", self.endpoint], ROUTER_READY)
+                                            "--listen", listen], ROUTER_READY)
             self._wait_ready(router, opts.startup_timeout_s)
             with zenoh.open(client_config([self.endpoint])) as session, \
                     session.declare_subscriber(bus.STATUS_ALL, self._on_status), \
@@ -222,7 +242,8 @@ class Launcher:
                                                             history=True):
                 relay_argv = [sys.executable, "-m", "comms_sim", "--connect", self.endpoint,
                               "--mission-from-bus", "--seed", str(opts.seed),
-                              "--mission-timeout", str(opts.startup_timeout_s)]
+                              # it starts before the agents: it waits for their readiness too
+                              "--mission-timeout", str(2 * opts.startup_timeout_s)]
                 if opts.loss:
                     relay_argv += ["--loss", str(opts.loss)]
                 relay = self._spawn("relay", relay_argv, RELAY_READY)
@@ -233,7 +254,13 @@ class Launcher:
                         gs += ["--rrd", str(opts.rrd)]
                     self._spawn("ground_station", gs, echo=True)
                 for vid in self.ids:
-                    self._spawn(vid, self._agent_argv(vid))
+                    if vid in opts.remote:
+                        self.out(f"waiting for {vid} elsewhere: python -m fleet_agent --id {vid} "
+                                 f"--scenario SCENARIO.json --config AGENT.toml --seed {opts.seed}"
+                                 f" --connect <a router linked to {listen}> (scenario copy: "
+                                 f"{self.run_dir / 'scenario.json'})")
+                    else:
+                        self._spawn(vid, self._agent_argv(vid))
                 self._wait_agents(opts.startup_timeout_s)
                 epoch = time.time() + 1.0
                 clock = WarpClock(epoch, opts.warp)
@@ -252,6 +279,8 @@ class Launcher:
                         interrupted = True
                         self.out("interrupted: stopping the fleet")
                     self._stop(self.ids)
+                    for vid in opts.remote:  # not ours to signal: ask them to stop
+                        session.put(bus.ctl_key(vid), encode_command("stop"))
                     time.sleep(0.3)  # the agents' final statuses
                     link = self._link_stats(session)
         except KeyboardInterrupt:
@@ -302,8 +331,8 @@ class Launcher:
             if not missing:
                 return
             for vid in missing:
-                p = self.procs[vid]
-                if p.popen.poll() is not None:
+                p = self.procs.get(vid)  # None: a remote agent, nothing to watch here
+                if p is not None and p.popen.poll() is not None:
                     raise RuntimeError(f"agent {vid} exited with {p.popen.returncode}: "
                                        f"{' | '.join(p.lines[-5:])}")
             if time.monotonic() > deadline:
@@ -379,6 +408,14 @@ class Launcher:
                 except ValueError:
                     continue
         return None
+
+
+def local_endpoint(listen: str) -> str:
+    """Where processes on this machine reach a router listening on ``listen``
+    (``tcp/0.0.0.0:7447`` listens everywhere; locally it is ``tcp/127.0.0.1:7447``)."""
+    proto, _, rest = listen.partition("/")
+    host, _, port = rest.rpartition(":")
+    return f"{proto}/127.0.0.1:{port}" if host in ("0.0.0.0", "[::]", "") else listen
 
 
 def run_mission(opts: LaunchOptions, out: Callable[[str], None] = print) -> dict[str, Any]:

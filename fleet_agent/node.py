@@ -3,7 +3,9 @@
 Zenoh callbacks only enqueue; one loop feeds the queue to `Agent.step` with the shared
 `WarpClock` time, ticks the agent at its `next_wakeup`, and carries out the outbox: frames to
 ``fleet/tx/<id>`` (attachment: the relay's queue class), telemetry to ``fleet/truth|status|
-event/<id>``, records to the journal. Commands (abort) arrive on ``fleet/ctl/<id>``.
+event/<id>``, records to the journal. Commands arrive on ``fleet/ctl/<id>``: ``abort`` goes to
+the agent's logic; ``stop`` ends the process cleanly (the launcher's way to end an agent it did
+not start, e.g. one on another machine).
 
 Readiness: once the initial plan is computed and the subscriptions are up, the agent declares
 the liveliness token ``fleet/alive/<id>``; the launcher waits for every token before it fixes
@@ -39,8 +41,11 @@ def alive_key(vid: str) -> str:
     return f"{ALIVE_PREFIX}/{vid}"
 
 
+COMMANDS = ("abort", "stop")
+
+
 def encode_command(name: str) -> bytes:
-    """Payload of ``fleet/ctl/<id>``: ``{"cmd": "abort"}``."""
+    """Payload of ``fleet/ctl/<id>``: ``{"cmd": "abort"}`` or ``{"cmd": "stop"}``."""
     return msgpack.packb({"cmd": name})
 
 
@@ -51,7 +56,7 @@ def decode_command(payload: bytes) -> str:
         name = doc["cmd"]
     except Exception as exc:  # msgpack raises several unrelated types on garbage
         raise ValueError(f"malformed command: {exc!r}") from None
-    if name not in ("abort",):
+    if name not in COMMANDS:
         raise ValueError(f"unknown command {name!r}")
     return str(name)
 
@@ -158,9 +163,15 @@ def _loop(agent: Agent, out: _Outbox, inbox: "queue.SimpleQueue[tuple[str, bytes
                 out.handle(agent.step(Frame(payload, at)))
             else:
                 try:
-                    out.handle(agent.step(Command(decode_command(payload), at)))
+                    name = decode_command(payload)
                 except ValueError:
                     agent.counters["ctl_malformed"] = agent.counters.get("ctl_malformed", 0) + 1
+                    name = None
+                if name == "stop":
+                    stop.set()
+                    return
+                if name is not None:
+                    out.handle(agent.step(Command(name, at)))
             try:
                 item = inbox.get_nowait()
             except queue.Empty:

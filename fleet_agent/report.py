@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
-from comms_sim.stats import COUNTERS, LinkCounts, totals
+from comms_sim.stats import COUNTERS, LinkCounts, totals, totals_by_sender
 from fleet_agent.telemetry import Event, Status
 from hfc_core.problem import Problem
 
@@ -122,6 +122,7 @@ def build_report(problem: Problem, statuses: Mapping[str, Status], events: Seque
             "dropped_by_agents": {k[5:]: n for k, n in sorted(agent_totals.items())
                                   if k.startswith("drop_")},
             "link": link_totals,
+            "link_by_sender": totals_by_sender(link) if link is not None else {},
         },
         **(dict(extra) if extra else {}),
     }

@@ -32,6 +32,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--run-dir", type=Path, help="journals, logs, report (default: a new "
                    "directory under $TMPDIR/cotsfleet-runs)")
     p.add_argument("--config", type=Path, help="agent settings TOML (fleet_agent.config)")
+    p.add_argument("--listen", metavar="ENDPOINT", help="router endpoint, e.g. tcp/0.0.0.0:7447 "
+                   "so agents on other machines can join (default: a free loopback port)")
+    p.add_argument("--remote", action="append", default=[], metavar="ID",
+                   help="a vehicle whose agent runs elsewhere: not started here, waited for "
+                   "(repeatable; needs fleet_key_hex in --config)")
+    p.add_argument("--startup-timeout", type=float, default=90.0, metavar="S",
+                   help="wall seconds to wait for every agent to be ready (default 90)")
     p.add_argument("--hold-viewer", action=argparse.BooleanOptionalAction,
                    help="keep the web dashboard up after the mission until Ctrl-C "
                    "(default: yes for --viewer web in an interactive terminal)")
@@ -65,7 +72,9 @@ def run(args: argparse.Namespace) -> int:
             warp=args.warp, loss=args.loss, aborts=_faults(args.abort, "abort"),
             kills=_faults(args.kill, "kill"), restarts=_faults(args.restart, "restart"),
             viewer=viewer, rrd=args.rrd, web_port=args.web_port, run_dir=args.run_dir,
-            report=args.report, agent_config=config, hold_viewer=hold)
+            report=args.report, agent_config=config, hold_viewer=hold,
+            listen=args.listen, remote=tuple(args.remote),
+            startup_timeout_s=args.startup_timeout)
         report = run_mission(opts)
     except (RuntimeError, TimeoutError) as exc:  # TimeoutError first: it is an OSError
         print(f"cotsfleet run: failed: {exc}")

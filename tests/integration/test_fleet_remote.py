@@ -1,0 +1,101 @@
+"""A mission spanning two Zenoh routers, as across two machines: the launcher's router and a
+second one linked to it, with one vehicle's agent started by hand against the second router.
+Every frame of that vehicle still crosses the relay on the first."""
+
+from __future__ import annotations
+
+import json
+import selectors
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from comms_sim.router import READY
+from comms_sim.session import free_tcp_endpoint
+from cotsfleet.launcher import LaunchOptions, Launcher, local_endpoint
+from fleet_agent.config import AgentConfig, dump_config
+from hfc_core.generate import GeneratorParams, generate_doc
+
+pytestmark = pytest.mark.integration
+KEY_HEX = "00112233445566778899aabbccddeeff"
+
+
+def _wait_line(proc: subprocess.Popen, prefix: str, timeout_s: float = 30.0) -> None:
+    assert proc.stdout is not None
+    sel = selectors.DefaultSelector()
+    sel.register(proc.stdout, selectors.EVENT_READ)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if sel.select(timeout=0.5):
+            line = proc.stdout.readline()
+            if line.startswith(prefix):
+                return
+            if not line and proc.poll() is not None:
+                break
+    raise AssertionError(f"no {prefix!r} line from {proc.args}")
+
+
+def test_agent_behind_a_second_router_joins_the_mission(tmp_path: Path) -> None:
+    doc = generate_doc(GeneratorParams(name="two-hosts", n_tasks=24, n_vehicles=3, size_m=500.0,
+                                       battery_s=1200.0, service_s=60.0),
+                       np.random.default_rng(5))
+    config = AgentConfig(fleet_key_hex=KEY_HEX)
+    (tmp_path / "agent.toml").write_text(dump_config(config), encoding="utf-8")
+    (tmp_path / "scenario.json").write_text(json.dumps(doc), encoding="utf-8")
+    host_a, host_b = free_tcp_endpoint(), free_tcp_endpoint()
+    procs: list[subprocess.Popen] = []
+    try:
+        # "Machine B": its own router, linked to the launcher's, and auv3's agent on it. The
+        # link is dialled from B and retried until A's router is up.
+        router_b = subprocess.Popen(
+            [sys.executable, "-m", "comms_sim.router", "--listen", host_b, "--connect", host_a],
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        procs.append(router_b)
+        _wait_line(router_b, READY)
+        agent = subprocess.Popen(
+            [sys.executable, "-m", "fleet_agent", "--id", "auv3",
+             "--scenario", str(tmp_path / "scenario.json"), "--config", str(tmp_path / "agent.toml"),
+             "--connect", host_b, "--journal", str(tmp_path / "auv3.journal"), "--seed", "2"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        procs.append(agent)
+        opts = LaunchOptions(scenario=doc, seed=2, warp=100.0, run_dir=tmp_path / "run",
+                             listen=host_a, remote=("auv3",), agent_config=config,
+                             progress_every_s=0, startup_timeout_s=60)
+        report = Launcher(opts, out=lambda line: None).run()
+        assert agent.wait(timeout=30) == 0, "the launcher's stop command ends the remote agent"
+    finally:
+        for p in procs:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+    vehicles = {v["id"]: v for v in report["vehicles"]}
+    assert set(vehicles) == {"auv1", "auv2", "auv3"}
+    assert vehicles["auv3"]["tasks_treated"] > 0 and vehicles["auv3"]["home"]
+    assert all(v["home"] and v["t_diff_s"] >= 0 for v in vehicles.values())
+    assert report["fleet"]["duplicate_treatments"] == 0
+    # auv3's frames went through the relay like everyone's: the relay counted them.
+    by_sender = report["messages"]["link_by_sender"]
+    assert by_sender["auv3"]["delivered"] > 0 and by_sender["auv1"]["delivered"] > 0
+
+
+def test_local_endpoint_of_a_wildcard_listen() -> None:
+    assert local_endpoint("tcp/0.0.0.0:7447") == "tcp/127.0.0.1:7447"
+    assert local_endpoint("tcp/10.0.0.5:7447") == "tcp/10.0.0.5:7447"
+
+
+def test_remote_vehicles_need_a_shared_key_and_cannot_be_killed() -> None:
+    doc = generate_doc(GeneratorParams(name="x", n_tasks=6, n_vehicles=2, size_m=200.0,
+                                       battery_s=600.0, service_s=30.0),
+                       np.random.default_rng(0))
+    with pytest.raises(ValueError, match="fleet key"):
+        Launcher(LaunchOptions(scenario=doc, remote=("auv2",)))
+    with pytest.raises(ValueError, match="not for --remote"):
+        Launcher(LaunchOptions(scenario=doc, remote=("auv2",), kills=(("auv2", 10.0),),
+                               agent_config=AgentConfig(fleet_key_hex=KEY_HEX)))
+    with pytest.raises(ValueError, match="unknown remote vehicle"):
+        Launcher(LaunchOptions(scenario=doc, remote=("auv9",),
+                               agent_config=AgentConfig(fleet_key_hex=KEY_HEX)))
