@@ -7,23 +7,14 @@ import sys
 from pathlib import Path
 
 from cotsfleet.cli import UsageError
+from cotsfleet.commands.mission_args import add_mission_arguments
 
 HELP = "run an emulated mission: router, link emulator, one agent process per AUV, dashboard"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scenario", type=Path, help="scenario JSON or TOP file "
-                   "(default: the paper preset drawn with --seed)")
-    p.add_argument("--vehicles", type=int, help="fleet size of the default scenario")
-    p.add_argument("--seed", type=int, default=0, help="mission seed (plans, channel)")
+    add_mission_arguments(p, "the paper preset drawn with --seed")
     p.add_argument("--warp", type=float, default=60.0, help="simulated seconds per wall second")
-    p.add_argument("--loss", type=float, default=0.0, help="extra uniform link loss 0..1")
-    p.add_argument("--abort", action="append", default=[], metavar="ID@S",
-                   help="vehicle announces an abort at sim time S (repeatable)")
-    p.add_argument("--kill", action="append", default=[], metavar="ID@S",
-                   help="SIGKILL the vehicle's agent at sim time S (repeatable)")
-    p.add_argument("--restart", action="append", default=[], metavar="ID@S",
-                   help="start a killed agent again from its journal at S (repeatable)")
     p.add_argument("--viewer", choices=("web", "native", "none"),
                    help="Rerun viewer (default: native with a display, else web)")
     p.add_argument("--rrd", type=Path, help="also record the mission to this .rrd file")
@@ -31,7 +22,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--report", type=Path, help="mission report JSON (default: in the run dir)")
     p.add_argument("--run-dir", type=Path, help="journals, logs, report (default: a new "
                    "directory under $TMPDIR/cotsfleet-runs)")
-    p.add_argument("--config", type=Path, help="agent settings TOML (fleet_agent.config)")
     p.add_argument("--listen", metavar="ENDPOINT", help="router endpoint, e.g. tcp/0.0.0.0:7447 "
                    "so agents on other machines can join (default: a free loopback port)")
     p.add_argument("--remote", action="append", default=[], metavar="ID",

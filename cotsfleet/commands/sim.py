@@ -10,25 +10,18 @@ from pathlib import Path
 from typing import Any
 
 from cotsfleet.cli import UsageError
+from cotsfleet.commands.mission_args import add_mission_arguments
 
 HELP = "simulate missions in-process (deterministic, seeded; --runs N for Monte Carlo)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scenario", type=Path, help="scenario JSON or TOP file "
-                   "(default: the paper preset, drawn anew for each run's seed)")
-    p.add_argument("--vehicles", type=int, help="fleet size of the default scenario")
-    p.add_argument("--seed", type=int, default=0, help="seed of the first run")
+    add_mission_arguments(p, "the paper preset, drawn anew for each run's seed")
     p.add_argument("--runs", type=int, default=1, help="Monte Carlo runs (seeds seed..)")
-    p.add_argument("--loss", type=float, default=0.0, help="extra uniform link loss 0..1")
-    p.add_argument("--abort", action="append", default=[], metavar="ID@S")
-    p.add_argument("--kill", action="append", default=[], metavar="ID@S")
-    p.add_argument("--restart", action="append", default=[], metavar="ID@S")
     p.add_argument("--partition", action="append", default=[], metavar="ID@S+D",
                    help="cut the vehicle off from S for D seconds")
     p.add_argument("--attack", action="append", default=[], metavar="KIND@S",
                    help="an intruder sends 10 forge|replay|garbage frames from S")
-    p.add_argument("--config", type=Path, help="agent settings TOML (fleet_agent.config)")
     p.add_argument("--report", type=Path, help="write the report(s) here (JSON)")
 
 
