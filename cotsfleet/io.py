@@ -10,14 +10,10 @@ from hfc_core.scenario import problem_from_dict
 from hfc_core.top import parse_top
 
 
-def load_problem(path: str | Path) -> Problem:
-    """A scenario JSON or a TOP instance (Chao's text format, recognised by its header)."""
-    return read_scenario(path)[0]
-
-
 def read_scenario(path: str | Path) -> tuple[Problem, dict | None]:
-    """The problem and, for a scenario JSON, its document (which may carry extra fields such
-    as the ``cots_map`` the dashboard draws); a TOP instance has no document."""
+    """A scenario JSON or a TOP instance (Chao's text format, recognised by its header): the
+    problem and, for JSON, its document (which may carry extra fields such as the
+    ``cots_map`` the dashboard draws); a TOP instance has no document."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")

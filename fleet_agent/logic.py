@@ -288,7 +288,7 @@ class Agent:
                               seed=self.fleet.seed * 1000 + gone)
         gained = [t for t in mine if t in free]
         if gained:
-            self._claim(gained, now, out)
+            self._hold(gained, True, now, out)
             out.append(self._event(now, "takeover", gained, peer=self._vid(gone)))
         self._set_route(mine, now, out, why=f"takeover of {self._vid(gone)}")
 
@@ -311,27 +311,20 @@ class Agent:
                                  seed=self.fleet.seed * 1000 + 100 + self.index)
         gained = [t for t in mine if t in free]
         if gained:
-            self._claim(gained, now, out)
+            self._hold(gained, True, now, out)
             self._set_route(mine, now, out, why="cooperation")
 
-    def _claim(self, tasks: list[int], now: float, out: list[Output]) -> None:
+    def _hold(self, tasks: list[int], claim: bool, now: float, out: list[Output]) -> None:
+        """Claim (or release) ``tasks``: journal it first, then tell the fleet."""
         t = int(now)
-        changed = self.holdings.apply(self.index, t, tasks, True)
+        changed = self.holdings.apply(self.index, t, tasks, claim)
         if changed:
             self._dirty = True
             out.append(self._record({"k": "hold", "v": self.index, "t": t, "ids": changed,
-                                     "c": True}, durable=True))
-            self._queue(Claim, t, changed)
-            out.append(self._event(now, "claim", changed))
-
-    def _release(self, tasks: list[int], now: float, out: list[Output]) -> None:
-        t = int(now)
-        changed = self.holdings.apply(self.index, t, tasks, False)
-        if changed:
-            self._dirty = True
-            out.append(self._record({"k": "hold", "v": self.index, "t": t, "ids": changed,
-                                     "c": False}, durable=True))
-            self._queue(Release, t, changed)
+                                     "c": claim}, durable=True))
+            self._queue(Claim if claim else Release, t, changed)
+            if claim:
+                out.append(self._event(now, "claim", changed))
 
     def _queue(self, cls: type, t: int, tasks: list[int]) -> None:
         step = self.fleet.codec.max_ids
@@ -359,7 +352,7 @@ class Agent:
         # Whatever this vehicle holds but will not treat is released for the others.
         dropped = [t for t in self._held_by_me() if t not in fitted]
         if dropped:
-            self._release(dropped, now, out)
+            self._hold(dropped, False, now, out)
         if fitted != self.vehicle.route:
             self.vehicle.set_route(fitted)
             if why != "sync":

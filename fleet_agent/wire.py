@@ -103,7 +103,9 @@ class ClearedSegment:
 
 
 @dataclass(frozen=True)
-class Claim:
+class HoldingChange:
+    """The body of a claim or a release: ``sender`` takes or gives up ``tasks`` at ``t_s``."""
+
     sender: int
     seq: int
     t_s: int
@@ -112,12 +114,13 @@ class Claim:
 
 
 @dataclass(frozen=True)
-class Release:
-    sender: int
-    seq: int
-    t_s: int
-    tasks: tuple[int, ...]
-    heard: int = 0
+class Claim(HoldingChange):
+    pass
+
+
+@dataclass(frozen=True)
+class Release(HoldingChange):
+    pass
 
 
 @dataclass(frozen=True)
@@ -206,7 +209,7 @@ class Codec:
                 raise ValueError("segment bitmap has the wrong length")
             return [msg.seq, msg.digest.count & 0x7F, msg.digest.hash16 & 0xFFFF, msg.segment,
                     bytes(msg.bits)]
-        if isinstance(msg, (Claim, Release)):
+        if isinstance(msg, HoldingChange):
             if not 0 < len(msg.tasks) <= self.max_ids:
                 raise WireSizeError(f"a claim carries 1..{self.max_ids} spots, got {len(msg.tasks)}")
             if not 0 <= msg.t_s <= MAX_SEQ:
