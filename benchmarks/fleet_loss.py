@@ -16,9 +16,10 @@ import statistics
 import time
 
 from benchmarks.results import markdown_table, write_section
-from cotsfleet.launcher import scenario_doc
+from cotsfleet.commands.mission_args import scenario_doc
+from cotsfleet.mission.faults import Fault
+from cotsfleet.mission.inprocess import simulate
 from fleet_agent.config import AgentConfig
-from fleet_agent.sim import Fault, FleetSim
 from hfc_core.scenario import problem_from_dict
 
 CONDITIONS = [
@@ -47,7 +48,7 @@ def main(runs: int, quick: bool) -> None:
         cleared, prio, dups, treated, delays, worst, false, bpm, oracle = ([] for _ in range(9))
         for seed in range(runs):
             problem = problem_from_dict(scenario_doc(None, None, seed))
-            r = FleetSim(problem, config, seed=seed, loss=loss, faults=faults).run().report
+            r = simulate(problem, config, seed=seed, loss=loss, faults=faults).report
             f = r["fleet"]
             cleared.append(f["spots_cleared"])
             prio.append(f["priority"])

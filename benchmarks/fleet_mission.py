@@ -13,9 +13,11 @@ import argparse
 import time
 
 from benchmarks.results import markdown_table, write_section
-from cotsfleet.launcher import LaunchOptions, run_mission, scenario_doc
+from cotsfleet.commands.mission_args import scenario_doc
+from cotsfleet.mission.inprocess import simulate
+from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
+from cotsfleet.mission.runner import run_mission
 from fleet_agent.config import AgentConfig
-from fleet_agent.sim import FleetSim
 from hfc_core.scenario import problem_from_dict
 
 
@@ -25,7 +27,7 @@ def main(seed: int, warp: float, quick: bool) -> None:
     rows = []
     sims = []
     for _ in range(1 if quick else 3):
-        sim = FleetSim(problem, AgentConfig(), seed=seed).run()
+        sim = simulate(problem, AgentConfig(), seed=seed)
         sims.append(sim)
     wall_sim = min(s.wall_s for s in sims)
     f = sims[0].report["fleet"]
@@ -35,8 +37,9 @@ def main(seed: int, warp: float, quick: bool) -> None:
     print(f"in-process: {wall_sim:.2f} s wall, {f['spots_cleared']} spots, "
           f"priority {f['priority']:.0f}")
     t0 = time.perf_counter()
-    report = run_mission(LaunchOptions(scenario=doc, seed=seed, warp=warp, viewer="none",
-                                       progress_every_s=0), out=lambda s: None)
+    backend = ProcessBackend(problem, doc, seed, ProcessOptions(warp=warp, progress_every_s=0),
+                             out=lambda s: None)
+    report = run_mission(problem, backend, (), seed=seed, step_s=warp * 0.25).report
     wall_run = time.perf_counter() - t0
     f = report["fleet"]
     rows.append([f"multi-process (Zenoh, {len(problem.vehicles) + 2} processes)", f"{warp:g}",

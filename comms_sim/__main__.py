@@ -2,8 +2,9 @@
 
 Embedded by default: without ``--connect`` it is itself the Zenoh router, listening on
 ``--listen`` (default tcp/127.0.0.1:7447). Clock: ``--epoch-unix``/``--warp``, or
-``--mission-from-bus`` to take them (and the seed and roster) from the launcher's
-``fleet/mission`` queryable; with neither, simulation time starts now at warp 1.
+``--mission-from-bus`` to take the seed and roster from the operator's ``fleet/mission``
+record and the clock from ``fleet/clock``; with neither, simulation time starts now at
+warp 1.
 """
 
 from __future__ import annotations
@@ -14,8 +15,8 @@ from dataclasses import replace
 
 from comms_sim.config import PRESETS, load_config
 from comms_sim.relay import main
-from comms_sim.router import stop_on_signals
-from comms_sim.session import DEFAULT_ENDPOINT, client_config, router_config
+from fleet_bus.process import process_stop
+from fleet_bus.session import DEFAULT_ENDPOINT, client_config, router_config
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(prog="python -m comms_sim", description=__doc__)
@@ -46,7 +47,8 @@ if __name__ == "__main__":
             else router_config(args.listen or [DEFAULT_ENDPOINT]))
     epoch = None if args.mission_from_bus else (
         args.epoch_unix if args.epoch_unix is not None else time.time())
-    vehicles = frozenset(v for v in args.vehicles.split(",") if v) if args.vehicles else None
-    main(conf, config, stop_on_signals(), epoch_unix=epoch,
-         warp=None if args.mission_from_bus else args.warp, seed=args.seed, vehicles=vehicles,
-         mission_timeout_s=args.mission_timeout, tdma=args.tdma)
+    vehicles = tuple(v for v in args.vehicles.split(",") if v) if args.vehicles else None
+    relay = main(conf, config, process_stop(), epoch_unix=epoch,
+                 warp=None if args.mission_from_bus else args.warp, seed=args.seed,
+                 vehicles=vehicles, mission_timeout_s=args.mission_timeout, tdma=args.tdma)
+    raise SystemExit(0 if relay is not None or not args.mission_from_bus else 3)

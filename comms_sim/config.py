@@ -22,64 +22,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
-
-def _group(names: Iterable[str]) -> frozenset[str]:
-    return frozenset(str(n) for n in names)
-
-
-@dataclass(frozen=True)
-class Partition:
-    """Links cut during ``[start_s, end_s)``.
-
-    Nodes listed in different ``groups`` cannot hear each other; nodes listed in no group form
-    one more, implicit group. So ``groups=(("auv1",),)`` isolates auv1 from everyone, and
-    ``groups=(("auv0", "auv1"), ("auv2", "auv3"))`` splits a fleet of four in two.
-    """
-
-    start_s: float
-    end_s: float
-    groups: tuple[frozenset[str], ...]
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "groups", tuple(_group(g) for g in self.groups))
-        if not self.end_s > self.start_s:
-            raise ValueError(f"partition must end after it starts: {self.start_s}..{self.end_s}")
-        if not self.groups or any(not g for g in self.groups):
-            raise ValueError("partition needs at least one non-empty group")
-        seen: set[str] = set()
-        for g in self.groups:
-            if seen & g:
-                raise ValueError(f"partition groups overlap on {sorted(seen & g)}")
-            seen |= g
-
-    def _group_of(self, node: str) -> int:
-        for i, g in enumerate(self.groups):
-            if node in g:
-                return i
-        return -1  # the implicit group of unlisted nodes
-
-    def cuts(self, a: str, b: str, start_s: float, end_s: float) -> bool:
-        """Whether this partition cuts the a-b link at any time during ``[start_s, end_s)``."""
-        overlaps = start_s < self.end_s and self.start_s < end_s
-        return overlaps and self._group_of(a) != self._group_of(b)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"start_s": self.start_s, "end_s": self.end_s,
-                "groups": [sorted(g) for g in self.groups]}
-
-    @staticmethod
-    def from_dict(doc: Mapping[str, Any], now_s: float = 0.0) -> "Partition":
-        """``{"start_s"?: s, "end_s": s | "duration_s": s, "groups": [[id, ...], ...]}``;
-        ``start_s`` defaults to ``now_s``. Raises ValueError when malformed."""
-        try:
-            start = float(doc.get("start_s", now_s))
-            end = float(doc["end_s"]) if "end_s" in doc else start + float(doc["duration_s"])
-            groups = tuple(_group(g) for g in doc["groups"] if not isinstance(g, (str, bytes)))
-            if len(groups) != len(doc["groups"]):
-                raise ValueError("each group must be a list of ids")
-            return Partition(start, end, groups)
-        except (KeyError, TypeError, AttributeError) as exc:
-            raise ValueError(f"malformed partition: {exc!r}") from None
+from fleet_bus.link import Partition
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Mapping, Sequence
 
 from comms_sim.channel import Channel
-from comms_sim.clock import ManualClock
+from fleet_bus.clock import ManualClock
 from comms_sim.link_event import LinkEvent
 
 FrameHandler = Callable[[bytes, float], None]  # (frame, t_s of delivery)

@@ -12,23 +12,27 @@ so the channel is guarded by one lock and nothing is published while holding it.
 
 from __future__ import annotations
 
+import sys
 import threading
-import time
-from typing import Callable, Protocol
+from typing import Callable, Protocol, Sequence
 
 import msgpack
 import numpy as np
 import zenoh
 
-from comms_sim import bus
 from comms_sim.channel import Channel
 from comms_sim.config import ChannelConfig, with_tdma
-from comms_sim.control import LinkControl
+from comms_sim.control import apply_control
 from comms_sim.link_event import LinkEvent
-from comms_sim.stats import encode_stats
+from fleet_bus import keys
+from fleet_bus.clock import WarpClock
+from fleet_bus.link import INTRUDER, LinkControl, LinkRecord, encode_stats
+from fleet_bus.mission import fetch_clock, fetch_mission
+from fleet_bus.process import RELAY_READY, ready
+from fleet_bus.telemetry import Truth
 
 Put = Callable[[str, bytes, "bytes | None"], None]  # key, payload, attachment
-READY = "comms_sim relay ready"
+READY = RELAY_READY
 # What the relay drops before the channel: garbage on its keys, or ids it cannot place.
 RELAY_COUNTERS = ("tx", "truth", "ctl", "malformed_tx", "malformed_truth", "malformed_ctl",
                   "unknown_tx", "unknown_truth", "late_tx")
@@ -92,7 +96,7 @@ class Relay:
                 self.counters["unknown_truth"] += 1
                 return
             try:
-                truth = bus.Truth.decode(payload)
+                truth = Truth.decode(payload)
                 self.channel.set_position(vid, truth.pos, self.clock.now())
             except ValueError:
                 self.counters["malformed_truth"] += 1
@@ -104,12 +108,18 @@ class Relay:
             self.counters["ctl"] += 1
             try:
                 now = self.clock.now()
-                LinkControl.decode(payload, now).apply(self.channel, now)
+                control = LinkControl.decode(payload, now)
+                apply_control(control, self.channel, now)
+                refused = []
+                if control.inject is not None and control.inject_at is not None:
+                    self.channel.set_position(INTRUDER, control.inject_at, now)
+                    refused = self.channel.submit(INTRUDER, control.inject, now, "data")
             except ValueError:
                 self.counters["malformed_ctl"] += 1
                 return
             self._dirty = True
             self._wakeup.notify()
+        self._publish(refused)
 
     def stats_payload(self) -> bytes:
         with self._lock:
@@ -152,33 +162,15 @@ class Relay:
     def _publish(self, events: list[LinkEvent]) -> None:
         for event in events:
             if event.delivered:
-                self._put(bus.rx_key(event.dst), event.frame, delivery_attachment(event))
-            self._put(bus.link_event_key(event.src, event.dst), event.encode(), None)
+                self._put(keys.rx_key(event.dst), event.frame, delivery_attachment(event))
+            self._put(keys.link_event_key(event.src, event.dst), link_record(event).encode(),
+                      None)
 
 
-def fetch_mission(session: zenoh.Session, timeout_s: float, retry_s: float = 0.5) -> bus.Mission:
-    """Ask the launcher's ``fleet/mission`` queryable, again every ``retry_s`` until it answers
-    (it may start after us); raises TimeoutError after ``timeout_s``."""
-    deadline = time.monotonic() + timeout_s
-    while True:
-        left = deadline - time.monotonic()
-        for reply in session.get(bus.MISSION, timeout=max(0.1, min(left, 5.0))):
-            if reply.ok is not None:
-                try:
-                    return bus.Mission.decode(reply.ok.payload.to_bytes())
-                except ValueError:
-                    continue
-        if time.monotonic() + retry_s > deadline:
-            raise TimeoutError(f"no well-formed answer on {bus.MISSION} within {timeout_s} s")
-        time.sleep(retry_s)
-
-
-def roster_of(mission: bus.Mission) -> frozenset[str] | None:
-    """Vehicle ids of the mission's scenario, if it lists them."""
-    try:
-        return frozenset(str(v["id"]) for v in mission.scenario["vehicles"])
-    except (KeyError, TypeError):
-        return None
+def link_record(event: LinkEvent) -> LinkRecord:
+    """What the bus is told about a frame's fate: everything but the frame itself."""
+    return LinkRecord(event.src, event.dst, event.t_sent_s, event.t_s, event.nbytes,
+                      event.delivered, event.reason, getattr(event, "snr_db", None))
 
 
 def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threading.Event,
@@ -199,24 +191,24 @@ def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threa
     def on_tx(sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
             kind = _kind_of(sample)
-            relay.on_tx(bus.vid_of(str(sample.key_expr)), sample.payload.to_bytes(), kind)
+            relay.on_tx(keys.vid_of(str(sample.key_expr)), sample.payload.to_bytes(), kind)
 
     def on_truth(sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
-            relay.on_truth(bus.vid_of(str(sample.key_expr)), sample.payload.to_bytes())
+            relay.on_truth(keys.vid_of(str(sample.key_expr)), sample.payload.to_bytes())
 
     def on_ctl(sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
             relay.on_ctl(sample.payload.to_bytes())
 
     def on_stats(query: zenoh.Query) -> None:
-        query.reply(bus.LINK_STATS, relay.stats_payload())
+        query.reply(keys.LINK_STATS, relay.stats_payload())
 
     try:
-        with session.declare_subscriber(bus.TX_ALL, on_tx), \
-                session.declare_subscriber(bus.TRUTH_ALL, on_truth), \
-                session.declare_subscriber(bus.LINK_CTL, on_ctl), \
-                session.declare_queryable(bus.LINK_STATS, on_stats):
+        with session.declare_subscriber(keys.TX_ALL, on_tx), \
+                session.declare_subscriber(keys.TRUTH_ALL, on_truth), \
+                session.declare_subscriber(keys.LINK_CTL, on_ctl), \
+                session.declare_queryable(keys.LINK_STATS, on_stats):
             if on_ready is not None:
                 on_ready(relay)
             relay.run(stop)
@@ -240,26 +232,39 @@ def _kind_of(sample: zenoh.Sample) -> str:
 
 def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
          epoch_unix: float | None = None, warp: float | None = None, seed: int | None = None,
-         vehicles: frozenset[str] | None = None, mission_timeout_s: float = 30.0,
-         tdma: bool = False) -> Relay:
-    """Open a session on ``conf`` and relay until ``stop``. Without ``epoch_unix`` the clock,
-    seed and roster come from the ``fleet/mission`` queryable. ``tdma`` gives each vehicle of
-    the roster a slot, in sorted order (`with_tdma`). Returns the relay (counters)."""
-    from comms_sim.clock import WarpClock
-
+         vehicles: Sequence[str] | None = None, mission_timeout_s: float = 30.0,
+         tdma: bool = False) -> Relay | None:
+    """Open a session on ``conf`` and relay until ``stop``. Without ``epoch_unix`` the seed
+    and roster come from the ``fleet/mission`` record and the clock from ``fleet/clock``.
+    ``tdma`` gives each vehicle of the roster a slot, in roster (scenario) order, as the
+    agents count them. Returns the relay (counters), or None if stopped or no mission came
+    (the reason is printed)."""
     with zenoh.open(conf) as session:
         if epoch_unix is None:
-            mission = fetch_mission(session, mission_timeout_s)
-            epoch_unix, warp = mission.epoch_unix, mission.warp
+            mission = fetch_mission(session, stop, mission_timeout_s)
+            if mission is None:
+                return _gave_up(stop, keys.MISSION, mission_timeout_s)
             seed = mission.seed if seed is None else seed
-            vehicles = roster_of(mission) if vehicles is None else vehicles
+            vehicles = vehicles or mission.roster() or None
+            record = fetch_clock(session, stop, mission_timeout_s)
+            if record is None:
+                return _gave_up(stop, keys.CLOCK, mission_timeout_s)
+            epoch_unix, warp = record.epoch_unix, record.warp
         if tdma:
             if not vehicles:
                 raise ValueError("TDMA needs the roster (--vehicles or the mission's)")
-            config = with_tdma(config, sorted(vehicles))
+            config = with_tdma(config, list(vehicles))
         clock = WarpClock(epoch_unix, warp if warp is not None else 1.0)
         channel = Channel(config, np.random.default_rng(0 if seed is None else seed))
-        return serve(session, channel, clock, stop, vehicles, on_ready=lambda _: print(
-            f"{READY} epoch_unix={clock.epoch_unix} warp={clock.warp} "
-            f"mac={'tdma' if config.tdma else 'aloha'} "
-            f"roster={','.join(sorted(vehicles)) if vehicles else 'open'}", flush=True))
+        roster = frozenset(vehicles) if vehicles else None
+        return serve(session, channel, clock, stop, roster, on_ready=lambda _: ready(
+            READY, f"epoch_unix={clock.epoch_unix} warp={clock.warp} "
+                   f"mac={'tdma' if config.tdma else 'aloha'} "
+                   f"roster={','.join(vehicles) if vehicles else 'open'}"))
+
+
+def _gave_up(stop: threading.Event, key: str, timeout_s: float) -> None:
+    if not stop.is_set():
+        print(f"comms_sim relay: no well-formed answer on {key} within {timeout_s:g} s",
+              file=sys.stderr, flush=True)
+    return None

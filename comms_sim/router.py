@@ -1,33 +1,26 @@
 """The embedded Zenoh router: a Python session in router mode, so no zenohd is needed.
 
 ``python -m comms_sim.router --listen tcp/127.0.0.1:7447`` prints one ready line and routes
-until SIGTERM or SIGINT. ``--connect tcp/otherhost:7447`` links it to another router, which is
-how a mission spans machines: one router per host, linked, each host's processes on its own.
+until SIGTERM, SIGINT or SIGHUP. ``--connect tcp/otherhost:7447`` links it to another router,
+which is how a mission spans machines: one router per host, linked, each host's processes on
+its own.
 """
 
 from __future__ import annotations
 
 import argparse
-import signal
 import threading
 from typing import Sequence
 
-from comms_sim.session import DEFAULT_ENDPOINT, open_session, router_config
+from fleet_bus.process import ROUTER_READY, process_stop, ready
+from fleet_bus.session import DEFAULT_ENDPOINT, open_session, router_config
 
-READY = "comms_sim router listening on"
-
-
-def stop_on_signals() -> threading.Event:
-    """An event set by SIGTERM or SIGINT (call from the main thread)."""
-    stop = threading.Event()
-    for sig in (signal.SIGTERM, signal.SIGINT):
-        signal.signal(sig, lambda *_: stop.set())
-    return stop
+READY = ROUTER_READY
 
 
 def main(listen: Sequence[str], stop: threading.Event, connect: Sequence[str] = ()) -> None:
     with open_session(router_config(listen, connect)):
-        print(f"{READY} {' '.join(listen)}", flush=True)
+        ready(READY, " ".join(listen))
         while not stop.wait(1.0):  # a bounded wait keeps signal handling prompt
             pass
 
@@ -39,4 +32,4 @@ if __name__ == "__main__":
     parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
                         help="another router to link to (repeatable)")
     args = parser.parse_args()
-    main(args.listen or [DEFAULT_ENDPOINT], stop_on_signals(), args.connect)
+    main(args.listen or [DEFAULT_ENDPOINT], process_stop(), args.connect)

@@ -8,12 +8,12 @@ for the vehicle's TDMA slot). Only a pose report is worth less than its successo
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from dataclasses import dataclass
 
+from fleet_bus.tdma import TdmaSchedule
+
 SUPERSEDABLE = "pose"
-_EPS = 1e-9  # float slack on slot boundaries
 
 
 @dataclass(frozen=True)
@@ -53,13 +53,4 @@ def slot_start(t_s: float, airtime_s: float, slot: int, n_slots: int, slot_s: fl
                guard_s: float) -> float:
     """Earliest time >= ``t_s`` at which a frame of ``airtime_s`` can start in slot ``slot``
     of an ``n_slots``-slot cycle and still end ``guard_s`` before the slot closes."""
-    if airtime_s + guard_s > slot_s + _EPS:
-        raise ValueError(f"a {airtime_s:.3f} s frame never fits a {slot_s} s slot")
-    period = n_slots * slot_s
-    cycle = math.floor(t_s / period)
-    while True:
-        opens = cycle * period + slot * slot_s
-        start = max(t_s, opens)
-        if start + airtime_s <= opens + slot_s - guard_s + _EPS:
-            return start
-        cycle += 1
+    return TdmaSchedule(n_slots, slot_s).next_start(t_s, slot, airtime_s, guard_s)

@@ -16,12 +16,10 @@ from typing import Collection, Mapping, Sequence
 
 import numpy as np
 
+from fleet_agent.knowledge import PeerPose
 from fleet_agent.plans import Live, Planner
 from fleet_agent.vehicle import Vehicle, position_along
 from hfc_core.problem import Problem
-
-Pose3 = tuple[float, float, float]
-
 
 def live_self(vehicle: Vehicle) -> Live:
     """This vehicle as the replanner sees it (rounded: equal inputs memoise)."""
@@ -30,15 +28,15 @@ def live_self(vehicle: Vehicle) -> Live:
                 round(vehicle.battery_left_s(), 3), tuple(vehicle.route), locked)
 
 
-def live_peer(problem: Problem, v: int, pose: tuple[Pose3, float, str] | None,
-              route: Sequence[int], now_s: float) -> Live:
+def live_peer(problem: Problem, v: int, pose: PeerPose | None, route: Sequence[int],
+              now_s: float) -> Live:
     """Dead reckoning: peer ``v``'s last pose (position, time, state) moved along its known
     route since then; without a pose, from its start at time 0. Battery: capacity minus
     mission time (constant power, Assumption 1)."""
     if pose is not None:
-        pos, t, state = pose
+        pos, t = pose.pos, pose.t_s
         service_left = 0.5 * float(problem.service_s[route[0]]) \
-            if state == "injecting" and route else 0.0
+            if pose.state == "injecting" and route else 0.0
     else:
         pos, t, service_left = problem.vehicles[v].start, 0.0, 0.0
     est = position_along(problem, v, pos, route, max(0.0, now_s - t), service_left)

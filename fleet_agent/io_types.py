@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Union
+from typing import Any, Callable, Iterable, Union
 
-from comms_sim.bus import Truth
-from fleet_agent.telemetry import Event, Status
+from fleet_agent.records import JournalRecord
+from fleet_bus.telemetry import Event, Status, Truth
 
 
 @dataclass(frozen=True)
@@ -26,7 +26,7 @@ class Frame:
 
 @dataclass(frozen=True)
 class Command:
-    """Fault injection from the launcher: ``"abort"``."""
+    """Fault injection from the operator: ``"abort"``."""
 
     name: str
     now: float
@@ -61,3 +61,20 @@ class Record:
 
 
 Output = Union[Send, Publish, Record]
+
+
+class Outputs(list):
+    """The outputs of one step, with the helpers every part of the agent uses to add to them.
+    Events name tasks by their scenario ids (``tids``) and the vehicle by ``vid``."""
+
+    def __init__(self, vid: str, tids: Callable[[Iterable[int]], list[int]]) -> None:
+        super().__init__()
+        self.vid, self._tids = vid, tids
+
+    def record(self, rec: JournalRecord) -> None:
+        self.append(Record(rec.doc(), rec.durable))
+
+    def event(self, t_s: float, kind: str, tasks: Iterable[int] = (), peer: str = "",
+              detail: str = "") -> None:
+        self.append(Publish("event", Event(float(t_s), self.vid, kind, self._tids(tasks),
+                                           peer, detail)))

@@ -6,7 +6,6 @@ cumulative, so the picture rebuilds itself from the next round of them)."""
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import threading
 from pathlib import Path
@@ -14,10 +13,12 @@ from typing import Sequence
 
 import zenoh
 
-from comms_sim.session import DEFAULT_ENDPOINT, client_config, open_session
+from fleet_bus.mission import fetch_mission
+from fleet_bus.process import STATION_READY, process_stop, ready
+from fleet_bus.session import DEFAULT_ENDPOINT, client_config, open_session
 from ground_station.blueprint import live_blueprint
 from ground_station.station import APPLICATION_ID, GroundStation, mission_layers
-from ground_station.subscriber import Inbox, fetch_mission, subscribed
+from ground_station.subscriber import Inbox, subscribed
 from ground_station.viewer import VIEWERS, ViewerOptions, close_recording, default_viewer, \
     open_recording, rrd_for_run
 
@@ -31,7 +32,7 @@ def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
         inbox = Inbox()
         # subscribe before asking for the mission, so nothing published meanwhile is lost
         with subscribed(session, inbox):
-            mission = fetch_mission(session, stop, timeout_s=mission_timeout_s)
+            mission = fetch_mission(session, stop, mission_timeout_s)
             if mission is None:
                 if stop.is_set():
                     return 0
@@ -44,7 +45,7 @@ def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
             rec, url = open_recording(APPLICATION_ID, mission.run_id, opts,
                                       live_blueprint(layers[0].bounds))
             station = GroundStation(mission, rec, layers)
-            print(f"{PREFIX} mission {mission.run_id} joined", flush=True)
+            ready(STATION_READY, f"{mission.run_id} joined")
             if opts.rrd is not None:
                 print(f"{PREFIX} recording to {opts.rrd}", flush=True)
             if url is not None:
@@ -61,13 +62,6 @@ def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
                 print(f"{PREFIX} {station.handled} samples logged, dropped {dropped}",
                       flush=True)
     return 0
-
-
-def stop_on_signals() -> threading.Event:
-    stop = threading.Event()
-    for sig in (signal.SIGTERM, signal.SIGINT):
-        signal.signal(sig, lambda *_: stop.set())
-    return stop
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
@@ -92,4 +86,4 @@ if __name__ == "__main__":
     options = ViewerOptions(viewer=args.viewer or default_viewer(), rrd=args.rrd,
                             host=args.host, web_port=args.web_port, grpc_port=args.grpc_port)
     raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT]), options,
-                          stop_on_signals(), args.mission_timeout))
+                          process_stop(), args.mission_timeout))

@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from comms_sim.bus import Truth
-from comms_sim.link_event import BROADCAST, LinkEvent
-from fleet_agent.telemetry import Event, Status
+from fleet_bus.ledger import FleetLedger
+from fleet_bus.link import BROADCAST, LinkRecord
+from fleet_bus.telemetry import Event, Status, Truth
 from ground_station import palette
 from ground_station.drawing import (
     Drawing, LinkClear, LinkLine, LogLine, Mark, Pose, Route, Scalar, Spots, Trail,
@@ -65,10 +65,8 @@ class FleetPicture:
         self.vehicles: dict[str, _Vehicle] = {}
         for vid in layers.vehicle_ids:
             self._vehicle(vid)
-        self.cleared: set[int] = set()  # grow-only, like the fleet's own set
-        # per vehicle, every spot it reported treating (statuses and "cleared" events: a
-        # vehicle killed between two statuses still announced its last treatment)
-        self.treated_by: dict[str, set[int]] = {}
+        # what the fleet reported treating, folded as the mission report folds it
+        self.ledger = FleetLedger()
         self._spot_states: tuple[str, ...] = ()
         self._link_expiry: dict[tuple[str, str], float] = {}
         self.link_counts: Counter[str] = Counter()
@@ -90,7 +88,7 @@ class FleetPicture:
             out = self._on_status(record)
         elif isinstance(record, Event):
             out = self._on_event(record)
-        elif isinstance(record, LinkEvent):
+        elif isinstance(record, LinkRecord):
             out = self._on_link(record)
         else:
             raise TypeError(f"not a telemetry record: {type(record).__name__}")
@@ -100,15 +98,14 @@ class FleetPicture:
 
     def fleet_figures(self) -> dict[str, float]:
         """Spots cleared, priority collected (each spot once) and duplicate treatments (the
-        mission report's definitions, `fleet_agent.report`)."""
-        treatments = sum(len(t) for t in self.treated_by.values())
+        mission report's definitions, from the same `FleetLedger`)."""
         index = self.layers.spot_index
-        priority = sum(float(self.layers.spot_priority[index[t]]) for t in self.cleared
+        priority = sum(float(self.layers.spot_priority[index[t]]) for t in self.ledger.cleared
                        if t in index)
         return {
-            "spots_cleared": float(len(self.cleared)),
+            "spots_cleared": float(len(self.ledger.cleared)),
             "priority_collected": priority,
-            "duplicates": float(treatments - len(set().union(*self.treated_by.values()))),
+            "duplicates": float(self.ledger.duplicates()),
         }
 
     # -- records ------------------------------------------------------------------------------
@@ -119,10 +116,6 @@ class FleetPicture:
             self.vehicles[vid] = _Vehicle(vid, palette.vehicle_color(index),
                                           self.layers.rendezvous.get(vid))
         return self.vehicles[vid]
-
-    def _treated(self, vid: str, tasks: list[int]) -> None:
-        self.treated_by.setdefault(vid, set()).update(tasks)
-        self.cleared.update(tasks)
 
     def _heard(self, v: _Vehicle, t: float) -> list[Drawing]:
         v.last_heard_s = max(v.last_heard_s, t)
@@ -152,7 +145,7 @@ class FleetPicture:
         out = self._heard(v, s.t_s)
         out += [Scalar(s.t_s, f"battery_s/{s.id}", s.battery_s),
                 Scalar(s.t_s, f"t_diff_s/{s.id}", s.t_diff_s)]
-        self._treated(s.id, s.treated)  # cumulative: safe in any order
+        self.ledger.add_treated(s.id, s.treated)  # cumulative: safe in any order
         if v.status is not None and s.t_s < v.status.t_s:
             return out + self._treated_scalars(s.id)  # route and state: the newer status rules
         v.status = s
@@ -166,7 +159,8 @@ class FleetPicture:
         """Counts over the whole picture (statuses and events, every vehicle), stamped with the
         picture's clock: samples of different vehicles may arrive out of order, and a row
         stamped earlier must never carry a newer picture than a row stamped later."""
-        out = [self._count(f"spots_treated/{vid}", float(len(self.treated_by[vid])))]
+        out = [self._count(f"spots_treated/{vid}",
+                           float(len(self.ledger.treated_by.get(vid, ()))))]
         out += [self._count(f"fleet/{k}", val) for k, val in self.fleet_figures().items()]
         return [d for d in out if d is not None]
 
@@ -192,7 +186,7 @@ class FleetPicture:
             text += f": {e.detail}"
         out: list[Drawing] = [LogLine(e.t_s, text, WARN_EVENTS.get(e.kind, "INFO"))]
         if e.kind == "cleared":
-            self._treated(e.id, e.tasks)
+            self.ledger.add_treated(e.id, e.tasks)
             out.append(self._spots())
             out += self._treated_scalars(e.id)
         elif e.kind == "abort":
@@ -206,7 +200,7 @@ class FleetPicture:
             out += self._update_mark(peer, e.t_s)
         return out
 
-    def _on_link(self, e: LinkEvent) -> list[Drawing]:
+    def _on_link(self, e: LinkRecord) -> list[Drawing]:
         self.link_counts["delivered" if e.delivered else "dropped"] += 1
         if e.delivered:
             self.link_counts["bytes"] += e.nbytes
@@ -297,7 +291,7 @@ class FleetPicture:
                 orphaned.update(v.status.route)
         states = []
         for tid in self.layers.spot_ids.tolist():
-            if tid in self.cleared:
+            if tid in self.ledger.cleared:
                 states.append("cleared")
             elif tid in claimed:
                 states.append(f"claimed:{claimed[tid]}")

@@ -12,7 +12,7 @@ from collections import Counter
 import numpy as np
 import rerun as rr
 
-from comms_sim.bus import Mission
+from fleet_bus.mission import Mission
 from ground_station import inputs, palette, rerun_log
 from ground_station.drawing import Scalar
 from ground_station.mapview import MapLayers, map_layers
@@ -40,8 +40,8 @@ def mission_markdown(mission: Mission, layers: MapLayers) -> str:
                      for i, vid in enumerate(layers.vehicle_ids))
     return (
         f"### Mission {mission.run_id}\n"
-        f"scenario **{name}**, {len(layers.spot_ids)} spots, seed {mission.seed}, "
-        f"warp {mission.warp:g}x\n\n{rows}\n\n"
+        f"scenario **{name}**, {len(layers.spot_ids)} spots, seed {mission.seed}\n\n"
+        f"{rows}\n\n"
         "**Spots**: grey pending, vehicle colour planned, gold claimed, green cleared, "
         "red abandoned; size = priority.\n\n"
         "**Links**: green delivered, red dropped (label: reason). "

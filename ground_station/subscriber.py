@@ -1,4 +1,4 @@
-"""Zenoh side: the mission record (with retries) and the four telemetry subscriptions.
+"""Zenoh side: the four telemetry subscriptions.
 
 Zenoh calls the callbacks from its own threads; they only enqueue ``(key, payload)`` so all
 decoding, folding and logging happens on one thread, in arrival order, without locks.
@@ -7,16 +7,14 @@ decoding, folding and logging happens on one thread, in arrival order, without l
 from __future__ import annotations
 
 import queue
-import threading
-import time
 from contextlib import ExitStack, contextmanager
 from typing import Iterator
 
 import zenoh
 
-from comms_sim import bus
+from fleet_bus import keys
 
-TOPICS = (bus.TRUTH_ALL, bus.STATUS_ALL, bus.EVENT_ALL, bus.LINK_ALL)
+TOPICS = (keys.TRUTH_ALL, keys.STATUS_ALL, keys.EVENT_ALL, keys.LINK_ALL)
 
 
 class Inbox:
@@ -41,23 +39,6 @@ class Inbox:
             return self._q.get(timeout=timeout_s)
         except queue.Empty:
             return None
-
-
-def fetch_mission(session: zenoh.Session, stop: threading.Event, timeout_s: float = 60.0,
-                  query_timeout_s: float = 2.0, retry_s: float = 0.5) -> bus.Mission | None:
-    """Ask ``fleet/mission`` until a well-formed answer comes (the launcher may not be up yet);
-    None if ``stop`` is set or ``timeout_s`` passes first."""
-    deadline = time.monotonic() + timeout_s
-    while not stop.is_set() and time.monotonic() < deadline:
-        for reply in session.get(bus.MISSION, timeout=query_timeout_s):
-            if reply.ok is None:
-                continue
-            try:
-                return bus.Mission.decode(reply.ok.payload.to_bytes())
-            except ValueError:
-                continue  # a garbled answer: ask again
-        stop.wait(retry_s)
-    return None
 
 
 @contextmanager

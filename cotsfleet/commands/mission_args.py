@@ -1,10 +1,23 @@
-"""Options shared by `cotsfleet run` and `cotsfleet sim`: the same mission, the same faults,
-whether the fleet runs as processes or in one process."""
+"""What `cotsfleet run` and `cotsfleet sim` share: the mission's arguments (scenario, seed,
+agent config, faults) and how they become a mission, whether the fleet runs as processes or
+in one process."""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
+from cotsfleet.cli import UsageError
+from cotsfleet.mission.faults import Fault, FaultError, check_schedule, parse_faults
+from cotsfleet.mission.runner import horizon_of
+from fleet_agent.config import AgentConfig, load_config
+from hfc_core.problem import Problem, ScenarioError
+from hfc_core.scenario import problem_from_dict
+
+MAX_PRESET_VEHICLES = 16
 
 
 def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> None:
@@ -13,10 +26,86 @@ def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> 
     p.add_argument("--vehicles", type=int, help="fleet size of the default scenario")
     p.add_argument("--seed", type=int, default=0, help="mission seed (plans, channel)")
     p.add_argument("--loss", type=float, default=0.0, help="extra uniform link loss 0..1")
-    p.add_argument("--abort", action="append", default=[], metavar="ID@S",
-                   help="vehicle announces an abort at sim time S (repeatable)")
-    p.add_argument("--kill", action="append", default=[], metavar="ID@S",
-                   help="the vehicle's agent dies silently at sim time S (repeatable)")
-    p.add_argument("--restart", action="append", default=[], metavar="ID@S",
-                   help="start a killed agent again from its journal at S (repeatable)")
     p.add_argument("--config", type=Path, help="agent settings TOML (fleet_agent.config)")
+    faults = p.add_argument_group("faults (simulation times in seconds)")
+    faults.add_argument("--abort", action="append", default=[], metavar="ID@S",
+                        help="vehicle announces an abort at S (repeatable)")
+    faults.add_argument("--kill", action="append", default=[], metavar="ID@S",
+                        help="the vehicle's agent dies silently at S (repeatable)")
+    faults.add_argument("--restart", action="append", default=[], metavar="ID@S",
+                        help="start a killed agent again from its journal at S (repeatable)")
+    faults.add_argument("--partition", action="append", default=[], metavar="ID@S+D",
+                        help="cut the vehicle off from everyone from S for D seconds")
+    faults.add_argument("--loss-at", action="append", default=[], metavar="P@S",
+                        help="extra uniform link loss P (0..1) from S on")
+    faults.add_argument("--attack", action="append", default=[], metavar="KIND@S[*N]",
+                        help="an intruder's modem sends N (default 10) forge|replay|garbage "
+                             "frames from S")
+
+
+@dataclass(frozen=True)
+class MissionArgs:
+    problem: Problem
+    scenario: dict[str, Any]
+    seed: int
+    config: AgentConfig
+    faults: tuple[Fault, ...]
+    loss: float
+
+
+def scenario_doc(path: Path | None, vehicles: int | None, seed: int) -> dict[str, Any]:
+    """The mission's scenario document: a file (JSON scenario or TOP instance), else the
+    paper preset drawn with ``seed`` (``vehicles`` changes its fleet size)."""
+    if path is not None:
+        from cotsfleet.io import read_scenario
+        from hfc_core.scenario import problem_to_dict
+
+        problem, doc = read_scenario(path)  # validates, with a clear message
+        return doc if doc is not None else problem_to_dict(problem)
+
+    import numpy as np
+
+    from hfc_core.generate import PAPER_PRESET, generate_doc, paper_preset_doc
+
+    if vehicles is None or vehicles == PAPER_PRESET.n_vehicles:
+        return paper_preset_doc(seed)
+    if not 1 <= vehicles <= MAX_PRESET_VEHICLES:
+        raise UsageError(f"--vehicles must be 1..{MAX_PRESET_VEHICLES}, got {vehicles}")
+    doc = generate_doc(dataclasses.replace(PAPER_PRESET, n_vehicles=vehicles),
+                       np.random.default_rng(seed))
+    doc["name"] = f"paper-{vehicles}auv-seed{seed}"
+    return doc
+
+
+def agent_config(path: Path | None) -> AgentConfig:
+    """The agent settings file, or the defaults; a clean usage error for a bad file."""
+    if path is None:
+        return AgentConfig()
+    try:
+        return load_config(path)
+    except FileNotFoundError:
+        raise UsageError(f"--config {path}: no such file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"--config {path}: cannot read: {exc}") from None
+    except ValueError as exc:  # tomllib.TOMLDecodeError is a ValueError too
+        raise UsageError(f"--config {path}: {exc}") from None
+
+
+def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionArgs:
+    """The mission the arguments describe (``seed`` overrides ``--seed``, for Monte Carlo);
+    every fault is checked against the scenario before anything starts."""
+    seed = args.seed if seed is None else seed
+    if not 0.0 <= args.loss <= 1.0:
+        raise UsageError(f"--loss must be in [0, 1], got {args.loss}")
+    try:
+        doc = scenario_doc(args.scenario, args.vehicles, seed)
+        problem = problem_from_dict(doc)
+        faults = parse_faults(aborts=args.abort, kills=args.kill, restarts=args.restart,
+                              partitions=args.partition, losses=args.loss_at,
+                              attacks=args.attack)
+        check_schedule(faults, [v.id for v in problem.vehicles], horizon_of(problem))
+    except FaultError as exc:
+        raise UsageError(str(exc)) from None
+    except ScenarioError:
+        raise
+    return MissionArgs(problem, doc, seed, agent_config(args.config), tuple(faults), args.loss)

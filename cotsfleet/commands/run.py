@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import json
+import signal
+import socket
 import sys
 from pathlib import Path
+from typing import Any
 
 from cotsfleet.cli import UsageError
-from cotsfleet.commands.mission_args import add_mission_arguments
+from cotsfleet.commands.mission_args import add_mission_arguments, mission_args
+from cotsfleet.mission.faults import FaultError
 
 HELP = "run an emulated mission: router, link emulator, one agent process per AUV, dashboard"
 
@@ -34,18 +39,27 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "(default: yes for --viewer web in an interactive terminal)")
 
 
-def _faults(specs: list[str], what: str) -> tuple[tuple[str, float], ...]:
-    from fleet_agent.sim import parse_at
+def _interrupt(*_: Any) -> None:
+    raise KeyboardInterrupt  # SIGTERM and SIGHUP end the mission like Ctrl-C: cleanly
 
-    try:
-        return tuple(parse_at(s) for s in specs)
-    except ValueError as exc:
-        raise UsageError(f"--{what}: {exc}") from None
+
+def _check_listen(endpoint: str) -> None:
+    """A busy router port is a usage error now, not a dead router later."""
+    proto, _, rest = endpoint.partition("/")
+    host, _, port = rest.rpartition(":")
+    if proto != "tcp" or not port.isdigit():
+        raise UsageError(f"--listen: expected tcp/HOST:PORT, got {endpoint!r}")
+    with socket.socket(socket.AF_INET6 if ":" in host.strip("[]") else socket.AF_INET) as s:
+        try:
+            s.bind((host.strip("[]"), int(port)))
+        except OSError as exc:
+            raise UsageError(f"--listen {endpoint}: {exc.strerror or exc}") from None
 
 
 def run(args: argparse.Namespace) -> int:
-    from cotsfleet.launcher import LaunchOptions, run_mission, scenario_doc
-    from fleet_agent.config import AgentConfig, load_config
+    from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
+    from cotsfleet.mission.report import format_report
+    from cotsfleet.mission.runner import run_mission
 
     viewer = args.viewer
     if viewer is None:
@@ -55,20 +69,39 @@ def run(args: argparse.Namespace) -> int:
     hold = args.hold_viewer
     if hold is None:
         hold = viewer == "web" and sys.stdin.isatty()
+    if args.listen:
+        _check_listen(args.listen)
+    m = mission_args(args)
     try:
-        config = load_config(args.config) if args.config else AgentConfig()
-        opts = LaunchOptions(
-            scenario=scenario_doc(args.scenario, args.vehicles, args.seed), seed=args.seed,
-            warp=args.warp, loss=args.loss, aborts=_faults(args.abort, "abort"),
-            kills=_faults(args.kill, "kill"), restarts=_faults(args.restart, "restart"),
-            viewer=viewer, rrd=args.rrd, web_port=args.web_port, run_dir=args.run_dir,
-            report=args.report, agent_config=config, hold_viewer=hold,
-            listen=args.listen, remote=tuple(args.remote),
-            startup_timeout_s=args.startup_timeout)
-        report = run_mission(opts)
-    except (RuntimeError, TimeoutError) as exc:  # TimeoutError first: it is an OSError
-        print(f"cotsfleet run: failed: {exc}")
-        return 1
-    except (ValueError, OSError) as exc:
+        opts = ProcessOptions(warp=args.warp, loss=args.loss, viewer=viewer, rrd=args.rrd,
+                              web_port=args.web_port, run_dir=args.run_dir,
+                              agent_config=m.config, hold_viewer=hold, listen=args.listen,
+                              remote=tuple(args.remote), startup_timeout_s=args.startup_timeout)
+        backend = ProcessBackend(m.problem, m.scenario, m.seed, opts)
+    except ValueError as exc:
         raise UsageError(str(exc)) from None
-    return 130 if report.get("interrupted") else 0
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, _interrupt)
+    try:
+        outcome = run_mission(m.problem, backend, m.faults, seed=m.seed,
+                              step_s=args.warp * 0.25)
+    except FaultError as exc:
+        raise UsageError(str(exc)) from None
+    except (TimeoutError, RuntimeError, OSError) as exc:
+        print(f"cotsfleet run: failed: {exc}", file=sys.stderr)
+        return 1
+    finally:
+        for sig in (signal.SIGTERM, signal.SIGHUP):
+            signal.signal(sig, signal.SIG_DFL)
+    report = outcome.report
+    path = args.report or backend.run_dir / "report.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(report, indent=2), encoding="utf-8")
+    print(format_report(report))
+    print(f"report: {path}")
+    if report.get("failure"):
+        print(f"cotsfleet run: the mission ended early: {report['failure']}", file=sys.stderr)
+    backend.hold_viewer()
+    if report.get("interrupted"):
+        return 130
+    return 1 if report.get("failure") else 0

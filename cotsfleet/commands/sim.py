@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from cotsfleet.cli import UsageError
-from cotsfleet.commands.mission_args import add_mission_arguments
+from cotsfleet.commands.mission_args import add_mission_arguments, mission_args
 
 HELP = "simulate missions in-process (deterministic, seeded; --runs N for Monte Carlo)"
 
@@ -18,32 +18,7 @@ HELP = "simulate missions in-process (deterministic, seeded; --runs N for Monte 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_mission_arguments(p, "the paper preset, drawn anew for each run's seed")
     p.add_argument("--runs", type=int, default=1, help="Monte Carlo runs (seeds seed..)")
-    p.add_argument("--partition", action="append", default=[], metavar="ID@S+D",
-                   help="cut the vehicle off from S for D seconds")
-    p.add_argument("--attack", action="append", default=[], metavar="KIND@S",
-                   help="an intruder sends 10 forge|replay|garbage frames from S")
     p.add_argument("--report", type=Path, help="write the report(s) here (JSON)")
-
-
-def _faults(args: argparse.Namespace) -> list:
-    from fleet_agent.sim import Fault, parse_at
-
-    faults = []
-    try:
-        for kind in ("abort", "kill", "restart"):
-            for spec in getattr(args, kind):
-                vid, t = parse_at(spec)
-                faults.append(Fault(kind, t, vid))
-        for spec in args.partition:
-            head, _, dur = spec.partition("+")
-            vid, t = parse_at(head)
-            faults.append(Fault("partition", t, vid, float(dur or 300)))
-        for spec in args.attack:
-            kind, t = parse_at(spec)
-            faults.append(Fault(kind, t, "", 10))
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
-    return faults
 
 
 def _row(report: dict[str, Any]) -> dict[str, float]:
@@ -69,35 +44,24 @@ def summary_table(rows: list[dict[str, float]]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from cotsfleet.launcher import scenario_doc
-    from fleet_agent.config import AgentConfig, load_config
-    from fleet_agent.report import format_report
-    from fleet_agent.sim import FleetSim
-    from hfc_core.scenario import problem_from_dict
+    from cotsfleet.mission.inprocess import simulate
+    from cotsfleet.mission.report import format_report
 
     if args.runs < 1:
         raise UsageError("--runs must be >= 1")
-    if not 0.0 <= args.loss <= 1.0:
-        raise UsageError("--loss must be in [0, 1]")
-    try:
-        config = load_config(args.config) if args.config else AgentConfig()
-        faults = _faults(args)
-        reports, rows = [], []
-        for i in range(args.runs):
-            seed = args.seed + i
-            problem = problem_from_dict(scenario_doc(args.scenario, args.vehicles, seed))
-            result = FleetSim(problem, config, seed=seed, loss=args.loss, faults=faults).run()
-            reports.append({**result.report, "wall_s": round(result.wall_s, 3)})
-            rows.append(_row(result.report))
-            if args.runs == 1:
-                print(format_report(result.report))
-                print(f"wall {result.wall_s:.2f} s")
-            else:
-                done = int(30 * (i + 1) / args.runs)
-                print(f"\r[{'#' * done}{'.' * (30 - done)}] {i + 1}/{args.runs} runs",
-                      end="" if sys.stderr.isatty() else "\n", file=sys.stderr, flush=True)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    reports, rows = [], []
+    for i in range(args.runs):
+        m = mission_args(args, seed=args.seed + i)
+        result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults)
+        reports.append({**result.report, "wall_s": round(result.wall_s, 3)})
+        rows.append(_row(result.report))
+        if args.runs == 1:
+            print(format_report(result.report))
+            print(f"wall {result.wall_s:.2f} s")
+        else:
+            done = int(30 * (i + 1) / args.runs)
+            print(f"\r[{'#' * done}{'.' * (30 - done)}] {i + 1}/{args.runs} runs",
+                  end="" if sys.stderr.isatty() else "\n", file=sys.stderr, flush=True)
     if args.runs > 1:
         print(file=sys.stderr)
         print(summary_table(rows))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from comms_sim.channel import Channel, ChannelConfig, LinkEvent
-from comms_sim.clock import ManualClock
+from fleet_bus.clock import ManualClock
 from comms_sim.des import EventLoop, InProcessNetwork
 
 LOSSLESS = ChannelConfig(range_d50_m=1e7)

@@ -7,11 +7,11 @@ import msgpack
 import numpy as np
 import pytest
 
-from comms_sim import bus
-from comms_sim.channel import Channel, ChannelConfig, LinkEvent
-from comms_sim.clock import ManualClock
+from comms_sim.channel import Channel, ChannelConfig
 from comms_sim.relay import Relay
-from comms_sim.stats import decode_stats
+from fleet_bus.clock import ManualClock
+from fleet_bus.link import LinkRecord, decode_stats
+from fleet_bus.telemetry import Truth
 
 LOSSLESS = ChannelConfig(range_d50_m=1e7)
 
@@ -25,7 +25,7 @@ def make_relay(vehicles: frozenset[str] | None = None):
 
 
 def truth(x: float) -> bytes:
-    return bus.Truth(0.0, (x, 0.0, 0.0)).encode()
+    return Truth(0.0, (x, 0.0, 0.0)).encode()
 
 
 def test_frames_are_delivered_at_the_model_time_with_metadata() -> None:
@@ -43,7 +43,7 @@ def test_frames_are_delivered_at_the_model_time_with_metadata() -> None:
     assert (rx_key, frame) == ("fleet/rx/auv1", b"pose!")
     meta = msgpack.unpackb(att)
     assert meta == {"src": "auv0", "t_s": pytest.approx(expected), "t_sent_s": 3.0}
-    assert link_key == "fleet/link/auv0/auv1" and LinkEvent.decode(payload).delivered
+    assert link_key == "fleet/link/auv0/auv1" and LinkRecord.decode(payload).delivered
 
 
 def test_garbage_and_unknown_ids_are_dropped_and_counted() -> None:
@@ -64,7 +64,7 @@ def test_garbage_and_unknown_ids_are_dropped_and_counted() -> None:
     c = relay.counters
     assert (c["malformed_truth"], c["unknown_truth"], c["unknown_tx"], c["malformed_tx"],
             c["malformed_ctl"]) == (3, 1, 1, 1, 2)
-    assert [(k, LinkEvent.decode(p).reason) for k, p, _ in sent] == [
+    assert [(k, LinkRecord.decode(p).reason) for k, p, _ in sent] == [
         ("fleet/link/auv0/*", "oversize"), ("fleet/link/auv1/auv0", "range")]
     counts, extra = decode_stats(relay.stats_payload())
     assert counts[("auv0", "*")]["oversize"] == 1
@@ -94,7 +94,7 @@ def test_link_control_applies_from_now() -> None:
     relay.on_tx("a", b"healed")
     while (due := relay.step()) is not None:
         clock.advance_to(max(due, clock.now()))
-    reasons = [LinkEvent.decode(p).reason for k, p, _ in sent if k.startswith("fleet/link")]
+    reasons = [LinkRecord.decode(p).reason for k, p, _ in sent if k.startswith("fleet/link")]
     assert reasons == ["partition", None]
     assert [p for k, p, _ in sent if k == "fleet/rx/b"] == [b"healed"]
     _, extra = decode_stats(relay.stats_payload())

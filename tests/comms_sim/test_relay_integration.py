@@ -11,14 +11,14 @@ from pathlib import Path
 import msgpack
 import pytest
 
-from comms_sim import bus
-from comms_sim.channel import LinkEvent
-from comms_sim.clock import WarpClock
 from comms_sim.config import ChannelConfig
-from comms_sim.relay import READY as RELAY_READY
-from comms_sim.router import READY as ROUTER_READY
-from comms_sim.session import client_config, free_tcp_endpoint, open_session
-from comms_sim.stats import decode_stats
+from fleet_bus import keys as bus
+from fleet_bus.clock import WarpClock
+from fleet_bus.link import LinkRecord, decode_stats
+from fleet_bus.mission import ClockRecord, Mission
+from fleet_bus.process import RELAY_READY, ROUTER_READY
+from fleet_bus.session import client_config, free_tcp_endpoint, open_session
+from fleet_bus.telemetry import Truth
 
 pytestmark = pytest.mark.integration
 
@@ -33,7 +33,7 @@ class Inbox:
         self.clock = clock
         self.lock = threading.Lock()
         self.rx: dict[str, list[tuple[bytes, dict, float]]] = {v: [] for v in POSITIONS}
-        self.links: list[LinkEvent] = []
+        self.links: list[LinkRecord] = []
 
     def on_rx(self, sample) -> None:
         now = self.clock.now()
@@ -44,7 +44,7 @@ class Inbox:
 
     def on_link(self, sample) -> None:
         with self.lock:
-            self.links.append(LinkEvent.decode(sample.payload.to_bytes()))
+            self.links.append(LinkRecord.decode(sample.payload.to_bytes()))
 
 
 def stats(session) -> tuple[dict, dict]:
@@ -77,7 +77,7 @@ def test_relay_applies_delay_and_loss_and_never_delivers_a_drop(tmp_path: Path, 
             session.declare_subscriber("fleet/rx/*", inbox.on_rx), \
             session.declare_subscriber(bus.LINK_ALL, inbox.on_link):
         for vid, pos in POSITIONS.items():
-            session.put(bus.truth_key(vid), bus.Truth(clock.now(), pos).encode())
+            session.put(bus.truth_key(vid), Truth(clock.now(), pos).encode())
         time.sleep(0.3)
         for i in range(n):  # a frame every 3 simulated seconds: no queueing, no collisions
             session.put(bus.tx_key("a"), b"frame-%03d" % i)
@@ -89,11 +89,11 @@ def test_relay_applies_delay_and_loss_and_never_delivers_a_drop(tmp_path: Path, 
     with inbox.lock:
         links, rx = list(inbox.links), {k: list(v) for k, v in inbox.rx.items()}
     assert len(links) == 2 * n  # one event per frame per receiver, nothing more
-    for dst in ("b", "c"):
-        delivered = [e.frame for e in links if e.dst == dst and e.delivered]
-        assert [f for f, _, _ in rx[dst]] == delivered  # exactly the model's deliveries
-        dropped = {e.frame for e in links if e.dst == dst and not e.delivered}
-        assert not dropped & {f for f, _, _ in rx[dst]}
+    for dst in ("b", "c"):  # a frame is known by when it was sent (one every 3 s)
+        delivered = sorted(e.t_sent_s for e in links if e.dst == dst and e.delivered)
+        assert sorted(m["t_sent_s"] for _, m, _ in rx[dst]) == delivered  # the model's only
+        dropped = {e.t_sent_s for e in links if e.dst == dst and not e.delivered}
+        assert not dropped & {m["t_sent_s"] for _, m, _ in rx[dst]}
     assert rx["a"] == [] and rx["c"] == []  # c is beyond max range
     assert {e.reason for e in links if e.dst == "c"} == {"range"}
     reasons_b = [e.reason for e in links if e.dst == "b"]
@@ -122,7 +122,8 @@ def test_embedded_tdma_relay_survives_garbage_and_takes_the_mission_from_the_bus
     relay = spawn(["-m", "comms_sim", "--listen", endpoint, "--mission-from-bus",
                    "--tdma", "--mission-timeout", "30"])
     epoch = time.time()
-    mission = bus.Mission({"vehicles": [{"id": "a"}, {"id": "b"}]}, epoch, WARP, 5, "run-1")
+    mission = Mission({"vehicles": [{"id": "a"}, {"id": "b"}]}, 5, "run-1")
+    record = ClockRecord(epoch, WARP)
     clock = WarpClock(epoch, WARP)
     inbox = Inbox(clock)
     deadline = time.monotonic() + 30
@@ -136,13 +137,14 @@ def test_embedded_tdma_relay_survives_garbage_and_takes_the_mission_from_the_bus
     with session_cm as session, \
             session.declare_queryable(bus.MISSION, lambda q: q.reply(bus.MISSION,
                                                                      mission.encode())), \
+            session.declare_queryable(bus.CLOCK, lambda q: q.reply(bus.CLOCK, record.encode())), \
             session.declare_subscriber("fleet/rx/*", inbox.on_rx):
         line = relay.wait_for(RELAY_READY)
         assert f"warp={WARP}" in line and "roster=a,b" in line and "mac=tdma" in line
-        session.put(bus.truth_key("a"), bus.Truth(0.0, POSITIONS["a"]).encode())
+        session.put(bus.truth_key("a"), Truth(0.0, POSITIONS["a"]).encode())
         session.put(bus.truth_key("b"), b"\x00\x01garbage")
-        session.put(bus.truth_key("b"), bus.Truth(0.0, (100.0, 0.0, 0.0)).encode())
-        session.put(bus.truth_key("zz"), bus.Truth(0.0, (0.0, 0.0, 0.0)).encode())
+        session.put(bus.truth_key("b"), Truth(0.0, (100.0, 0.0, 0.0)).encode())
+        session.put(bus.truth_key("zz"), Truth(0.0, (0.0, 0.0, 0.0)).encode())
         time.sleep(0.3)  # samples on different keys may be handled concurrently
         session.put(bus.tx_key("zz"), b"unknown id")
         session.put(bus.tx_key("a"), b"")

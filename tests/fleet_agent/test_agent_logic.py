@@ -1,76 +1,66 @@
-"""The agent state machine alone: hostile input changes nothing, restarts forget nothing.
+"""The agent state machine on the real in-process transport: hostile input changes nothing,
+restarts forget nothing, an abort is announced then the vehicle goes quiet.
 
-A tiny lockstep harness stands in for the water here (every frame reaches every other agent
-one second later): these tests are about the decision logic, the channel has its own.
+The fleet runs on `cotsfleet.mission.inprocess` (the same discrete-event loop and channel as
+every simulation) over a channel without loss, so what these tests see is the decision
+logic; the channel has its own tests.
 """
 
 from __future__ import annotations
 
 import functools
-import heapq
-import itertools
+from collections import defaultdict
 
 import numpy as np
 import pytest
 
+from comms_sim.config import ChannelConfig
+from cotsfleet.mission.faults import Fault
+from cotsfleet.mission.inprocess import InProcessBackend
+from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
-from fleet_agent.logic import Agent, Command, Fleet, Frame, Publish, Record, Send, Tick, step
+from fleet_agent.fleet import Fleet
+from fleet_agent.io_types import Frame, Publish, Record, Send, Tick
+from fleet_agent.journal import MemoryJournal
 from fleet_agent.wire import Abort, Codec, Pose, WireError
 from hfc_core.generate import paper_preset_doc
+from hfc_core.problem import Problem
 from hfc_core.scenario import problem_from_dict
 
 KEY = bytes(range(16))
 CONFIG = AgentConfig().with_key(KEY)
+LOSSLESS = ChannelConfig(range_d50_m=1e9, max_range_m=1e9)
+
+
+@functools.lru_cache(maxsize=None)
+def problem() -> Problem:
+    return problem_from_dict(paper_preset_doc(5))
 
 
 @functools.lru_cache(maxsize=None)
 def fleet() -> Fleet:
-    return Fleet.build(problem_from_dict(paper_preset_doc(5)), KEY, 5, CONFIG)
+    return Fleet.build(problem(), KEY, 5, CONFIG)
 
 
-def agent(index: int, now: float = 0.0, journal=()) -> Agent:
-    return Agent(fleet(), index, CONFIG, now, journal)
+class World:
+    """The three agents in process, every step's outputs kept per vehicle."""
 
+    def __init__(self, faults: tuple[Fault, ...] = ()) -> None:
+        self.outputs: dict[str, list] = defaultdict(list)
+        self.backend = InProcessBackend(problem(), CONFIG, seed=5, key=KEY, channel=LOSSLESS,
+                                        tap=lambda vid, out: self.outputs[vid].extend(out))
+        self.backend.start(faults)
 
-class Lockstep:
-    """Agents stepped at their wake-up times; each frame sent reaches the others 1 s later."""
+    def run_until(self, t_s: float) -> None:
+        self.backend.advance(t_s)
 
-    def __init__(self, agents: dict[int, Agent]) -> None:
-        self.agents = agents
-        self.outputs: dict[int, list] = {i: [] for i in agents}
-        self.frames: list[tuple[float, int, bytes]] = []  # (sent at, sender, frame)
-        self._queue: list[tuple[float, int, int, bytes]] = []
-        self._n = itertools.count()
+    def agent(self, vid: str) -> Agent:
+        agent = self.backend.seats[vid].agent
+        assert agent is not None
+        return agent
 
-    def run_until(self, t_end: float, extra: dict[int, list[tuple[float, bytes]]] | None = None
-                  ) -> None:
-        inject = {i: sorted(v) for i, v in (extra or {}).items()}
-        while True:
-            wake = min((a.next_wakeup(), i) for i, a in self.agents.items())
-            due_frame = self._queue[0][0] if self._queue else float("inf")
-            due_extra = min(((v[0][0], i) for i, v in inject.items() if v),
-                            default=(float("inf"), -1))
-            t = min(wake[0], due_frame, due_extra[0])
-            if t > t_end:
-                return
-            if due_extra[0] == t:
-                _, data = inject[due_extra[1]].pop(0)
-                self._step(due_extra[1], Frame(data, t))
-            elif due_frame == t:
-                _, _, dst, data = heapq.heappop(self._queue)
-                self._step(dst, Frame(data, t))
-            else:
-                self._step(wake[1], Tick(t))
-
-    def _step(self, i: int, inp) -> None:
-        _, out = step(self.agents[i], inp)
-        self.outputs[i] += out
-        for o in out:
-            if isinstance(o, Send):
-                self.frames.append((inp.now, i, o.frame))
-                for j in self.agents:
-                    if j != i:
-                        heapq.heappush(self._queue, (inp.now + 1.0, next(self._n), j, o.frame))
+    def sent(self, vid: str) -> list[bytes]:
+        return [o.frame for o in self.outputs[vid] if isinstance(o, Send)]
 
 
 def comparable(outputs: list) -> list:
@@ -79,20 +69,17 @@ def comparable(outputs: list) -> list:
     for o in outputs:
         if isinstance(o, Send):
             keep.append(("send", o.frame))
-        elif isinstance(o, Publish) and o.topic == "event":
-            keep.append(("event", o.payload))
-        elif isinstance(o, Publish) and o.topic == "truth":
-            keep.append(("truth", o.payload))
+        elif isinstance(o, Publish) and o.topic in ("event", "truth"):
+            keep.append((o.topic, o.payload))
     return keep
 
 
 def test_hostile_frames_are_counted_and_change_nothing() -> None:
-    base = Lockstep({i: agent(i) for i in range(3)})
+    base = World()
     base.run_until(1500.0)
-    genuine = [(t + 1.0, f) for t, i, f in base.frames if i != 0]
-    own = [(t + 2.0, f) for t, i, f in base.frames if i == 0][:20]
     rng = np.random.default_rng(0)
-    forger = Codec.for_problem(fleet().problem, b"not the fleet key")
+    forger = Codec.for_problem(problem(), b"not the fleet key")
+    attacked = World()
     hostile: list[tuple[float, bytes]] = []
     for k in range(60):
         t = 20.0 + 23.7 * k
@@ -100,13 +87,18 @@ def test_hostile_frames_are_counted_and_change_nothing() -> None:
         hostile.append((t + 0.3, forger.encode(Abort(1, int(t) + 5, int(t)))))  # forged abort
         hostile.append((t + 0.6, forger.encode(Pose(2, int(t) + 5, (0.0, 0.0, 0.0), 0, "home",
                                                     fleet().codec.largest(1).digest))))
-    replays = [(t + 37.0, f) for t, f in genuine[::5] if t + 37.0 < 1499.0]  # heard again
-    attacked = Lockstep({i: agent(i) for i in range(3)})
-    attacked.run_until(1500.0, {0: hostile + replays + own})
-    assert comparable(attacked.outputs[0]) == comparable(base.outputs[0])
-    assert attacked.agents[0].status().route == base.agents[0].status().route
-    c = attacked.agents[0].counters
+    genuine = base.sent("auv2")[::5]  # auv1 heard these already: replays
+    replays = [(30.0 + 37.0 * i, f) for i, f in enumerate(genuine) if 30.0 + 37.0 * i < 1499.0]
+    own = [(25.0 + 41.0 * i, f) for i, f in enumerate(base.sent("auv1")[:20])]
+    for t, f in hostile + replays + own:
+        attacked.backend.inject("auv1", t, f)
+    attacked.run_until(1500.0)
+    assert comparable(attacked.outputs["auv1"]) == comparable(base.outputs["auv1"])
+    assert attacked.agent("auv1").status().route == base.agent("auv1").status().route
+    c = attacked.agent("auv1").counters
     assert c.get("drop_mac", 0) >= 120  # forged frames (and garbage that got that far)
+    # A replay injected before the genuine frame reached auv1 is taken as the genuine one,
+    # and the genuine frame then counts as the replay: either way, one of the two is refused.
     assert c.get("drop_replay", 0) == len(replays)
     assert c.get("drop_self", 0) == len(own)
     refused = sum(n for k, n in c.items() if k.startswith("drop_"))
@@ -114,17 +106,18 @@ def test_hostile_frames_are_counted_and_change_nothing() -> None:
 
 
 def test_restart_from_the_journal_forgets_nothing() -> None:
-    world = Lockstep({i: agent(i) for i in range(3)})
+    world = World()
     world.run_until(1300.0)
-    before = world.agents[1]
-    journal = [o.doc for o in world.outputs[1] if isinstance(o, Record)]
-    reborn = agent(1, now=1400.0, journal=journal)
-    assert set(reborn.cleared) >= set(before.cleared)
-    assert reborn.treated == before.treated
+    before = world.agent("auv2")
+    journal = world.backend.seats["auv2"].journal.reopen().records
+    assert journal == [o.doc for o in world.outputs["auv2"] if isinstance(o, Record)]
+    reborn = Agent(fleet(), 1, CONFIG, 1400.0, journal)
+    assert set(reborn.know.cleared) >= set(before.know.cleared)
+    assert reborn.know.treated == before.know.treated
     assert reborn.vehicle.distance_m == pytest.approx(before.vehicle.distance_m, abs=20.0)
     assert reborn.vehicle.battery_left_s(1400.0) == pytest.approx(3600.0 - 1400.0)
     # its replay window came back: frames it took before the restart are refused
-    old = [f for t, i, f in world.frames if i != 1][-5:]
+    old = [f for vid in ("auv1", "auv3") for f in world.sent(vid)[-3:]]
     out = []
     for f in old:
         out += reborn.step(Frame(f, 1401.0))
@@ -133,28 +126,28 @@ def test_restart_from_the_journal_forgets_nothing() -> None:
     while not any(isinstance(o, Send) for o in out):
         out += reborn.step(Tick(reborn.next_wakeup()))
     frame = next(o.frame for o in out if isinstance(o, Send))
-    assert fleet().codec.decode(frame).seq > before.last_seq
+    assert fleet().codec.decode(frame).seq > before.radio.last_seq
     events = [o.payload.kind for o in out if isinstance(o, Publish) and o.topic == "event"]
     assert "restart" in events
 
 
 def test_abort_announces_then_goes_quiet_and_home() -> None:
-    world = Lockstep({i: agent(i) for i in range(3)})
+    world = World((Fault("abort", 600.5, "auv3"),))
     world.run_until(600.0)
-    world._step(2, Command("abort", 600.5))
+    n_before = len(world.sent("auv3"))
     world.run_until(4000.0)
-    sent = [fleet().codec.decode(f) for t, i, f in world.frames if i == 2 and t > 600.5]
+    sent = [fleet().codec.decode(f) for f in world.sent("auv3")[n_before:]]
     kinds = [type(m).__name__ for m in sent]
     assert kinds[:CONFIG.abort_repeats] == ["Abort"] * CONFIG.abort_repeats
     assert "Pose" not in kinds  # an aborted vehicle is out of the conversation
-    assert world.agents[2].vehicle.done and world.agents[2].quiet
-    for i in (0, 1):
-        assert world.agents[i].members.status(2) == "aborted"
-        assert world.agents[i].status().peers["auv3"] == "aborted"
+    assert world.agent("auv3").vehicle.done and world.agent("auv3").quiet
+    for vid in ("auv1", "auv2"):
+        assert world.agent(vid).know.members.status(2) == "aborted"
+        assert world.agent(vid).status().peers["auv3"] == "aborted"
 
 
 def test_truth_goes_out_before_the_first_frame() -> None:
-    a = agent(0)
+    a = Agent(fleet(), 0, CONFIG, 0.0, MemoryJournal().records)
     out = a.step(Tick(0.0))
     topics = [o.topic if isinstance(o, Publish) else type(o).__name__ for o in out]
     assert "truth" in topics
@@ -163,16 +156,17 @@ def test_truth_goes_out_before_the_first_frame() -> None:
 
 
 def test_every_frame_an_agent_sends_decodes_within_the_limits() -> None:
-    world = Lockstep({i: agent(i) for i in range(3)})
+    world = World()
     world.run_until(3700.0)
     kinds = set()
-    for _, _, f in world.frames:
-        assert len(f) <= 64
-        try:
-            m = fleet().codec.decode(f)
-        except WireError as exc:  # pragma: no cover - would be a codec bug
-            pytest.fail(f"own frame refused: {exc.reason}")
-        kinds.add(type(m).__name__)
-        if isinstance(m, Pose):
-            assert len(f) <= 32
+    for vid in ("auv1", "auv2", "auv3"):
+        for f in world.sent(vid):
+            assert len(f) <= 64
+            try:
+                m = fleet().codec.decode(f)
+            except WireError as exc:  # pragma: no cover - would be a codec bug
+                pytest.fail(f"own frame refused: {exc.reason}")
+            kinds.add(type(m).__name__)
+            if isinstance(m, Pose):
+                assert len(f) <= 32
     assert {"Pose", "ClearedSegment"} <= kinds

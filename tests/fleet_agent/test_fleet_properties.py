@@ -7,8 +7,9 @@ import functools
 import numpy as np
 import pytest
 
+from cotsfleet.mission.faults import Fault
+from cotsfleet.mission.inprocess import InProcessBackend, SimResult, simulate
 from fleet_agent.config import AgentConfig
-from fleet_agent.sim import Fault, FleetSim, SimResult
 from hfc_core.check import check_routes
 from hfc_core.generate import GeneratorParams, generate_doc, paper_preset_doc
 from hfc_core.problem import Problem
@@ -25,9 +26,10 @@ def paper(seed: int) -> Problem:
 
 
 @functools.lru_cache(maxsize=None)
-def run(seed: int, loss: float = 0.0, faults: tuple[Fault, ...] = ()) -> tuple[FleetSim, SimResult]:
-    sim = FleetSim(paper(seed), CONFIG, seed=seed, loss=loss, faults=faults)
-    return sim, sim.run()
+def run(seed: int, loss: float = 0.0,
+        faults: tuple[Fault, ...] = ()) -> tuple[InProcessBackend, SimResult]:
+    result = simulate(paper(seed), CONFIG, seed=seed, loss=loss, faults=faults)
+    return result.backend, result
 
 
 def executed_routes(problem: Problem, result: SimResult) -> dict[str, list[int]]:
@@ -44,7 +46,7 @@ def assert_knowledge_converged(result: SimResult) -> None:
     treated = {t for s in result.statuses.values() for t in s.treated}
     for vid, agent in result.agents.items():
         if agent is not None:
-            known = {agent.problem.tasks[t].id for t in agent.cleared}
+            known = {agent.problem.tasks[t].id for t in agent.know.cleared}
             assert treated <= known, f"{vid} does not know {sorted(treated - known)}"
 
 
@@ -119,8 +121,8 @@ def test_killed_agent_restarts_from_its_journal_without_forgetting(seed: int) ->
     status_at_kill, known_at_kill = sim.at_kill["auv2"]
     agent = result.agents["auv2"]
     assert agent is not None and agent.restarted
-    assert known_at_kill <= set(agent.cleared)  # nothing it knew is forgotten
-    treated = [agent.problem.tasks[t].id for t, _ in agent.treated]
+    assert known_at_kill <= set(agent.know.cleared)  # nothing it knew is forgotten
+    treated = [agent.problem.tasks[t].id for t, _ in agent.know.treated]
     assert treated[: len(status_at_kill.treated)] == status_at_kill.treated
     assert len(treated) == len(set(treated))  # and it treats none of them again
     assert result.report["fleet"]["duplicate_treatments"] == 0
@@ -157,8 +159,8 @@ def test_forged_replayed_and_garbage_frames_are_dropped_and_counted(seed: int) -
 
 def test_the_simulation_is_deterministic() -> None:
     faults = (Fault("kill", 900.0, "auv3"),)
-    a = FleetSim(paper(4), CONFIG, seed=4, loss=0.2, faults=faults).run()
-    b = FleetSim(paper(4), CONFIG, seed=4, loss=0.2, faults=faults).run()
+    a = simulate(paper(4), CONFIG, seed=4, loss=0.2, faults=faults)
+    b = simulate(paper(4), CONFIG, seed=4, loss=0.2, faults=faults)
     assert a.report == b.report
     assert a.events == b.events
 
@@ -170,18 +172,17 @@ def test_vehicles_route_around_land() -> None:
         land_forbidden=True, start=(40.0, 40.0, 0.0), rendezvous=(760.0, 760.0, 0.0))
     problem = problem_from_dict(generate_doc(params, np.random.default_rng(3)))
     assert problem.land is not None
-    sim = FleetSim(problem, CONFIG, seed=3, faults=(Fault("abort", 800.0, "auv1"),))
     inside: list[bool] = []
-    original = sim._positions
+    original = InProcessBackend._positions
 
-    def watch(t_s: float):  # every position the channel ever asks for must be in the water
-        pos = original(t_s)
+    def watch(self, t_s: float):  # every position the channel ever asks for: in the water
+        pos = original(self, t_s)
         inside.extend(problem.land.inside(np.array(list(pos.values()))[:, :2]).tolist())
         return pos
 
-    sim._positions = watch  # type: ignore[method-assign]
-    sim.net._positions = watch
-    result = sim.run()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(InProcessBackend, "_positions", watch)
+        result = simulate(problem, CONFIG, seed=3, faults=(Fault("abort", 800.0, "auv1"),))
     assert inside and not any(inside)
     f = result.report["fleet"]
     assert f["vehicles_home"] == 3 and f["duplicate_treatments"] == 0

@@ -12,10 +12,10 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from comms_sim import bus
-from comms_sim.bus import Mission
-from comms_sim.link_event import LinkEvent
-from fleet_agent.telemetry import Event, Status
+from fleet_bus import keys as bus
+from fleet_bus.link import LinkRecord
+from fleet_bus.mission import Mission
+from fleet_bus.telemetry import Event, Status, Truth
 
 
 @dataclass
@@ -64,7 +64,7 @@ def scripted_mission(doc: dict, routes: dict[str, list[int]], end_s: float,
                 continue
             _step(a, tasks, t, dt_s, out)
         for a in auvs.values():
-            out.append((bus.truth_key(a.vid), bus.Truth(t, (*a.xy, -2.0), a.yaw_deg, 0.0,
+            out.append((bus.truth_key(a.vid), Truth(t, (*a.xy, -2.0), a.yaw_deg, 0.0,
                                                         a.state).encode()))
         if int(t) % 10 == 0:
             for a in auvs.values():
@@ -83,9 +83,9 @@ def scripted_mission(doc: dict, routes: dict[str, list[int]], end_s: float,
                         continue
                     n_msgs += 1
                     ok = n_msgs % drop_every != 0
-                    out.append((bus.link_event_key(a.vid, b.vid), LinkEvent(
-                        a.vid, b.vid, t, t + 0.5, 24, ok, None if ok else "collision",
-                        b"x" * 24).encode()))
+                    out.append((bus.link_event_key(a.vid, b.vid), LinkRecord(
+                        a.vid, b.vid, t, t + 0.5, 24, ok, None if ok else "collision"
+                    ).encode()))
         t += dt_s
     return out
 
@@ -143,4 +143,4 @@ def small_scenario() -> dict[str, Any]:
 
 
 def mission_of(doc: dict[str, Any], run_id: str = "test-run") -> Mission:
-    return Mission(doc, time.time(), 60.0, 3, run_id)
+    return Mission(doc, 3, run_id)

@@ -7,9 +7,8 @@ import math
 import msgpack
 import pytest
 
-from comms_sim import bus
-from comms_sim.link_event import LinkEvent
-from fleet_agent.telemetry import Event, Status
+from fleet_bus.link import LinkRecord
+from fleet_bus.telemetry import Event, Status, Truth
 from ground_station.inputs import decode, kind_of
 
 
@@ -23,13 +22,13 @@ def good_status(**kw) -> dict:
 
 
 def test_round_trip_of_every_kind():
-    truth = bus.Truth(1.0, (1.0, 2.0, -3.0), 45.0, 0.0, "transit")
+    truth = Truth(1.0, (1.0, 2.0, -3.0), 45.0, 0.0, "transit")
     assert decode("fleet/truth/auv1", truth.encode()) == ("auv1", truth)
     status = Status(**good_status())
     assert decode("fleet/status/auv1", status.encode())[1].route == [3, 4]
     event = Event(2.0, "auv1", "claim", [3], "auv2", "help")
     assert decode("fleet/event/auv1", event.encode()) == ("auv1", event)
-    link = LinkEvent("auv1", "auv2", 1.0, 1.2, 24, False, "range", b"abc")
+    link = LinkRecord("auv1", "auv2", 1.0, 1.2, 24, False, "range")
     assert decode("fleet/link/auv1/auv2", link.encode()) == ("auv1", link)
 
 
@@ -45,8 +44,8 @@ def test_round_trip_of_every_kind():
     ("fleet/status/auv1", msgpack.packb(good_status(counters={"sent": "many"}))),
     ("fleet/event/auv1", msgpack.packb({"t_s": 1.0, "id": "auv1"})),
     ("fleet/event/auv1", Event(1.0, "auv1", "claim", [True]).encode()),
-    ("fleet/link/auv1/auv2", LinkEvent("auv2", "auv1", 1.0, 1.0, 1, True, None, b"").encode()),
-    ("fleet/link/auv1", LinkEvent("auv1", "auv2", 1.0, 1.0, 1, True, None, b"").encode()),
+    ("fleet/link/auv1/auv2", LinkRecord("auv2", "auv1", 1.0, 1.0, 1, True, None).encode()),
+    ("fleet/link/auv1", LinkRecord("auv1", "auv2", 1.0, 1.0, 1, True, None).encode()),
     ("fleet/tx/auv1", b"anything"),
 ])
 def test_malformed_payloads_are_refused(key, payload):

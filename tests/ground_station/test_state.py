@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from comms_sim.bus import Truth
-from comms_sim.link_event import LinkEvent
-from fleet_agent.telemetry import Event, Status
+from fleet_bus.link import LinkRecord
+from fleet_bus.telemetry import Event, Status, Truth
 from ground_station import palette
 from ground_station.drawing import LinkClear, LinkLine, LogLine, Mark, Pose, Route, Scalar, \
     Spots, Trail
@@ -94,10 +93,10 @@ def test_a_vehicle_that_falls_silent_is_marked_and_its_spots_abandoned(picture):
 def test_link_lines_join_the_vehicles_and_expire(picture):
     picture.apply("auv1", Truth(0, (0.0, 0.0, -2.0)))
     picture.apply("auv2", Truth(0, (30.0, 40.0, -2.0)))
-    out = picture.apply("auv1", LinkEvent("auv1", "auv2", 1.0, 1.5, 24, True, None, b"x" * 24))
+    out = picture.apply("auv1", LinkRecord("auv1", "auv2", 1.0, 1.5, 24, True, None))
     (line,) = of_type(out, LinkLine)
     assert (line.a, line.b, line.delivered, line.reason) == ((0.0, 0.0), (30.0, 40.0), True, "")
-    out = picture.apply("auv2", LinkEvent("auv2", "auv1", 2.0, 2.5, 30, False, "collision", b""))
+    out = picture.apply("auv2", LinkRecord("auv2", "auv1", 2.0, 2.5, 30, False, "collision"))
     assert of_type(out, LinkLine)[0].reason == "collision"
     scalars = {s.path: s.value for s in of_type(out, Scalar)}
     assert scalars == {"fleet/messages/dropped": 1, "fleet/drops/collision": 1}  # what changed
@@ -111,7 +110,7 @@ def test_link_lines_join_the_vehicles_and_expire(picture):
 
 def test_a_drop_with_no_receiver_is_counted_but_not_drawn(picture):
     picture.apply("auv1", Truth(0, (0.0, 0.0, -2.0)))
-    out = picture.apply("auv1", LinkEvent("auv1", "*", 1.0, 1.0, 99, False, "oversize", b""))
+    out = picture.apply("auv1", LinkRecord("auv1", "*", 1.0, 1.0, 99, False, "oversize"))
     assert of_type(out, LinkLine) == []
     assert picture.link_counts["drop:oversize"] == 1
 

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 from rerun.chunk import RrdReader
 
-from comms_sim.bus import Truth
-from fleet_agent.telemetry import Status
+from fleet_bus.telemetry import Status, Truth
 from gs_scripted import mission_of, scripted_mission, small_scenario
 from ground_station import palette
 from ground_station.blueprint import live_blueprint

@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from comms_sim.session import client_config, free_tcp_endpoint, open_session, router_config
-from fleet_agent.telemetry import Status
+from fleet_bus.session import client_config, free_tcp_endpoint, open_session, router_config
+from fleet_bus.telemetry import Status
 from gs_scripted import mission_of, scripted_mission, small_scenario
 from ground_station.__main__ import main
 from ground_station.recording_reader import read_recording

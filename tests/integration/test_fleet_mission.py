@@ -13,11 +13,13 @@ import numpy as np
 import pytest
 import zenoh
 
-from comms_sim import bus
-from comms_sim.session import client_config
-from cotsfleet.launcher import LaunchOptions, Launcher
+from cotsfleet.mission.faults import Fault
+from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
+from cotsfleet.mission.runner import run_mission
 from fleet_agent.config import AgentConfig
 from fleet_agent.wire import Abort, Codec, Digest, Pose
+from fleet_bus import keys as bus
+from fleet_bus.session import client_config
 from hfc_core.generate import GeneratorParams, generate_doc
 from hfc_core.scenario import problem_from_dict
 
@@ -61,12 +63,15 @@ def intruder(endpoint: str, doc: dict, stop: threading.Event, sent: dict[str, in
 def mission(tmp_path_factory):
     run_dir: Path = tmp_path_factory.mktemp("fleet-mission")
     doc = small_scenario()
-    opts = LaunchOptions(scenario=doc, seed=3, warp=100.0, run_dir=run_dir,
-                         aborts=(("auv2", 400.0),), kills=(("auv3", 500.0),),
-                         restarts=(("auv3", 650.0),), progress_every_s=0)
-    launcher = Launcher(opts, out=lambda line: None)
+    problem = problem_from_dict(doc)
+    faults = (Fault("abort", 400.0, "auv2"), Fault("kill", 500.0, "auv3"),
+              Fault("restart", 650.0, "auv3"))
+    launcher = ProcessBackend(problem, doc, 3, ProcessOptions(warp=100.0, run_dir=run_dir,
+                                                              progress_every_s=0),
+                              out=lambda line: None)
     result: dict = {}
-    thread = threading.Thread(target=lambda: result.update(report=launcher.run()), daemon=True)
+    thread = threading.Thread(target=lambda: result.update(report=run_mission(
+        problem, launcher, faults, seed=3, step_s=25.0).report), daemon=True)
     thread.start()
     stop, sent = threading.Event(), {}
     try:
@@ -78,7 +83,7 @@ def mission(tmp_path_factory):
     finally:
         stop.set()
         if thread.is_alive():  # last resort: never leave processes behind
-            for p in launcher.procs.values():
+            for p in launcher.children.values():
                 if p.popen.poll() is None:
                     os.killpg(p.popen.pid, 9)
     assert not thread.is_alive(), "the launcher did not finish"
@@ -87,7 +92,7 @@ def mission(tmp_path_factory):
 
 def test_every_process_ended_and_nothing_crashed(mission):
     report, launcher, _ = mission
-    for name, p in launcher.procs.items():
+    for name, p in launcher.children.items():
         assert p.popen.poll() is not None, f"{name} still running"
     codes = report["exit_codes"]
     assert all(code == 0 for name, code in codes.items()), codes  # the restarted auv3 too
@@ -131,8 +136,8 @@ def test_the_restarted_agent_kept_what_it_had_treated(mission):
     report, launcher, _ = mission
     log = (launcher.run_dir / "auv3.log").read_text()
     assert "restart" in log
-    events = [e for e in launcher.events if e.id == "auv3" and e.kind == "cleared"]
+    events = [e for e in launcher.ledger.events if e.id == "auv3" and e.kind == "cleared"]
     treated = [t for e in events for t in e.tasks]
     assert len(treated) == len(set(treated))  # nothing treated twice across the restart
-    final = launcher.statuses["auv3"].treated
+    final = launcher.ledger.statuses["auv3"].treated
     assert set(treated) <= set(final)

@@ -14,11 +14,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from comms_sim.router import READY
-from comms_sim.session import free_tcp_endpoint
-from cotsfleet.launcher import LaunchOptions, Launcher, local_endpoint
+from cotsfleet.mission.faults import Fault, FaultError
+from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
+from cotsfleet.mission.runner import run_mission
 from fleet_agent.config import AgentConfig, dump_config
+from fleet_bus.process import ROUTER_READY as READY
+from fleet_bus.session import free_tcp_endpoint, local_endpoint
 from hfc_core.generate import GeneratorParams, generate_doc
+from hfc_core.scenario import problem_from_dict
 
 pytestmark = pytest.mark.integration
 KEY_HEX = "00112233445566778899aabbccddeeff"
@@ -58,14 +61,16 @@ def test_agent_behind_a_second_router_joins_the_mission(tmp_path: Path) -> None:
         _wait_line(router_b, READY)
         agent = subprocess.Popen(
             [sys.executable, "-m", "fleet_agent", "--id", "auv3",
-             "--scenario", str(tmp_path / "scenario.json"), "--config", str(tmp_path / "agent.toml"),
-             "--connect", host_b, "--journal", str(tmp_path / "auv3.journal"), "--seed", "2"],
+             "--config", str(tmp_path / "agent.toml"),
+             "--connect", host_b, "--journal", str(tmp_path / "auv3.journal")],
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         procs.append(agent)
-        opts = LaunchOptions(scenario=doc, seed=2, warp=100.0, run_dir=tmp_path / "run",
-                             listen=host_a, remote=("auv3",), agent_config=config,
-                             progress_every_s=0, startup_timeout_s=60)
-        report = Launcher(opts, out=lambda line: None).run()
+        opts = ProcessOptions(warp=100.0, run_dir=tmp_path / "run", listen=host_a,
+                              remote=("auv3",), agent_config=config, progress_every_s=0,
+                              startup_timeout_s=60)
+        problem = problem_from_dict(doc)
+        backend = ProcessBackend(problem, doc, 2, opts, out=lambda line: None)
+        report = run_mission(problem, backend, (), seed=2, step_s=25.0).report
         assert agent.wait(timeout=30) == 0, "the launcher's stop command ends the remote agent"
     finally:
         for p in procs:
@@ -91,11 +96,14 @@ def test_remote_vehicles_need_a_shared_key_and_cannot_be_killed() -> None:
     doc = generate_doc(GeneratorParams(name="x", n_tasks=6, n_vehicles=2, size_m=200.0,
                                        battery_s=600.0, service_s=30.0),
                        np.random.default_rng(0))
+    problem = problem_from_dict(doc)
     with pytest.raises(ValueError, match="fleet key"):
-        Launcher(LaunchOptions(scenario=doc, remote=("auv2",)))
-    with pytest.raises(ValueError, match="not for --remote"):
-        Launcher(LaunchOptions(scenario=doc, remote=("auv2",), kills=(("auv2", 10.0),),
-                               agent_config=AgentConfig(fleet_key_hex=KEY_HEX)))
+        ProcessBackend(problem, doc, 0, ProcessOptions(remote=("auv2",)))
+    keyed = AgentConfig(fleet_key_hex=KEY_HEX)
+    backend = ProcessBackend(problem, doc, 0, ProcessOptions(remote=("auv2",),
+                                                             agent_config=keyed))
+    with pytest.raises(FaultError, match="not for --remote"):
+        run_mission(problem, backend, (Fault("kill", 10.0, "auv2"),), seed=0, step_s=1.0)
+    assert not backend.children  # refused before anything started
     with pytest.raises(ValueError, match="unknown remote vehicle"):
-        Launcher(LaunchOptions(scenario=doc, remote=("auv9",),
-                               agent_config=AgentConfig(fleet_key_hex=KEY_HEX)))
+        ProcessBackend(problem, doc, 0, ProcessOptions(remote=("auv9",), agent_config=keyed))

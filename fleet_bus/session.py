@@ -1,7 +1,7 @@
-"""Zenoh configuration helpers shared by every process of the fleet.
+"""Zenoh configuration shared by every process of the fleet.
 
 Multicast scouting is off everywhere: the processes of one mission find each other through
-explicit loopback endpoints, so two missions (or two test runs) on one machine never mix.
+explicit endpoints, so two missions (or two test runs) on one machine never mix.
 """
 
 from __future__ import annotations
@@ -55,3 +55,11 @@ def free_tcp_endpoint(host: str = "127.0.0.1") -> str:
     with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         s.bind((host, 0))
         return f"tcp/{host}:{s.getsockname()[1]}"
+
+
+def local_endpoint(listen: str) -> str:
+    """Where processes on this machine reach a router listening on ``listen``
+    (``tcp/0.0.0.0:7447`` listens everywhere; locally it is ``tcp/127.0.0.1:7447``)."""
+    proto, _, rest = listen.partition("/")
+    host, _, port = rest.rpartition(":")
+    return f"{proto}/127.0.0.1:{port}" if host in ("0.0.0.0", "[::]", "") else listen

@@ -1,14 +1,15 @@
-"""Injected clocks: every component reads simulation time through one of these.
+"""Injected clocks: every component reads mission time through one of these.
 
-Simulation time is seconds since the mission epoch. `WarpClock` is the one clock shared by
-every process of a multi-process mission (each computes it from the same epoch and warp, so no
-clock messages are needed on one machine, and NTP suffices across machines). `ManualClock` is
-the deterministic clock of the in-process discrete-event simulation and of tests (Trio's
+Mission time is seconds since the mission epoch. `WarpClock` is the one clock shared by every
+process of a multi-process mission (each computes it from the same epoch and warp, so no clock
+messages are needed on one machine, and NTP suffices across machines). `ManualClock` is the
+deterministic clock of the in-process discrete-event simulation and of tests (Trio's
 MockClock idea).
 """
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Callable, Protocol
 
@@ -40,11 +41,12 @@ class ManualClock:
 class WarpClock:
     """``sim = (wall - epoch_unix) * warp``: a 1-hour mission at warp 60 takes one minute."""
 
-    def __init__(
-        self, epoch_unix: float, warp: float, wall: Callable[[], float] = time.time
-    ) -> None:
-        if not warp > 0:
-            raise ValueError(f"warp must be positive, got {warp}")
+    def __init__(self, epoch_unix: float, warp: float,
+                 wall: Callable[[], float] = time.time) -> None:
+        if not (math.isfinite(warp) and warp > 0):
+            raise ValueError(f"warp must be a positive finite number, got {warp}")
+        if not math.isfinite(epoch_unix):
+            raise ValueError(f"epoch must be finite, got {epoch_unix}")
         self.epoch_unix = float(epoch_unix)
         self.warp = float(warp)
         self._wall = wall
@@ -55,6 +57,10 @@ class WarpClock:
     def wall_of(self, sim_s: float) -> float:
         """The wall (unix) time at which simulation time ``sim_s`` happens."""
         return self.epoch_unix + sim_s / self.warp
+
+    def sim_of(self, wall_unix: float) -> float:
+        """The simulation time at wall (unix) time ``wall_unix``."""
+        return (wall_unix - self.epoch_unix) * self.warp
 
     def wall_delay(self, sim_dt_s: float) -> float:
         """Wall seconds that ``sim_dt_s`` simulated seconds take."""

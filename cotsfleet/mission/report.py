@@ -1,41 +1,29 @@
 """The mission report: one format for `cotsfleet sim` and `cotsfleet run`.
 
-Built from what an operator gets after recovery: each vehicle's last `Status`, the `Event`
-log, the relay's link counters, and the faults that were injected (with their times).
+Built from what an operator gets after recovery: the fleet's telemetry (`FleetLedger`: each
+vehicle's last `Status`, the `Event` log, what each reported treating), the relay's link
+counters, and the faults that were applied (with the times they were).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, Mapping, Sequence
 
 from comms_sim.stats import COUNTERS, LinkCounts, totals, totals_by_sender
-from fleet_agent.telemetry import Event, Status
+from cotsfleet.mission.faults import Fault
+from fleet_bus.ledger import FleetLedger
 from hfc_core.problem import Problem
 
 
-@dataclass(frozen=True)
-class FaultRecord:
-    kind: str  # abort | kill | restart | partition | loss | forge | replay | garbage
-    vid: str
-    t_s: float
-    value: float = 0.0
-
-
-def build_report(problem: Problem, statuses: Mapping[str, Status], events: Sequence[Event],
-                 link: LinkCounts | None, faults: Sequence[FaultRecord], *, mode: str,
-                 seed: int, end_s: float, extra: Mapping[str, Any] | None = None
-                 ) -> dict[str, Any]:
+def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
+                 faults: Sequence[Fault], *, mode: str, seed: int, end_s: float,
+                 extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
     tasks = {t.id: t for t in problem.tasks}
+    statuses, events = ledger.statuses, ledger.events
     killed = {f.vid: f.t_s for f in faults if f.kind == "kill"}
     aborted = {f.vid: f.t_s for f in faults if f.kind == "abort"}
     restarted = {f.vid for f in faults if f.kind == "restart"}
-    # Treatments: the last status of each vehicle plus every "cleared" event (a vehicle killed
-    # between two status reports still reported its treatment as an event).
-    treated: dict[str, set[int]] = {vid: set(s.treated) for vid, s in statuses.items()}
-    for e in events:
-        if e.kind == "cleared":
-            treated.setdefault(e.id, set()).update(e.tasks)
+    treated = ledger.treated_by
     vehicles = []
     for v in problem.vehicles:
         s = statuses.get(v.id)
@@ -55,9 +43,7 @@ def build_report(problem: Problem, statuses: Mapping[str, Status], events: Seque
             "restarted": v.id in restarted,
             "counters": dict(s.counters) if s else {},
         })
-    distinct: set[int] = set().union(*treated.values()) if treated else set()
-    n_treatments = sum(len(x) for x in treated.values())
-    duplicates = n_treatments - len(distinct)
+    distinct, n_treatments, duplicates = ledger.cleared, ledger.treatments, ledger.duplicates()
 
     detection: dict[str, dict[str, float | None]] = {}
     for gone, t0 in sorted({**aborted, **killed}.items()):

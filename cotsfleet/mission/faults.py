@@ -1,0 +1,136 @@
+"""Faults a mission can be given, one type for both backends (in-process and processes).
+
+Kinds and their ``value``:
+
+- ``abort``: the vehicle announces an abort and heads for the rendezvous;
+- ``kill``: its agent dies silently (the vehicle is dead in the water where it stopped);
+- ``restart``: a killed agent comes back from its journal;
+- ``partition``: the vehicle is cut off from everyone for ``value`` seconds;
+- ``loss``: extra uniform link loss ``value`` (0..1) from then on;
+- ``forge``, ``replay``, ``garbage``: an intruder's modem transmits ``value`` hostile frames
+  (forged under a wrong key, replays of overheard frames, random bytes), one every 3.7 s.
+
+`check_schedule` refuses faults that cannot happen (a restart without an earlier kill, a
+kill of a vehicle already dead, anything after the mission's end), with the reason.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+VEHICLE_FAULTS = ("abort", "kill", "restart", "partition")
+ATTACKS = ("forge", "replay", "garbage")
+FAULT_KINDS = (*VEHICLE_FAULTS, "loss", *ATTACKS)
+ATTACK_SPACING_S = 3.7  # between two hostile frames of one attack
+DEFAULT_PARTITION_S = 300.0
+DEFAULT_ATTACK_FRAMES = 10
+
+
+class FaultError(ValueError):
+    """A fault that cannot be applied to this mission (the message says why)."""
+
+
+@dataclass(frozen=True)
+class Fault:
+    """``kind`` at simulation time ``t_s`` on vehicle ``vid`` (empty for fleet-wide kinds)."""
+
+    kind: str
+    t_s: float
+    vid: str = ""
+    value: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.kind not in FAULT_KINDS:
+            raise FaultError(f"unknown fault {self.kind!r}; choose from {FAULT_KINDS}")
+        if not (math.isfinite(self.t_s) and self.t_s >= 0):
+            raise FaultError(f"fault time must be a finite number >= 0, got {self.t_s}")
+        if not math.isfinite(self.value):
+            raise FaultError(f"fault value must be finite, got {self.value}")
+        if self.kind in VEHICLE_FAULTS and not self.vid:
+            raise FaultError(f"a {self.kind} names a vehicle")
+        if self.kind == "loss" and not 0.0 <= self.value <= 1.0:
+            raise FaultError(f"loss must be in [0, 1], got {self.value}")
+        if self.kind == "partition" and not self.value > 0:
+            raise FaultError(f"a partition lasts > 0 s, got {self.value}")
+        if self.kind in ATTACKS and not (self.value >= 1 and float(self.value).is_integer()):
+            raise FaultError(f"an attack sends a whole number >= 1 of frames, got {self.value}")
+
+    def describe(self) -> str:
+        what = {"partition": f" for {self.value:g} s", "loss": f" {self.value:g}",
+                **{a: f" x{int(self.value)}" for a in ATTACKS}}.get(self.kind, "")
+        who = f" {self.vid}" if self.vid else ""
+        return f"{self.kind}{who}{what} at t={self.t_s:g} s"
+
+
+def parse_at(spec: str) -> tuple[str, float]:
+    """``"auv2@1200"`` -> ("auv2", 1200.0)."""
+    head, sep, t = spec.partition("@")
+    if not sep or not head:
+        raise FaultError(f"expected NAME@SECONDS, got {spec!r}")
+    try:
+        t_s = float(t)
+    except ValueError:
+        raise FaultError(f"expected NAME@SECONDS, got {spec!r}") from None
+    if not (math.isfinite(t_s) and t_s >= 0):
+        raise FaultError(f"time must be a finite number >= 0 in {spec!r}")
+    return head, t_s
+
+
+def parse_faults(*, aborts: Iterable[str] = (), kills: Iterable[str] = (),
+                 restarts: Iterable[str] = (), partitions: Iterable[str] = (),
+                 losses: Iterable[str] = (), attacks: Iterable[str] = ()) -> list[Fault]:
+    """Faults from command-line specs: ``ID@S`` (abort, kill, restart), ``ID@S+D``
+    (partition for D seconds), ``P@S`` (loss P from S), ``KIND@S`` or ``KIND@S*N``
+    (attack: N frames, default 10)."""
+    faults = []
+    for kind, specs in (("abort", aborts), ("kill", kills), ("restart", restarts)):
+        for spec in specs:
+            vid, t = parse_at(spec)
+            faults.append(Fault(kind, t, vid))
+    for spec in partitions:
+        head, _, dur = spec.partition("+")
+        vid, t = parse_at(head)
+        faults.append(Fault("partition", t, vid, _number(dur, spec) if dur
+                            else DEFAULT_PARTITION_S))
+    for spec in losses:
+        p, t = parse_at(spec)
+        faults.append(Fault("loss", t, "", _number(p, spec)))
+    for spec in attacks:
+        head, _, n = spec.partition("*")
+        kind, t = parse_at(head)
+        if kind not in ATTACKS:
+            raise FaultError(f"attack kind must be one of {ATTACKS}, got {kind!r}")
+        faults.append(Fault(kind, t, "", _number(n, spec) if n else DEFAULT_ATTACK_FRAMES))
+    return faults
+
+
+def _number(text: str, spec: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise FaultError(f"not a number in {spec!r}: {text!r}") from None
+
+
+def check_schedule(faults: Sequence[Fault], vehicles: Sequence[str], horizon_s: float) -> None:
+    """Raise `FaultError` for a fault that cannot happen in a mission of ``vehicles`` ending
+    at ``horizon_s``; the schedule is taken in time order."""
+    known = set(vehicles)
+    dead: set[str] = set()
+    for f in sorted(faults, key=lambda f: f.t_s):
+        if f.vid and f.vid not in known:
+            raise FaultError(f"{f.describe()}: unknown vehicle; the mission has {sorted(known)}")
+        if f.t_s >= horizon_s:
+            raise FaultError(f"{f.describe()}: after the mission's end (t={horizon_s:g} s)")
+        if f.kind == "kill":
+            if f.vid in dead:
+                raise FaultError(f"{f.describe()}: {f.vid} is already dead")
+            dead.add(f.vid)
+        elif f.kind == "restart":
+            if f.vid not in dead:
+                raise FaultError(f"{f.describe()}: {f.vid} is not dead then (a restart needs "
+                                 "an earlier --kill)")
+            dead.discard(f.vid)
+        elif f.kind in ("abort", "partition") and f.vid in dead:
+            raise FaultError(f"{f.describe()}: {f.vid} is dead then")

@@ -1,0 +1,307 @@
+"""The in-process backend: the whole fleet in one process, on the deterministic transport.
+
+The same `Agent` logic and the same `AgentDriver` as the multi-process deployment, on
+`comms_sim.des`: each driver wakes at its agent's `next_wakeup`, frames cross the same
+`Channel` model, time is a `ManualClock` that jumps from one event to the next. Faults are
+applied at their exact times on the event loop. Seeded: the same seed gives the same
+mission, frame for frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from comms_sim.channel import Channel
+from comms_sim.config import ChannelConfig
+from comms_sim.control import apply_control
+from comms_sim.des import EventLoop, Handle, InProcessNetwork
+from comms_sim.link_event import LinkEvent
+from comms_sim.stats import LinkCounts
+from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault
+from cotsfleet.mission.intruder import NODE as INTRUDER
+from cotsfleet.mission.intruder import Intruder
+from cotsfleet.mission.runner import Outcome, horizon_of, run_mission
+from fleet_agent.agent import Agent
+from fleet_agent.config import AgentConfig
+from fleet_agent.driver import AgentDriver
+from fleet_agent.fleet import Fleet
+from fleet_agent.io_types import Output
+from fleet_agent.journal import MemoryJournal
+from fleet_agent.plans import Live, Planner
+from fleet_bus.ledger import FleetLedger
+from fleet_bus.link import LinkControl, Partition
+from fleet_bus.telemetry import Event, Status, Truth
+from hfc_core.problem import Problem
+
+STEP_S = 60.0  # the runner looks at the mission (progress, end) this often
+Tap = Callable[[str, Sequence[Output]], None]  # (vehicle, outputs of one step): for tests
+
+
+@dataclass
+class Seat:
+    """One vehicle's seat in the simulation: its driver (None while killed) and journal."""
+
+    vid: str
+    journal: MemoryJournal
+    driver: AgentDriver | None = None
+    handle: Handle | None = None
+    last_status: Status | None = None
+
+    @property
+    def agent(self) -> Agent | None:
+        return None if self.driver is None else self.driver.agent
+
+
+class _SeatTransport:
+    """A seat's radio and telemetry: frames into the network, telemetry into the ledger."""
+
+    def __init__(self, backend: "InProcessBackend", seat: Seat) -> None:
+        self.backend, self.seat = backend, seat
+
+    def send(self, frame: bytes, kind: str) -> None:
+        self.backend.net.send(self.seat.vid, frame, kind)
+
+    def publish(self, topic: str, payload: Status | Event | Truth) -> None:
+        if topic == "status":
+            self.seat.last_status = payload  # type: ignore[assignment]
+            self.backend.ledger.add_status(payload)  # type: ignore[arg-type]
+        elif topic == "event":
+            self.backend.ledger.add_event(payload)  # type: ignore[arg-type]
+
+
+class InProcessBackend:
+    mode = "sim"
+
+    def __init__(self, problem: Problem, config: AgentConfig, *, seed: int = 0,
+                 loss: float = 0.0, channel: ChannelConfig | None = None,
+                 planner: Planner | None = None, key: bytes | None = None,
+                 oracle_iterations: int = 300, tap: Tap | None = None) -> None:
+        self.problem = problem
+        self.seed = seed
+        root = np.random.SeedSequence(seed)
+        channel_seed, attack_seed, key_seed = root.spawn(3)
+        key = key or np.random.default_rng(key_seed).bytes(16)
+        self.config = config.with_key(key)
+        self.fleet = Fleet.build(problem, key, seed, self.config, planner)
+        self.loop = EventLoop()
+        self.channel = Channel(replace(channel or ChannelConfig(), extra_loss=loss),
+                               np.random.default_rng(channel_seed))
+        self.net = InProcessNetwork(self.channel, self.loop, self._positions)
+        self.net.add_listener(self._overhear)
+        self.intruder = Intruder(problem, np.random.default_rng(attack_seed))
+        self.oracle_iterations = oracle_iterations
+        self.tap = tap
+        self.ledger = FleetLedger()
+        self.applied: list[Fault] = []
+        self.interrupted = False
+        self.seats: dict[str, Seat] = {}
+        self.oracle: dict[str, Any] = {}
+        self.at_kill: dict[str, tuple[Status, frozenset[int]]] = {}  # status, cleared set
+        self._pending: list[Fault] = []
+        self._stuck = 0
+
+    # -- the runner's interface --------------------------------------------------------------
+
+    def check(self, faults: Sequence[Fault]) -> None:
+        pass  # every fault kind is simulated
+
+    def start(self, faults: Sequence[Fault]) -> None:
+        for v in self.problem.vehicles:
+            self._start_agent(v.id, 0.0, MemoryJournal())
+        if any(f.kind in ATTACKS for f in faults):
+            self.channel.set_position(INTRUDER, self.intruder.position(), 0.0)
+        self._pending = sorted(faults, key=lambda f: f.t_s)
+        for f in self._pending:
+            self.loop.call_at(f.t_s, lambda f=f: self._apply(f))
+
+    def now(self) -> float:
+        return self.loop.now()
+
+    def advance(self, t_s: float) -> None:
+        self.loop.run_until(t_s)
+
+    def finished(self) -> bool:
+        now = self.now()
+        if any(f.t_s > now for f in self._pending if f.kind in ("restart", "abort")):
+            return False
+        return all(s.agent is None or s.agent.quiet for s in self.seats.values())
+
+    def link_counts(self) -> LinkCounts:
+        return self.channel.stats()
+
+    def extra(self) -> dict[str, Any]:
+        end = self.now()
+        for s in self.seats.values():
+            if s.driver is not None:
+                s.driver.final_status(end)
+        if not self.oracle:
+            return {}
+        after = self._collected_after(self.oracle["t_s"], set(self.oracle["survivors"]),
+                                      set(self.oracle["cleared_before"]))
+        ratio = after / self.oracle["priority"] if self.oracle["priority"] > 0 else 1.0
+        return {"oracle": {**{k: v for k, v in self.oracle.items() if k != "cleared_before"},
+                           "collected": round(after, 2), "ratio": round(ratio, 4)}}
+
+    def close(self) -> None:
+        pass  # nothing outlives a Python object graph
+
+    def inject(self, vid: str, t_s: float, data: bytes) -> None:
+        """Hand ``data`` to ``vid``'s agent at ``t_s`` as if its modem had received it."""
+        self.loop.call_at(t_s, lambda: self._deliver(vid, data, self.loop.now()))
+
+    # -- vehicles ---------------------------------------------------------------------------
+
+    def _positions(self, t_s: float) -> dict[str, tuple[float, float, float]]:
+        out = {vid: s.agent.vehicle.pos for vid, s in self.seats.items() if s.agent is not None}
+        for vid, s in self.seats.items():
+            if s.agent is None and s.last_status is not None:
+                out[vid] = s.last_status.pos  # dead in the water where it stopped
+        return out
+
+    def _start_agent(self, vid: str, now: float, journal: MemoryJournal) -> None:
+        index = self.problem.vehicle_index[vid]
+        seat = self.seats.get(vid)
+        if seat is None:
+            seat = self.seats[vid] = Seat(vid, journal)
+            self.net.attach(vid, lambda data, t, vid=vid: self._deliver(vid, data, t))
+        seat.journal = journal
+        agent = Agent(self.fleet, index, self.config, now, journal.records)
+        seat.driver = AgentDriver(agent, _SeatTransport(self, seat), journal,
+                                  tap=None if self.tap is None else
+                                  lambda outputs, vid=vid: self.tap(vid, outputs))
+        self._step(seat, lambda d: d.tick(now))
+
+    def _deliver(self, vid: str, data: bytes, t_s: float) -> None:
+        seat = self.seats[vid]
+        if seat.driver is not None:
+            self._step(seat, lambda d: d.frame(data, t_s), tick=False)
+
+    def _wake(self, seat: Seat) -> None:
+        seat.handle = None
+        if seat.driver is not None:
+            now = self.loop.now()
+            self._step(seat, lambda d: d.tick(now))
+
+    def _step(self, seat: Seat, feed: Any, tick: bool = True) -> None:
+        driver = seat.driver
+        assert driver is not None
+        feed(driver)
+        due = driver.next_wakeup()
+        if due <= self.loop.now() and tick:
+            self._stuck += 1
+            if self._stuck > 10_000:  # a logic bug must fail loudly, never hang a test
+                raise RuntimeError(f"agent {seat.vid} makes no progress at t={self.loop.now()}")
+        else:
+            self._stuck = 0
+        if seat.handle is not None:
+            if seat.handle.t_s <= due and not seat.handle.cancelled:
+                return
+            seat.handle.cancel()
+        seat.handle = self.loop.call_at(due, lambda: self._wake(seat))
+
+    # -- faults -----------------------------------------------------------------------------
+
+    def _apply(self, f: Fault) -> None:
+        now = self.loop.now()
+        self.applied.append(Fault(f.kind, now, f.vid, f.value))
+        seat = self.seats.get(f.vid)
+        if f.kind == "abort" and seat is not None and seat.driver is not None:
+            self._step(seat, lambda d: d.command("abort", now), tick=False)
+        elif f.kind == "kill" and seat is not None and seat.driver is not None:
+            agent = seat.driver.agent
+            self._snapshot_oracle(f.vid, now)
+            seat.last_status = agent.status(now)
+            self.ledger.add_status(seat.last_status)
+            self.at_kill[f.vid] = (seat.last_status, frozenset(agent.know.cleared))
+            seat.driver = None
+            if seat.handle is not None:
+                seat.handle.cancel()
+                seat.handle = None
+        elif f.kind == "restart" and seat is not None and seat.driver is None:
+            self._start_agent(f.vid, now, seat.journal.reopen())
+        elif f.kind == "partition":
+            apply_control(LinkControl(partition=Partition(now, now + f.value, ((f.vid,),))),
+                          self.channel)
+        elif f.kind == "loss":
+            apply_control(LinkControl(extra_loss=f.value), self.channel)
+        elif f.kind in ATTACKS:
+            for i in range(int(f.value)):
+                self.loop.call_later(1.0 + ATTACK_SPACING_S * i,
+                                     lambda kind=f.kind: self._attack(kind))
+
+    def _overhear(self, event: LinkEvent) -> None:
+        if event.delivered and event.src != INTRUDER:
+            self.intruder.overhear(event.frame)
+
+    def _attack(self, kind: str) -> None:
+        """The intruder's modem transmits one hostile frame through the channel."""
+        self.net.send(INTRUDER, self.intruder.frame(kind, self.loop.now()), "data")
+
+    # -- the perfect-information reference ---------------------------------------------------
+
+    def _snapshot_oracle(self, vid: str, now: float) -> None:
+        """Centralized replan with perfect information at the moment ``vid`` dies: the true
+        positions, batteries and routes of the survivors and the true cleared set."""
+        agents = {v: s.agent for v, s in self.seats.items()}
+        survivors = [a for v, a in agents.items() if v != vid and a is not None
+                     and not a.vehicle.done and not a.vehicle.aborted]
+        cleared = frozenset(t for a in agents.values() if a is not None
+                            for t, _ in a.know.treated) | frozenset(
+            self.problem.task_index[x] for s in self.seats.values()
+            if s.agent is None and s.last_status is not None for x in s.last_status.treated)
+        live = []
+        for a in survivors:
+            v = a.vehicle
+            locked = (v.injecting,) if v.injecting is not None else ()
+            live.append(Live(a.index, tuple(v.pos), v.battery_left_s(now), tuple(v.route),
+                             locked))
+        planner = Planner(self.problem, self.seed, 0, self.oracle_iterations)
+        routes = planner.replan(live, cleared, {}, seed=self.seed) if live else {}
+        priority = sum(float(self.problem.priority[t]) for r in routes.values() for t in r)
+        self.oracle = {"vid": vid, "t_s": now, "priority": priority,
+                       "survivors": [self.problem.vehicles[a.index].id for a in survivors],
+                       "cleared_before": sorted(cleared)}
+
+    def _collected_after(self, t0: float, survivors: set[str], before: set[int]) -> float:
+        spots = {t for e in self.ledger.events if e.kind == "cleared" and e.id in survivors
+                 and e.t_s > t0 for t in e.tasks}
+        idx = self.problem.task_index
+        return sum(float(self.problem.priority[idx[t]]) for t in spots if idx[t] not in before)
+
+
+@dataclass
+class SimResult:
+    report: dict[str, Any]
+    wall_s: float
+    backend: InProcessBackend
+    ledger: FleetLedger = field(repr=False, default_factory=FleetLedger)
+
+    @property
+    def statuses(self) -> dict[str, Status]:
+        return self.ledger.statuses
+
+    @property
+    def events(self) -> list[Event]:
+        return self.ledger.events
+
+    @property
+    def agents(self) -> dict[str, Agent | None]:
+        return {vid: s.agent for vid, s in self.backend.seats.items()}
+
+    @property
+    def oracle(self) -> dict[str, Any]:
+        return self.report.get("oracle", {})
+
+
+def simulate(problem: Problem, config: AgentConfig | None = None, *,
+             faults: Sequence[Fault] = (), horizon_s: float | None = None,
+             progress: Any = None, **kw: Any) -> SimResult:
+    """One seeded in-process mission (keyword arguments of `InProcessBackend`)."""
+    backend = InProcessBackend(problem, config or AgentConfig(), **kw)
+    outcome: Outcome = run_mission(problem, backend, faults, seed=backend.seed, step_s=STEP_S,
+                                   horizon_s=horizon_s or horizon_of(problem),
+                                   progress=progress)
+    return SimResult(outcome.report, outcome.wall_s, backend, backend.ledger)

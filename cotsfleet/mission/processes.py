@@ -1,0 +1,484 @@
+"""The multi-process backend: a mission as separate OS processes, over Zenoh.
+
+Router -> relay (comms_sim) -> one agent per vehicle -> ground station, each in its own
+process group. The operator (this backend, in the launcher's process) serves the mission
+record (scenario, seed, run id) from the start and the clock record (epoch, warp) once every
+agent has computed its initial plan; it applies faults at their mission times (abort: a
+command; kill: SIGKILL; restart: the agent again on its journal; partition, loss and attacks:
+link control to the relay), watches the fleet's telemetry, and collects the relay's counters.
+
+Lifecycle: every child dies with its parent (`fleet_bus.process.die_with_parent`:
+``PR_SET_PDEATHSIG`` on Linux, and a watch on the parent's pid everywhere), so whatever ends
+the launcher, SIGKILL included, ends the children within seconds. A child that exits on its own ends the mission (`ChildExited`),
+and the report says which and why.
+
+Across machines: ``listen`` on a reachable address and ``remote`` vehicles: no agent is
+started for those; the launcher waits for their liveliness tokens like for its own agents and
+ends them with a ``stop`` command. They must share the fleet key, so it comes from the agent
+config.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import signal
+import subprocess
+import sys
+import threading
+import time
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterator, Sequence
+
+import zenoh
+
+from comms_sim.stats import LinkCounts
+from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
+from cotsfleet.mission.intruder import Intruder, intruder_rng
+from cotsfleet.mission.runner import MissionStopped
+from fleet_agent.config import AgentConfig, dump_config
+from fleet_bus import keys
+from fleet_bus.clock import WarpClock
+from fleet_bus.commands import ABORT, STOP, encode_command
+from fleet_bus.ledger import FleetLedger
+from fleet_bus.link import LinkControl, Partition, decode_stats
+from fleet_bus.mission import ClockRecord, Mission
+from fleet_bus.process import RELAY_READY, ROUTER_READY
+from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
+from fleet_bus.telemetry import Event, Status
+from hfc_core.problem import Problem
+
+POLL_WALL_S = 0.05
+
+
+@contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Cleanup is not interrupted by a second Ctrl-C or SIGTERM (main thread only: that is
+    where Python runs signal handlers); it is bounded by the grace periods of `_stop`."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    sigs = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    old = {s: signal.signal(s, signal.SIG_IGN) for s in sigs}
+    try:
+        yield
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler)
+
+
+class ChildExited(MissionStopped):
+    """A process of the mission ended on its own: the mission cannot go on as planned."""
+
+
+@dataclass(frozen=True)
+class ProcessOptions:
+    warp: float = 60.0
+    loss: float = 0.0
+    viewer: str = "none"  # web | native | none
+    rrd: Path | None = None
+    web_port: int = 9090
+    run_dir: Path | None = None
+    agent_config: AgentConfig = field(default_factory=AgentConfig)
+    progress_every_s: float = 3.0  # wall seconds between progress lines (0: none)
+    # Keep the ground station (and so the web viewer it serves) up after the mission until
+    # Ctrl-C: an operator watching in a browser should not lose the picture at the end.
+    hold_viewer: bool = False
+    listen: str | None = None  # router endpoint (default: a free loopback port)
+    remote: tuple[str, ...] = ()  # vehicles whose agents run elsewhere (not started here)
+    startup_timeout_s: float = 90.0
+
+    def __post_init__(self) -> None:
+        if not self.warp > 0:
+            raise ValueError(f"warp must be positive, got {self.warp}")
+        if not 0.0 <= self.loss <= 1.0:
+            raise ValueError(f"loss must be in [0, 1], got {self.loss}")
+        if self.viewer not in ("web", "native", "none"):
+            raise ValueError(f"viewer must be web, native or none, got {self.viewer!r}")
+
+
+@dataclass
+class Child:
+    name: str
+    popen: subprocess.Popen
+    ready: threading.Event = field(default_factory=threading.Event)
+    lines: list[str] = field(default_factory=list)
+    expected_exit: bool = False  # we stopped or killed it
+
+    def tail(self, n: int = 5) -> str:
+        return " | ".join(self.lines[-n:])
+
+
+class ProcessBackend:
+    mode = "run"
+
+    def __init__(self, problem: Problem, scenario: dict[str, Any], seed: int,
+                 opts: ProcessOptions, out: Callable[[str], None] = print) -> None:
+        self.problem, self.scenario, self.seed, self.opts, self.out = (
+            problem, scenario, seed, opts, out)
+        self.ids = [v.id for v in problem.vehicles]
+        for vid in opts.remote:
+            if vid not in self.ids:
+                raise ValueError(f"unknown remote vehicle {vid!r}; the scenario has {self.ids}")
+        if opts.remote and not opts.agent_config.fleet_key_hex:
+            raise ValueError("remote agents need the fleet key they share with this launcher: "
+                             "set fleet_key_hex in the agent config (--config)")
+        self.run_id = time.strftime("%Y%m%d-%H%M%S") + f"-{secrets.token_hex(2)}"
+        self.run_dir = opts.run_dir or Path(os.environ.get("TMPDIR", "/tmp")) / \
+            "cotsfleet-runs" / self.run_id
+        self.ledger = FleetLedger()
+        self.applied: list[Fault] = []
+        self.children: dict[str, Child] = {}
+        self.dead: set[str] = set()
+        self.endpoint = ""
+        self.started = threading.Event()  # set once the mission clock runs
+        self.clock: WarpClock | None = None
+        self.interrupted = False
+        self._lock = threading.Lock()
+        self._alive: set[str] = set()
+        self._pids: dict[str, list[int]] = {}
+        self._pending: list[tuple[float, Fault, str]] = []  # (time, fault, step)
+        self._link: LinkCounts | None = None
+        self._session: zenoh.Session | None = None
+        self._closers: list[Any] = []
+        self.intruder = Intruder(problem, intruder_rng(seed))
+        self._wall0 = time.monotonic()
+        self._next_progress = 0.0
+        self._closed = False
+
+    # -- the runner's interface --------------------------------------------------------------
+
+    def check(self, faults: Sequence[Fault]) -> None:
+        for f in faults:
+            if f.kind in ("kill", "restart") and f.vid in self.opts.remote:
+                raise FaultError(f"{f.describe()}: a kill or restart needs the agent's process "
+                                 "here; not for --remote vehicles")
+
+    def start(self, faults: Sequence[Fault]) -> None:
+        opts = self.opts
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        config = opts.agent_config
+        if not config.fleet_key_hex:  # a fresh fleet key per run; never on the bus
+            config = config.with_key(secrets.token_bytes(16))
+        cfg_path = self.run_dir / "agent.toml"
+        cfg_path.touch(mode=0o600)
+        cfg_path.write_text(dump_config(config), encoding="utf-8")
+        (self.run_dir / "scenario.json").write_text(json.dumps(self.scenario), encoding="utf-8")
+        listen = opts.listen or free_tcp_endpoint()
+        self.endpoint = local_endpoint(listen)
+        router = self._spawn("router", ["-m", "comms_sim.router", "--listen", listen],
+                             ROUTER_READY)
+        self._wait_ready(router)
+        session = self._session = zenoh.open(client_config([self.endpoint]))
+        self._closers += [
+            session.declare_subscriber(keys.RX_ALL,
+                                       lambda x: self.intruder.overhear(x.payload.to_bytes())),
+            session.declare_subscriber(keys.STATUS_ALL, self._on_status),
+            session.declare_subscriber(keys.EVENT_ALL, self._on_event),
+            session.liveliness().declare_subscriber(keys.ALIVE_ALL, self._on_alive,
+                                                    history=True)]
+        mission = Mission(self.scenario, self.seed, self.run_id).encode()
+        self._closers.append(session.declare_queryable(
+            keys.MISSION, lambda q: q.reply(keys.MISSION, mission)))
+        relay = self._spawn("relay", ["-m", "comms_sim", "--connect", self.endpoint,
+                                      "--mission-from-bus",
+                                      "--mission-timeout", str(2 * opts.startup_timeout_s)]
+                            + (["--loss", str(opts.loss)] if opts.loss else []), RELAY_READY)
+        if opts.viewer != "none" or opts.rrd is not None:
+            gs = ["-m", "ground_station", "--connect", self.endpoint, "--viewer", opts.viewer,
+                  "--web-port", str(opts.web_port)]
+            self._spawn("ground_station", gs + (["--rrd", str(opts.rrd)] if opts.rrd else []),
+                        echo=True)
+        for vid in self.ids:
+            if vid in opts.remote:
+                self.out(f"waiting for {vid} elsewhere: python -m fleet_agent --id {vid} "
+                         f"--config AGENT.toml --connect <a router linked to {listen}>")
+            else:
+                self._spawn(vid, self._agent_argv(vid))
+        self._wait_agents()
+        epoch = time.time() + 1.0
+        self.clock = WarpClock(epoch, opts.warp)
+        clock = ClockRecord(epoch, opts.warp).encode()
+        self._closers.append(session.declare_queryable(
+            keys.CLOCK, lambda q: q.reply(keys.CLOCK, clock)))
+        self._wait_ready(relay)
+        for f in sorted(faults, key=lambda f: f.t_s):
+            steps = int(f.value) if f.kind in ATTACKS else 1
+            for i in range(steps):
+                at = f.t_s + (1.0 + ATTACK_SPACING_S * i if f.kind in ATTACKS else 0.0)
+                self._pending.append((at, f, "apply" if i == 0 else "attack"))
+        self._pending.sort(key=lambda p: p[0])
+        self.started.set()
+        self.out(f"mission {self.run_id}: {len(self.ids)} vehicles, warp {opts.warp:g}, "
+                 f"loss {opts.loss:g}, run dir {self.run_dir}")
+
+    def now(self) -> float:
+        return self.clock.now() if self.clock is not None else 0.0
+
+    def advance(self, t_s: float) -> None:
+        while self.now() < t_s:
+            self._apply_due()
+            self._watch_children()
+            self._progress()
+            time.sleep(POLL_WALL_S)
+        self._apply_due()
+
+    def finished(self) -> bool:
+        if any(f.kind in ("restart", "abort") for _, f, _ in self._pending):
+            return False
+        with self._lock:
+            return self.ledger.all_final(self.ids, self.dead)
+
+    def link_counts(self) -> LinkCounts | None:
+        return self._link
+
+    def extra(self) -> dict[str, Any]:
+        return {"run_id": self.run_id, "run_dir": str(self.run_dir), "warp": self.opts.warp,
+                "loss": self.opts.loss, "wall_s": round(time.monotonic() - self._wall0, 2),
+                "interrupted": self.interrupted,
+                "exit_codes": {n: c.popen.returncode for n, c in self.children.items()},
+                "exited": {n: c.tail() for n, c in self.children.items()
+                           if c.popen.returncode not in (None, 0) and not c.expected_exit}}
+
+    def close(self) -> None:
+        """Stop the fleet (agents first: their final statuses), fetch the link counters, stop
+        everything else; the ground station stays up if asked to hold the viewer."""
+        if self._closed:
+            return
+        self._closed = True
+        with _signals_deferred():
+            self._close()
+
+    def _close(self) -> None:
+        try:
+            self._stop(self.ids)
+            if self._session is not None:
+                for vid in self.opts.remote:  # not ours to signal: ask them to stop
+                    self._session.put(keys.ctl_key(vid), encode_command(STOP))
+                time.sleep(0.3)  # the agents' final statuses
+                self._link = self._fetch_link_stats()
+        finally:
+            for c in self._closers:
+                try:
+                    c.undeclare()
+                except Exception:  # already gone with the session
+                    pass
+            if self._session is not None:
+                self._session.close()
+            held = ("ground_station",) if self.opts.hold_viewer and not self.interrupted else ()
+            self._stop([n for n in self.children if n not in ("router", *held)])
+            self._stop(["router"])
+            self._write_events()
+
+    # -- after the report --------------------------------------------------------------------
+
+    def hold_viewer(self) -> None:
+        """Serve the finished mission's dashboard until Ctrl-C (or the station exits)."""
+        gs = self.children.get("ground_station")
+        if gs is None or gs.popen.poll() is not None:
+            return
+        self.out("mission over: the dashboard stays up; press Ctrl-C to quit")
+        try:
+            gs.popen.wait()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self._stop(["ground_station"])
+
+    # -- processes --------------------------------------------------------------------------
+
+    def _agent_argv(self, vid: str) -> list[str]:
+        return ["-m", "fleet_agent", "--id", vid, "--config", str(self.run_dir / "agent.toml"),
+                "--connect", self.endpoint, "--journal", str(self.run_dir / f"{vid}.journal")]
+
+    def _spawn(self, name: str, argv: Sequence[str], ready_prefix: str | None = None,
+               echo: bool = False) -> Child:
+        log = open(self.run_dir / f"{name}.log", "ab")
+        popen = subprocess.Popen(
+            [sys.executable, *argv], stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1", "COTSFLEET_PARENT_PID": str(os.getpid())})
+        child = Child(name, popen)
+
+        def pump() -> None:  # copy output to the log, watch for the ready line
+            assert popen.stdout is not None
+            for raw in popen.stdout:
+                log.write(raw)
+                log.flush()
+                line = raw.decode(errors="replace").rstrip()
+                child.lines.append(line)
+                del child.lines[:-50]
+                if echo:  # e.g. the ground station's viewer address: the user needs it
+                    self.out(line)
+                if ready_prefix and line.startswith(ready_prefix):
+                    child.ready.set()
+            log.close()
+
+        threading.Thread(target=pump, name=f"pump-{name}", daemon=True).start()
+        self.children[name] = child
+        self._pids.setdefault(name, []).append(popen.pid)
+        # Every process group this run ever started, for whoever must clean up after a crash.
+        (self.run_dir / "pids.json").write_text(json.dumps(self._pids), encoding="utf-8")
+        return child
+
+    def _wait_ready(self, child: Child) -> None:
+        deadline = time.monotonic() + self.opts.startup_timeout_s
+        while not child.ready.wait(0.1):
+            if child.popen.poll() is not None:
+                raise ChildExited(f"{child.name} exited with {child.popen.returncode}: "
+                                  f"{child.tail()}")
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"{child.name} not ready within "
+                                   f"{self.opts.startup_timeout_s:g} s")
+
+    def _wait_agents(self) -> None:
+        deadline = time.monotonic() + self.opts.startup_timeout_s
+        while True:
+            with self._lock:
+                missing = [v for v in self.ids if v not in self._alive]
+            if not missing:
+                return
+            self._watch_children()
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"agents not ready within {self.opts.startup_timeout_s:g} s:"
+                                   f" {missing}")
+            time.sleep(POLL_WALL_S)
+
+    def _signal(self, child: Child, sig: int) -> None:
+        child.expected_exit = True
+        try:
+            os.killpg(child.popen.pid, sig)
+        except (ProcessLookupError, PermissionError):
+            pass
+
+    def _stop(self, names: Sequence[str], grace_s: float = 5.0) -> None:
+        children = [self.children[n] for n in names if n in self.children
+                    and self.children[n].popen.poll() is None]
+        for c in children:
+            self._signal(c, signal.SIGTERM)
+        deadline = time.monotonic() + grace_s
+        for c in children:
+            try:
+                c.popen.wait(max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                self._signal(c, signal.SIGKILL)
+                c.popen.wait(5.0)
+
+    def _watch_children(self) -> None:
+        """A child that ended without being told to ends the mission."""
+        for c in self.children.values():
+            if c.popen.poll() is not None and not c.expected_exit:
+                c.expected_exit = True  # reported once
+                if c.name in self.ids:
+                    self.dead.add(c.name)
+                raise ChildExited(f"{c.name} exited with {c.popen.returncode}: {c.tail()}")
+
+    # -- faults ------------------------------------------------------------------------------
+
+    def _apply_due(self) -> None:
+        now = self.now()
+        while self._pending and self._pending[0][0] <= now:
+            _, f, step = self._pending.pop(0)
+            if step == "apply":
+                self._apply(f, now)
+            else:
+                self._inject(f.kind, now)
+
+    def _apply(self, f: Fault, now: float) -> None:
+        self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value))
+        self.out(f"t={now:6.0f} s  fault: {f.describe()}")
+        if f.kind == "abort":
+            assert self._session is not None
+            self._session.put(keys.ctl_key(f.vid), encode_command(ABORT))
+        elif f.kind == "kill":
+            child = self.children.get(f.vid)
+            if child is not None:
+                self._signal(child, signal.SIGKILL)
+                child.popen.wait(5.0)
+            self.dead.add(f.vid)
+        elif f.kind == "restart":
+            self._spawn(f.vid, self._agent_argv(f.vid))
+            self.dead.discard(f.vid)
+        elif f.kind == "partition":
+            self._put_link(LinkControl(partition=Partition(now, now + f.value, ((f.vid,),))))
+        elif f.kind == "loss":
+            self._put_link(LinkControl(extra_loss=f.value))
+        elif f.kind in ATTACKS:
+            self._inject(f.kind, now)
+
+    def _inject(self, kind: str, now: float) -> None:
+        """The intruder's modem transmits one hostile frame into the water (via the relay)."""
+        frame = self.intruder.frame(kind, now)
+        self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
+
+    def _put_link(self, control: LinkControl) -> None:
+        assert self._session is not None
+        self._session.put(keys.LINK_CTL, control.encode())
+
+    # -- telemetry ---------------------------------------------------------------------------
+
+    def _on_status(self, sample: zenoh.Sample) -> None:
+        try:
+            s = Status.decode(sample.payload.to_bytes())
+        except ValueError:
+            return
+        if s.id != keys.vid_of(str(sample.key_expr)) or s.id not in self.ids:
+            return
+        with self._lock:
+            self.ledger.add_status(s)
+
+    def _on_event(self, sample: zenoh.Sample) -> None:
+        try:
+            e = Event.decode(sample.payload.to_bytes())
+        except ValueError:
+            return
+        if e.id != keys.vid_of(str(sample.key_expr)) or e.id not in self.ids:
+            return
+        with self._lock:
+            self.ledger.add_event(e)
+
+    def _on_alive(self, sample: zenoh.Sample) -> None:
+        vid = keys.vid_of(str(sample.key_expr))
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.PUT:
+                self._alive.add(vid)
+            else:
+                self._alive.discard(vid)
+
+    def _fetch_link_stats(self) -> LinkCounts | None:
+        assert self._session is not None
+        for reply in self._session.get(keys.LINK_STATS, timeout=3.0):
+            if reply.ok is not None:
+                try:
+                    return decode_stats(reply.ok.payload.to_bytes())[0]
+                except ValueError:
+                    continue
+        return None
+
+    def _write_events(self) -> None:
+        with self._lock:
+            events = list(self.ledger.events)
+        with open(self.run_dir / "events.jsonl", "w", encoding="utf-8") as fh:
+            for e in events:  # the whole event log, for whoever wants to dig deeper
+                fh.write(json.dumps(e.to_dict()) + "\n")
+
+    def _progress(self) -> None:
+        if not self.opts.progress_every_s or time.monotonic() < self._next_progress:
+            return
+        self._next_progress = time.monotonic() + self.opts.progress_every_s
+        now = self.now()
+        with self._lock:
+            statuses = dict(self.ledger.statuses)
+            cleared = set(self.ledger.cleared)
+        index = self.problem.task_index
+        prio = sum(self.problem.tasks[index[t]].priority for t in cleared if t in index)
+        parts = []
+        for vid in self.ids:
+            s = statuses.get(vid)
+            state = "dead" if vid in self.dead else (s.state if s else "starting")
+            parts.append(f"{vid} {state} {len(s.treated) if s else 0}")
+        self.out(f"t={now:6.0f} s  cleared {len(cleared)}/{self.problem.n_tasks}  "
+                 f"priority {prio:.0f}  | " + " | ".join(parts))

@@ -1,0 +1,299 @@
+"""The agent's decision logic: a pure state machine ``(state, input) -> (state, outputs)``.
+
+Inputs are `Tick`, `Frame` (bytes off the radio) and `Command` (fault injection), each with
+the simulation time ``now``; outputs are `Send` (a frame for the radio), `Publish`
+(telemetry: status, event, truth) and `Record` (a journal record). No I/O, no clock, no
+randomness: the same inputs give the same outputs, under every driver
+(`fleet_agent.driver`).
+
+One step (paper section II and IV-A): move the vehicle to ``now`` (eq. 3-7; arrivals and
+injection ends settle at their exact times), take the input, look for silent peers, run the
+cooperation operator when due, keep the route true to what is known, publish telemetry, and
+transmit if this is the vehicle's slot. The parts, one idea each:
+
+- `vehicle.Vehicle`      where the vehicle is and what it is doing;
+- `knowledge.Knowledge`  what it knows about the fleet (cleared, holdings, members, peers);
+- `decisions.Decisions`  takeover, cooperation, the route;
+- `radio.Radio`          what it owes the fleet and which frame goes in its slot;
+- `records`              what it journals, and `restore` how it comes back from that.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+from fleet_agent import membership as mb
+from fleet_agent.config import AgentConfig
+from fleet_agent.decisions import Decisions
+from fleet_agent.fleet import Fleet
+from fleet_agent.io_types import (Command, Frame, Input, Output, Outputs, Publish, Record,
+                                  Send, Tick)
+from fleet_agent.knowledge import Knowledge, PeerPose
+from fleet_agent.radio import PendingAbort, Radio, Slots
+from fleet_agent.records import Aborted, Checkpoint, Clear, Hold, Home, PeerState, Start
+from fleet_agent.restore import restore
+from fleet_agent.vehicle import Arrived, Cleared, Vehicle
+from fleet_agent.wire import (Abort, Claim, ClearedSegment, Pose, Release, WireError,
+                              radio_kind)
+from fleet_bus.telemetry import Status, Truth
+
+__all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Input", "Send", "Publish", "Record",
+           "Output"]
+
+
+class Agent:
+    """One vehicle's brain: call `step` with each input; `next_wakeup` says when to tick."""
+
+    def __init__(self, fleet: Fleet, index: int, config: AgentConfig, now: float = 0.0,
+                 journal: Sequence[dict[str, Any]] = ()) -> None:
+        p = fleet.problem
+        self.fleet, self.problem, self.index, self.config = fleet, p, index, config
+        self.id = p.vehicles[index].id
+        slots = Slots(index, p.n_vehicles, config.slot_s)
+        self.vehicle = Vehicle(p, index, fleet.paths)
+        self.know = Knowledge(fleet, index, config, slots.cycle_s)
+        self.radio = Radio(slots, config, fleet.codec.max_ids, now)
+        self.decide = Decisions(fleet, config, self.vehicle, self.know, self.radio, now)
+        self.counters: dict[str, int] = {}
+        self.largest_frame = 0
+        self.t = float(now)
+        self.restarted = bool(journal)
+        self._next_status = self._next_truth = now
+        self._next_ckpt = now + config.checkpoint_period_s
+        self._boot = self._outputs()
+        if journal:
+            restore(self, journal, now, self._boot)
+        else:
+            self.vehicle.set_route(fleet.base_routes[index])
+            self._boot.record(Start(now, index))
+
+    # -- the state machine -----------------------------------------------------------------
+
+    def step(self, inp: Input) -> list[Output]:
+        now = max(float(inp.now), self.t)
+        out, self._boot = self._boot, self._outputs()
+        self._advance(now, out)
+        if isinstance(inp, Frame):
+            self._on_frame(inp.data, now, out)
+        elif isinstance(inp, Command):
+            self._on_command(inp.name, now, out)
+        self._detect(now, out)
+        self.decide.cooperate(now, out)
+        self.decide.sync_route(now, out)
+        self._telemetry(now, out)  # truth first: the relay places a sender before its frames
+        self._transmit(now, out)
+        self.t = now
+        return list(out)
+
+    def next_wakeup(self) -> float:
+        """The next time `step(Tick(...))` has something to do."""
+        times = [self.radio.next_slot_s(), self._next_status, self._next_truth,
+                 self._next_ckpt]
+        ev = self.vehicle.next_event_s()
+        if ev is not None:
+            times.append(ev)
+        if self.decide.active:
+            times.append(self.decide.next_coop_s)
+            dl = self.know.members.next_deadline_s()
+            if dl is not None:
+                times.append(dl)
+        return max(self.t, min(times))
+
+    @property
+    def state(self) -> str:
+        return self.vehicle.state()
+
+    @property
+    def quiet(self) -> bool:
+        """Home or aborted, and done announcing it."""
+        return not self.decide.active and self.radio.idle
+
+    def count(self, name: str, n: int = 1) -> None:
+        self.counters[name] = self.counters.get(name, 0) + n
+
+    def _outputs(self) -> Outputs:
+        return Outputs(self.id, self.know.tids)
+
+    # -- the vehicle -----------------------------------------------------------------------
+
+    def _advance(self, now: float, out: Outputs) -> None:
+        for ev in self.vehicle.advance(now):
+            self.decide.dirty = True
+            if isinstance(ev, Cleared):
+                self.know.treated.append((ev.task, ev.t_s))
+                self.know.cleared.add(ev.task)
+                self.radio.push_cleared = 2
+                out.record(Clear(ev.t_s, (ev.task,), own=True))
+                out.event(ev.t_s, "cleared", [ev.task])
+            elif isinstance(ev, Arrived):
+                # An aborted vehicle already said goodbye; others announce their arrival.
+                self.radio.home_left = 0 if self.vehicle.aborted else self.config.home_repeats
+                out.record(Home(ev.t_s))
+                out.event(ev.t_s, "replan", detail="home")
+
+    # -- radio in --------------------------------------------------------------------------
+
+    def _on_frame(self, data: bytes, now: float, out: Outputs) -> None:
+        self.count("rx_frames")
+        try:
+            msg = self.fleet.codec.decode(data)
+        except WireError as exc:
+            self.count(f"drop_{exc.reason}")
+            return
+        know = self.know
+        if msg.sender == self.index:
+            self.count("drop_self")  # our own frame played back: a replay
+            return
+        if not know.replay.accept(msg.sender, msg.seq):
+            self.count("drop_replay")
+            return
+        self.count(f"rx_{type(msg).__name__.lower()}")
+        v = msg.sender
+        revived = [v] if know.members.heard(v, float(msg.seq), now) else []
+        revived += know.members.take_heard(v, msg.heard, float(msg.seq), now)
+        for u in revived:
+            self.decide.dirty = True
+            out.event(now, "revived", peer=know.vid(u))
+            out.record(PeerState(u, mb.ALIVE, now))
+        if isinstance(msg, Pose):
+            self._on_pose(msg, now, out)
+        elif isinstance(msg, ClearedSegment):
+            new = know.cleared.merge_segment(msg.segment, msg.bits)
+            if new:
+                self.decide.dirty = True
+                out.record(Clear(now, tuple(new), own=False))
+            if know.cleared.missing_from(msg.segment, msg.bits):
+                self.radio.mismatch.add(v)
+        elif isinstance(msg, (Claim, Release)):
+            self._on_holding(msg, now, out)
+        elif isinstance(msg, Abort) and msg.who != self.index:
+            if self._peer_gone(msg.who, mb.ABORTED, now, out, msg.t_s) and msg.who != v:
+                self.count("abort_relayed_in")
+
+    def _on_pose(self, msg: Pose, now: float, out: Outputs) -> None:
+        v, know = msg.sender, self.know
+        know.peer_pose[v] = PeerPose(msg.pos, float(msg.seq), msg.state)
+        know.peer_digest[v] = msg.digest
+        mine = know.cleared.digest()
+        # Push only if the peer may lack something we have: equal sizes with different
+        # hashes, or a smaller set (sizes are mod 128; a larger set will push to us instead).
+        behind = (mine.count - msg.digest.count) % 128
+        if msg.digest != mine and (behind == 0 or behind < 64):
+            self.radio.mismatch.add(v)
+        if msg.state == "home":
+            self._peer_gone(v, mb.HOME, now, out)
+        elif msg.state == "aborted":
+            self._peer_gone(v, mb.ABORTED, now, out)
+
+    def _on_holding(self, msg: Claim | Release, now: float, out: Outputs) -> None:
+        is_claim, know = isinstance(msg, Claim), self.know
+        mine_before = set(self.vehicle.route)
+        changed = know.holdings.apply(msg.sender, msg.t_s, msg.tasks, is_claim)
+        if changed:
+            self.decide.dirty = True
+            out.record(Hold(msg.sender, msg.t_s, tuple(changed), is_claim))
+            lost = [t for t in changed if t in mine_before and know.holder(t) != self.index
+                    and t != self.vehicle.injecting]
+            if lost:
+                out.event(now, "claim_lost", lost, peer=know.vid(msg.sender))
+                self.decide.coop_soon = True
+
+    def _on_command(self, name: str, now: float, out: Outputs) -> None:
+        if name != "abort" or not self.decide.active:
+            return
+        self.vehicle.abort()
+        self.radio.own_abort_left = self.config.abort_repeats
+        self.radio.push_cleared = 1
+        out.record(Aborted(now))
+        out.event(now, "abort")
+
+    # -- membership ------------------------------------------------------------------------
+
+    def _peer_gone(self, v: int, status: str, now: float, out: Outputs,
+                   t_event: int | None = None) -> bool:
+        """Record an announced abort or arrival home; True if it was news."""
+        members = self.know.members
+        before = members.status(v)
+        if not members.mark(v, status, now):
+            return False
+        self.decide.dirty = True
+        out.record(PeerState(v, status, now))
+        if status == mb.ABORTED:
+            out.event(now, "lost", peer=self.know.vid(v), detail="aborted")
+            # Pass the news on once: a peer that missed every announcement learns it from us
+            # instead of waiting for the silence to be noticed.
+            if self.decide.active:
+                self.radio.aborts.append(
+                    PendingAbort(v, int(now) if t_event is None else t_event))
+            if before == mb.ALIVE:
+                self.decide.takeover(v, now, out)
+        return True
+
+    def _detect(self, now: float, out: Outputs) -> None:
+        if not self.decide.active:
+            return
+        for v in self.know.members.check(now):
+            self.decide.dirty = True
+            out.record(PeerState(v, mb.LOST, now))
+            out.event(now, "lost", peer=self.know.vid(v), detail="silent")
+            self.decide.takeover(v, now, out)
+
+    # -- radio out -------------------------------------------------------------------------
+
+    def _transmit(self, now: float, out: Outputs) -> None:
+        if now < self.radio.next_slot_s():
+            return
+        if not self.radio.take_slot(now):
+            self.count("slots_missed")
+            return
+        msg = self.radio.choose(now, self.vehicle, self.know)
+        if msg is None:
+            return
+        frame = self.fleet.codec.encode(msg)
+        name = type(msg).__name__.lower()
+        self.count(f"tx_{name}")
+        self.count("tx_bytes", len(frame))
+        self.largest_frame = max(self.largest_frame, len(frame))
+        out.append(Send(frame, radio_kind(msg), name))
+        out.record(self.checkpoint(now))
+
+    # -- telemetry and checkpoints ---------------------------------------------------------
+
+    def _telemetry(self, now: float, out: Outputs) -> None:
+        if now >= self._next_truth:
+            self._next_truth = now + self.config.truth_period_s
+            out.append(Publish("truth", self.truth(now)))
+        if now >= self._next_status:
+            self._next_status = now + self.config.status_period_s
+            out.append(Publish("status", self.status(now)))
+        if now >= self._next_ckpt:
+            self._next_ckpt = now + self.config.checkpoint_period_s
+            out.record(self.checkpoint(now))
+
+    def status(self, now: float | None = None) -> Status:
+        now = self.t if now is None else now
+        v, know = self.vehicle, self.know
+        finish = v.time_to_finish_s()
+        treated = [t for t, _ in know.treated]
+        return Status(
+            t_s=float(now), id=self.id, state=v.state(), pos=tuple(v.pos),
+            battery_s=float(v.battery_left_s(now)),
+            t_diff_s=float(v.battery_left_s(now) - finish),
+            route=know.tids(v.route), treated=know.tids(treated),
+            cleared_known=len(know.cleared), priority_collected=know.priority_of(treated),
+            distance_m=float(v.distance_m),
+            peers={know.vid(u): s for u, (s, _) in know.members.snapshot().items()},
+            claims=know.tids(sorted(know.standing_claims())),
+            counters={**self.counters, "largest_frame": self.largest_frame,
+                      "replans": self.fleet.planner.calls},
+        )
+
+    def truth(self, now: float) -> Truth:
+        v = self.vehicle
+        return Truth(float(now), tuple(v.pos), float(v.yaw_deg), float(v.pitch_deg), v.state())
+
+    def checkpoint(self, now: float) -> Checkpoint:
+        v = self.vehicle
+        return Checkpoint(now, tuple(v.pos), v.distance_m, tuple(v.route),  # type: ignore
+                          self.radio.last_seq, self.know.replay.high_water(), v.home_at_s)
+

@@ -1,0 +1,95 @@
+"""What one vehicle knows about the fleet: the cleared spots, who holds what, who is alive,
+where the others were last heard, and which frames it has already taken.
+
+State and queries only; what to do about it is decided elsewhere (`fleet_agent.decisions`).
+Every query that depends on membership uses the same view (`Membership.alive`), so the
+holder of a spot, the free spots and the peers to plan for always agree within a step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable
+
+from fleet_agent import membership as mb
+from fleet_agent.cleared import ClearedSet
+from fleet_agent.config import AgentConfig
+from fleet_agent.fleet import Fleet
+from fleet_agent.membership import Membership
+from fleet_agent.negotiation import Holdings
+from fleet_agent.replay import ReplayWindow
+from fleet_agent.wire import Digest
+
+Point3 = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class PeerPose:
+    """A peer's last pose: where it said it was, when (its sequence number), in what state."""
+
+    pos: Point3
+    t_s: float
+    state: str
+
+
+class Knowledge:
+    def __init__(self, fleet: Fleet, index: int, config: AgentConfig, cycle_s: float) -> None:
+        p = fleet.problem
+        self.fleet, self.problem, self.index = fleet, p, index
+        self.k = p.n_vehicles
+        self.cleared = ClearedSet(p.n_tasks)
+        self.holdings = Holdings(p.n_tasks, fleet.base_routes)
+        self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s)
+        self.replay = ReplayWindow()
+        self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
+        self.peer_pose: dict[int, PeerPose] = {}
+        self.peer_digest: dict[int, Digest] = {}
+
+    # -- holdings under the current membership view ----------------------------------------
+
+    def holder(self, task: int) -> int | None:
+        return self.holdings.holder(task, self.members.alive)
+
+    def held_map(self) -> dict[int, int]:
+        """Spot -> holder, for every held spot nobody has cleared."""
+        return {t: h for t, h in self.holdings.holders(self.members.alive).items()
+                if t not in self.cleared}
+
+    def held_by(self, v: int) -> list[int]:
+        return [t for t, h in self.held_map().items() if h == v]
+
+    def free_spots(self) -> set[int]:
+        held = self.held_map()
+        return {t for t in range(self.problem.n_tasks)
+                if t not in self.cleared and t not in held}
+
+    def standing_claims(self) -> dict[int, int]:
+        """Spots this vehicle claimed after the initial plan and still holds: spot -> time."""
+        return {t: c for t, c in self.holdings.explicit_claims(self.index).items()
+                if t not in self.cleared and self.holder(t) == self.index}
+
+    # -- peers ------------------------------------------------------------------------------
+
+    def active_peers(self) -> list[int]:
+        return [v for v in range(self.k)
+                if v != self.index and self.members.status(v) == mb.ALIVE]
+
+    def peer_route(self, v: int) -> list[int]:
+        """What peer ``v`` is believed to do: its initial route's spots it still holds, then
+        the spots it claimed since, in claim order."""
+        held = self.held_map()
+        base = [t for t in self.fleet.base_routes[v] if held.get(t) == v]
+        extra = sorted((t for t, h in held.items() if h == v and t not in base),
+                       key=lambda t: (self.holdings.claim_time(t, v) or 0, t))
+        return base + extra
+
+    # -- ids at the edges --------------------------------------------------------------------
+
+    def vid(self, v: int) -> str:
+        return self.problem.vehicles[v].id
+
+    def tids(self, tasks: Iterable[int]) -> list[int]:
+        return [self.problem.tasks[t].id for t in tasks]
+
+    def priority_of(self, tasks: Iterable[int]) -> float:
+        return float(sum(self.problem.priority[t] for t in tasks))

@@ -1,0 +1,156 @@
+"""What the agent journals: typed records, their documents, and their parsing.
+
+Each record knows its journal document (a small msgpack map, key ``k`` names the kind) and
+whether it must be durable (fsync'ed: what was cleared, promised or decided by this vehicle).
+`parse` turns a document back into a record, or None for one it cannot read (a damaged or
+foreign record costs that record, never the journal).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping, Union
+
+JOURNAL_VERSION = 1
+
+
+@dataclass(frozen=True)
+class Start:
+    """A fresh agent: which vehicle, which journal format."""
+
+    t_s: float
+    index: int
+    durable = True
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "start", "t": self.t_s, "v": JOURNAL_VERSION, "i": self.index}
+
+
+@dataclass(frozen=True)
+class Clear:
+    """Spots known cleared; ``own``: this vehicle injected them (durable)."""
+
+    t_s: float
+    tasks: tuple[int, ...]
+    own: bool
+
+    @property
+    def durable(self) -> bool:
+        return self.own
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "clr", "t": self.t_s, "ids": list(self.tasks), "own": self.own}
+
+
+@dataclass(frozen=True)
+class Hold:
+    """A claim (``claim``) or release by vehicle ``v`` at ``t_s`` (own ones are durable)."""
+
+    v: int
+    t_s: int
+    tasks: tuple[int, ...]
+    claim: bool
+    durable: bool = False
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "hold", "v": self.v, "t": self.t_s, "ids": list(self.tasks), "c": self.claim}
+
+
+@dataclass(frozen=True)
+class PeerState:
+    """What this vehicle concluded about a peer (alive, lost, aborted, home) at ``t_s``."""
+
+    v: int
+    status: str
+    t_s: float
+    durable = False
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "peer", "v": self.v, "s": self.status, "t": self.t_s}
+
+
+@dataclass(frozen=True)
+class Aborted:
+    t_s: float
+    durable = True
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "abort", "t": self.t_s}
+
+
+@dataclass(frozen=True)
+class Home:
+    t_s: float
+    durable = True
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "home", "t": self.t_s}
+
+
+@dataclass(frozen=True)
+class Restarted:
+    t_s: float
+    durable = True
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "restart", "t": self.t_s}
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """Where the vehicle was and what it was doing: position, distance run, route, last
+    sequence number, replay high-water marks, and when it got home (if it did)."""
+
+    t_s: float
+    pos: tuple[float, float, float]
+    distance_m: float
+    route: tuple[int, ...]
+    seq: int
+    high_water: Mapping[int, int]
+    home_at_s: float | None
+    durable = False
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "ckpt", "t": self.t_s, "pos": list(self.pos), "dist": self.distance_m,
+                "route": list(self.route), "seq": self.seq,
+                "hw": {str(s): q for s, q in self.high_water.items()}, "home": self.home_at_s}
+
+
+JournalRecord = Union[Start, Clear, Hold, PeerState, Aborted, Home, Restarted, Checkpoint]
+
+
+def _ints(value: Any) -> tuple[int, ...]:
+    return tuple(int(x) for x in value)
+
+
+def parse(doc: Mapping[str, Any]) -> JournalRecord | None:
+    """The record a journal document holds, or None if it is not one this agent can read."""
+    try:
+        k = doc.get("k")
+        t = float(doc["t"])
+        if k == "clr":
+            return Clear(t, _ints(doc["ids"]), bool(doc.get("own")))
+        if k == "hold":
+            return Hold(int(doc["v"]), int(doc["t"]), _ints(doc["ids"]), bool(doc["c"]))
+        if k == "peer":
+            return PeerState(int(doc["v"]), str(doc["s"]), t)
+        if k == "abort":
+            return Aborted(t)
+        if k == "home":
+            return Home(t)
+        if k == "restart":
+            return Restarted(t)
+        if k == "start":
+            return Start(t, int(doc.get("i", -1)))
+        if k == "ckpt":
+            pos = tuple(float(c) for c in doc["pos"])
+            if len(pos) != 3:
+                return None
+            home = doc.get("home")
+            return Checkpoint(t, pos, float(doc.get("dist", 0.0)),  # type: ignore[arg-type]
+                              _ints(doc.get("route", [])), int(doc.get("seq", -1)),
+                              {int(s): int(q) for s, q in doc.get("hw", {}).items()},
+                              None if home is None else float(home))
+    except (KeyError, TypeError, ValueError, AttributeError):
+        return None
+    return None

@@ -1,0 +1,142 @@
+"""Telemetry: where a vehicle really is (``fleet/truth/<id>``), what it reports about itself
+(``fleet/status/<id>``) and what happened (``fleet/event/<id>``).
+
+Not radio traffic (no size limit, never read by other agents): the truth is the simulated
+world's bookkeeping for the relay and the ground station; statuses and events are what an
+operator would see over a tether or after recovery, and what the mission report is built
+from. Payloads are msgpack maps; decoders ignore unknown fields (either side can grow first)
+and validate every value they keep.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import msgpack
+
+from fleet_bus import values as v
+
+# Vehicle states, as the agent reports them and the dashboard and reports show them ("dead":
+# the mission runner's word for a vehicle whose agent was killed and not restarted).
+TRANSIT, INJECTING, RETURNING, HOME, ABORTED, DEAD = (
+    "transit", "injecting", "returning", "home", "aborted", "dead")
+STATES = (TRANSIT, INJECTING, RETURNING, HOME, ABORTED, DEAD)
+FINAL_STATES = (HOME, ABORTED, DEAD)  # a vehicle in one of these has left the mission
+
+# Event kinds of the dashboard's event log.
+EVENT_KINDS = (
+    "cleared",  # this vehicle finished injecting a spot
+    "claim",  # claimed spots (cooperation or takeover)
+    "claim_lost",  # lost a conflicting claim and dropped the spots
+    "abort",  # this vehicle aborted (announced)
+    "lost",  # this vehicle declared a peer lost (missed heartbeats or abort heard)
+    "revived",  # a peer declared lost was heard again
+    "takeover",  # spots of a lost vehicle taken into this vehicle's route
+    "replan",  # local route changed
+    "restart",  # the agent process restarted from its log
+)
+
+
+@dataclass(frozen=True)
+class Truth:
+    """Where a vehicle really is at simulation time ``t_s`` (eq. 3-6 state, NED metres/deg)."""
+
+    t_s: float
+    pos: tuple[float, float, float]
+    yaw_deg: float = 0.0
+    pitch_deg: float = 0.0
+    state: str = TRANSIT
+
+    def encode(self) -> bytes:
+        return msgpack.packb({"t": self.t_s, "p": list(self.pos), "yaw": self.yaw_deg,
+                              "pitch": self.pitch_deg, "state": self.state})
+
+    @staticmethod
+    def decode(payload: bytes) -> "Truth":
+        """Raises ValueError on anything that is not a well-formed truth record."""
+        doc = v.unpack_map(payload, "truth")
+        try:
+            return Truth(v.number(doc["t"], "truth.t"), v.point(doc["p"], "truth.p"),
+                         v.number(doc.get("yaw", 0.0), "truth.yaw"),
+                         v.number(doc.get("pitch", 0.0), "truth.pitch"),
+                         v.text(doc.get("state", TRANSIT), "truth.state", 32))
+        except KeyError as exc:
+            raise ValueError(f"truth: missing {exc}") from None
+
+
+@dataclass(frozen=True)
+class Status:
+    """One vehicle's periodic self-report."""
+
+    t_s: float
+    id: str
+    state: str
+    pos: tuple[float, float, float]
+    battery_s: float  # battery time left
+    t_diff_s: float  # eq. 12, projected: battery left minus time to finish the route
+    route: list[int]  # scenario task ids still to treat, in order
+    treated: list[int]  # task ids this vehicle injected
+    cleared_known: int  # size of the vehicle's grow-only cleared set
+    priority_collected: float
+    distance_m: float
+    peers: dict[str, str] = field(default_factory=dict)  # id -> "alive" | "lost" | "aborted"
+    claims: list[int] = field(default_factory=list)  # task ids this vehicle holds by claim
+    counters: dict[str, int] = field(default_factory=dict)  # msgs sent/received/dropped[reason]
+
+    def encode(self) -> bytes:
+        return msgpack.packb(asdict(self))
+
+    @staticmethod
+    def decode(payload: bytes) -> "Status":
+        doc = v.unpack_map(payload, "status")
+        try:
+            return Status(
+                t_s=v.number(doc["t_s"], "status.t_s"),
+                id=v.text(doc["id"], "status.id", 64),
+                state=v.text(doc["state"], "status.state", 32),
+                pos=v.point(doc["pos"], "status.pos"),
+                battery_s=v.number(doc["battery_s"], "status.battery_s"),
+                t_diff_s=v.number(doc["t_diff_s"], "status.t_diff_s"),
+                route=v.ids(doc["route"], "status.route"),
+                treated=v.ids(doc["treated"], "status.treated"),
+                cleared_known=v.integer(doc["cleared_known"], "status.cleared_known", 0),
+                priority_collected=v.number(doc["priority_collected"],
+                                            "status.priority_collected"),
+                distance_m=v.number(doc["distance_m"], "status.distance_m"),
+                peers=v.str_map(doc.get("peers", {}), "status.peers", str),
+                claims=v.ids(doc.get("claims", []), "status.claims"),
+                counters=v.str_map(doc.get("counters", {}), "status.counters", int),
+            )
+        except KeyError as exc:
+            raise ValueError(f"status: missing {exc}") from None
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something an operator wants in the log: see `EVENT_KINDS`."""
+
+    t_s: float
+    id: str
+    kind: str
+    tasks: list[int] = field(default_factory=list)
+    peer: str = ""  # the other vehicle involved, if any
+    detail: str = ""
+
+    def encode(self) -> bytes:
+        return msgpack.packb(asdict(self))
+
+    @staticmethod
+    def decode(payload: bytes) -> "Event":
+        doc = v.unpack_map(payload, "event")
+        try:
+            return Event(v.number(doc["t_s"], "event.t_s"), v.text(doc["id"], "event.id", 64),
+                         v.text(doc["kind"], "event.kind", 32),
+                         v.ids(doc.get("tasks", []), "event.tasks"),
+                         v.text(doc.get("peer", ""), "event.peer", 64),
+                         v.text(doc.get("detail", ""), "event.detail"))
+        except KeyError as exc:
+            raise ValueError(f"event: missing {exc}") from None
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
