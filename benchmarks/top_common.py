@@ -1,4 +1,4 @@
-"""The Team Orienteering yardstick: the 33 Chao et al. instances in ../shared/bench/top."""
+"""The Team Orienteering yardstick: the 33 Chao et al. instances copied into benchmarks/top."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 from hfc_core.problem import Problem
 from hfc_core.top import parse_top
 
-TOP_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "bench" / "top"
+TOP_DIR = Path(__file__).resolve().with_name("top")
 
 
 @dataclass(frozen=True)
