@@ -18,6 +18,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from hfc_core.feasibility import fits, room_s
 from hfc_core.problem import Problem
 
 Point3 = tuple[float, float, float]
@@ -141,7 +142,10 @@ class Vehicle:
         return total
 
     def slack_s(self, reserve_s: float = 0.0) -> float:
-        return self.battery_left_s() - reserve_s - self.time_to_finish_s()
+        """Extra time the rest of the mission may take and still fit the battery less
+        ``reserve_s`` (`hfc_core.feasibility.room_s`): a detour of ``cost`` fits exactly when
+        ``cost <= slack_s(reserve_s)``, by the planner's one rule."""
+        return room_s(self.time_to_finish_s(), self.battery_left_s() - reserve_s)
 
     def next_event_s(self) -> float | None:
         """When the next arrival or injection end happens (None once home)."""
@@ -314,7 +318,8 @@ def fit_route(vehicle: Vehicle, route: Sequence[int], reserve_s: float) -> list[
     """
     route = list(route)
     priority = vehicle.problem.priority
-    while route and vehicle.time_to_finish_s(route) > vehicle.battery_left_s() - reserve_s:
+    budget_s = vehicle.battery_left_s() - reserve_s
+    while route and not fits(vehicle.time_to_finish_s(route), budget_s):
         base = vehicle.time_to_finish_s(route)
         best, best_score = None, -math.inf
         for i, task in enumerate(route):

@@ -2,7 +2,9 @@
 
 Deliberately shares no code with the planner's evaluation: it recomputes every leg from the raw
 task and vehicle coordinates with `math.dist`, so a bug in `Problem.dist_m` or in an operator's
-incremental bookkeeping cannot hide behind itself. Tests apply it to every plan they produce.
+incremental bookkeeping cannot hide behind itself. What it shares is the rule itself
+(`hfc_core.feasibility.fits`), so that checker and planner cannot disagree on what fits.
+Tests apply it to every plan they produce.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 import math
 from typing import Mapping, Sequence
 
+from hfc_core.feasibility import fits
 from hfc_core.problem import Problem
 
 
@@ -18,12 +21,12 @@ def check_routes(
     routes: Mapping[str, Sequence[int]],
     *,
     enforce_budget: bool = True,
-    tolerance_s: float = 1e-6,
 ) -> list[str]:
     """Problems found in ``routes`` (vehicle id -> scenario task ids); empty if feasible.
 
     Checks: known vehicle and task ids, no task visited twice in the fleet, and (unless
-    ``enforce_budget`` is false, as for NCM1) every mission time within its battery. With land,
+    ``enforce_budget`` is false, as for NCM1) every mission time within its battery, by the
+    planner's one rule (`hfc_core.feasibility.fits`: a time equal to the battery fits). With land,
     each leg is the waypoint path the vehicle would follow (`Problem.land.shortest_path`): it
     must join the leg's ends and enter no forbidden polygon, and its length is what counts.
     """
@@ -55,7 +58,7 @@ def check_routes(
         else:
             legs = [math.dist(a, b) for a, b in zip(points[:-1], points[1:])]
         time_s = sum(legs) / vehicle.speed_mps + sum(tasks[t].service_s for t in route)
-        if time_s > vehicle.battery_s + tolerance_s:
+        if not fits(time_s, vehicle.battery_s):
             errors.append(
                 f"{vid}: mission time {time_s:.3f} s exceeds battery {vehicle.battery_s:.3f} s"
             )

@@ -25,6 +25,7 @@ from typing import Sequence
 
 import numpy as np
 
+from hfc_core.feasibility import fits
 from hfc_core.problem import Problem, ScenarioError
 
 PAPER_BATTERY_S = 3600.0
@@ -123,7 +124,7 @@ class RouteModel:
         """A budgeted mode cannot return a feasible plan if a vehicle cannot even go straight
         from its start to its rendezvous: that is a scenario error, not a planner failure."""
         for v in range(self.k):
-            if self.time_s(v, []) > self.battery_s[v]:
+            if not fits(self.time_s(v, []), self.battery_s[v]):
                 vid = self.problem.vehicles[v].id
                 raise ScenarioError(
                     f"vehicle {vid}: start to rendezvous takes {self.time_s(v, []):.1f} s, "

@@ -20,6 +20,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from hfc_core.cost import CostWeights, RouteModel
+from hfc_core.feasibility import fits
 from hfc_core.hfc import record
 from hfc_core.operators.clustering import clusters_of_vehicles
 from hfc_core.operators.ordering import MOVES, order_route
@@ -127,7 +128,7 @@ def _drop_last_if_overdue(
     model: RouteModel, v: int, population: list[list[int]], best: list[int]
 ) -> list[list[int]]:
     """Leave the last ordered spot of the best route if that route overruns the battery."""
-    if not best or model.time_s(v, best) <= model.battery_s[v]:
+    if not best or fits(model.time_s(v, best), model.battery_s[v]):
         return population
     last = best[-1]
     return [[t for t in ind if t != last] for ind in population]
@@ -158,7 +159,7 @@ def solve_ga(problem: Problem, stop: Stop, rng: np.random.Generator, **raw: Any)
         history.append(record(model, best, weights, generation, stop.elapsed_s()))
     repaired = False
     for v, route in enumerate(best):
-        while route and model.time_s(v, route) > model.battery_s[v]:
+        while route and not fits(model.time_s(v, route), model.battery_s[v]):
             route = route[:-1]
             repaired = True
         best[v] = route

@@ -16,7 +16,8 @@ from scipy.optimize import linear_sum_assignment
 from hfc_core.best.insert import fill
 from hfc_core.best.instance import Instance
 from hfc_core.best.intra import improve_route
-from hfc_core.best.state import MARGIN_S, State
+from hfc_core.best.state import State
+from hfc_core.feasibility import fits
 
 
 def medoid_clusters(inst: Instance, rng: np.random.Generator, rounds: int = 10) -> np.ndarray:
@@ -82,7 +83,7 @@ def screen(inst: Instance, v: int, route: list[int]) -> list[int]:
     """Drop the task with the least value per second saved until the route fits."""
     dist = inst.dist_m
     route = list(route)
-    while route and inst.route_time_s(v, route) > inst.budget_s[v] - MARGIN_S:
+    while route and not fits(inst.route_time_s(v, route), float(inst.budget_s[v])):
         nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)
         prev, cur, nxt = nodes[:-2], nodes[1:-1], nodes[2:]
         saving = dist[prev, cur] + dist[cur, nxt] - dist[prev, nxt]

@@ -68,7 +68,11 @@ def fill(
         if score[v, u] == -np.inf:
             return state
         state.insert(v, u, int(state.ins_pos[v, u]))
-        usable[:, u] = False
-        score[:, u] = -np.inf
+        if state.fits(v):
+            usable[:, u] = False
+            score[:, u] = -np.inf
+        else:  # the cached estimate fitted, the route's own sum does not (rounding): undo
+            state.remove([u])
+            usable[v, u] = False
         state.refresh_route(v)
         rescore(v)

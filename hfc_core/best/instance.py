@@ -51,10 +51,12 @@ class Instance:
         return len(self.speed_mps)
 
     def route_time_s(self, v: int, route: list[int]) -> float:
-        """Travel start -> route -> end at ``v``'s speed plus service, summed in a fixed order."""
+        """Travel start -> route -> end at ``v``'s speed plus service, summed as `State` sums
+        it (so both judge a route alike)."""
         nodes = [int(self.start[v]), *route, int(self.end[v])]
-        length = float(self.dist_m[nodes[:-1], nodes[1:]].sum()) if len(nodes) > 1 else 0.0
-        return length / float(self.speed_mps[v]) + float(sum(self.service_s[route]))
+        length = float(self.dist_m[nodes[:-1], nodes[1:]].sum())
+        service = float(self.service_s[route].sum()) if route else 0.0
+        return length / float(self.speed_mps[v]) + service
 
     def nearest_tasks(self, m: int) -> np.ndarray:
         """(n, min(m, n-1)) the nearest other tasks of each task, nearest first (cached)."""

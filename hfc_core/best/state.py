@@ -12,11 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from hfc_core.best.instance import Instance
+from hfc_core.feasibility import fits, room_s
 
 UNASSIGNED = -1
-# Feasibility margin in seconds: a route must fit with this much to spare, so that rounding
-# in any other evaluation (the independent checker sums legs differently) cannot tip it over.
-MARGIN_S = 1e-7
 
 
 class State:
@@ -79,7 +77,12 @@ class State:
         return self.length_m[v] / float(self.inst.speed_mps[v]) + self.service_s[v]
 
     def slack_s(self, v: int) -> float:
-        return float(self.inst.budget_s[v]) - self.time_s(v) - MARGIN_S
+        """Extra time route ``v`` may take and still fit (`hfc_core.feasibility.room_s`)."""
+        return room_s(self.time_s(v), float(self.inst.budget_s[v]))
+
+    def fits(self, v: int) -> bool:
+        """Route ``v`` fits its budget, by its own sum (`hfc_core.feasibility.fits`)."""
+        return bool(fits(self.time_s(v), float(self.inst.budget_s[v])))
 
     def value(self) -> float:
         val = self.inst.value
@@ -93,7 +96,7 @@ class State:
         return self.value() - tie_weight * self.total_time_s()
 
     def feasible(self) -> bool:
-        return all(self.slack_s(v) >= -MARGIN_S for v in range(self.inst.k))
+        return all(self.fits(v) for v in range(self.inst.k))
 
     # --- edits ---------------------------------------------------------------------------
     def set_route(self, v: int, route: list[int]) -> None:
