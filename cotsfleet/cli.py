@@ -21,6 +21,7 @@ COMMANDS = {
     "run": "run",
     "sim": "sim",
     "compare": "compare",
+    "report": "report",
 }
 
 
