@@ -56,7 +56,7 @@ def fill(
     score = np.full((k, inst.n), -np.inf)
 
     def rescore(v: int) -> None:
-        extra = state.ins_len[v] / float(inst.speed_mps[v]) + inst.service_s
+        extra = state.ins_s[v] + inst.service_s
         ok = usable[v] & (extra <= state.slack_s(v))
         score[v] = np.where(ok, _weighted(value[v], extra, exponent, floor_s), -np.inf)
 

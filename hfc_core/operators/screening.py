@@ -26,11 +26,11 @@ def removal_costs(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(eq. 9 cost, mission time) of ``route`` without its i-th task, for every i."""
     nodes = np.fromiter((model.start[v], *route, model.end[v]), dtype=np.intp)
-    d = model.dist_m
+    d = model.travel_s[v]
     prev, cur, nxt = nodes[:-2], nodes[1:-1], nodes[2:]
-    saved_m = d[prev, cur] + d[cur, nxt] - d[prev, nxt]
+    saved_s = d[prev, cur] + d[cur, nxt] - d[prev, nxt]
     time_s = model.time_s(v, route)
-    new_time_s = time_s - saved_m / model.speed_mps[v] - model.service_s[cur]
+    new_time_s = time_s - saved_s - model.service_s[cur]
     new_priority = float(model.priority[cur].sum()) - model.priority[cur]
     return eq9_cost(new_time_s, model.battery_s[v], new_priority, weights), new_time_s
 
