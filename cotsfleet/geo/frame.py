@@ -108,6 +108,10 @@ class LocalFrame:
             return None
         try:
             return LocalFrame(str(geo["crs"]), tuple(geo["origin_m"]))  # type: ignore[arg-type]
-        except (KeyError, TypeError, ValueError) as exc:
+        except ScenarioError:
+            raise
+        except KeyError as exc:
+            raise ScenarioError(f"geo: missing field {exc}") from None
+        except (TypeError, ValueError) as exc:
             raise ScenarioError(f"geo: expected {{'crs': 'EPSG:n', 'origin_m': [E, N]}}: "
                                 f"{exc}") from None

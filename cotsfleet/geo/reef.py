@@ -302,7 +302,8 @@ def _tasks(cots: Sequence[_Feature], local: Mapping[int, tuple], options: ReefOp
     if len(set(taken)) != len(taken):
         dup = next(t for t in taken if taken.count(t) > 1)
         raise ScenarioError(f"two cots features have id {dup}")
-    free = (t for t in range(1, len(cots) + len(taken) + 2) if t not in set(taken))
+    taken_ids = set(taken)
+    free = (t for t in range(1, len(cots) + len(taken) + 2) if t not in taken_ids)
     default_service = _service_draws(len(cots), options, rng)
     tasks = []
     for f, tid, service in zip(cots, given, default_service):

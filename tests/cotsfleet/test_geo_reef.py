@@ -314,3 +314,15 @@ def test_cots_points_inside_the_cay_are_refused(reef):
     reef["features"][9]["geometry"]["coordinates"] = [point.x, point.y]
     with pytest.raises(ScenarioError, match="inside a land polygon"):
         scenario_from_geojson(reef, ReefOptions())
+
+
+def test_a_geo_section_in_degrees_is_refused(reef, tmp_path, capsys):
+    doc = scenario_from_geojson(reef, ReefOptions())
+    doc["geo"]["crs"] = "EPSG:4326"  # the schema's form, but not a metric CRS
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(doc))
+    assert main(["plan", str(path), "--iterations", "5", "--geojson",
+                 str(tmp_path / "p.geojson")]) == 2
+    assert "not a projected (metric) CRS" in capsys.readouterr().err
+    with pytest.raises(ScenarioError, match="geo: missing field 'origin_m'"):
+        LocalFrame.of_scenario({"geo": {"crs": "EPSG:32755"}})
