@@ -41,6 +41,22 @@ def _full(doc: dict) -> dict:
 def test_scenarios_we_write_fit_the_schema(scenario_doc):
     validate(paper_preset_doc(1), "scenario")
     validate(_full(scenario_doc), "scenario")
+    validate({**scenario_doc, "current": None}, "scenario")  # still water
+
+
+@pytest.mark.parametrize("current", [
+    {"kind": "uniform", "velocity_mps": [0.4, -0.2]},
+    {"kind": "tidal", "velocity_mps": [0.5, 0.3], "period_s": 44712.0, "phase_s": 9000.0},
+    {"kind": "grid", "origin": [0.0, 0.0], "cell_m": 100.0,
+     "u": [[0.1, 0.2], [0.0, 0.1]], "v": [[0.0, 0.0], [0.1, 0.1]]},
+    None])
+def test_currents_the_planner_reads_load(current, scenario_doc, tmp_path):
+    from cotsfleet.io import read_scenario
+
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps({**scenario_doc, "current": current}))
+    problem, _ = read_scenario(path)
+    assert (problem.current is None) == (current is None)
     validate(json.loads((REPO / "examples" / "green_island.json").read_text()), "scenario")
 
 
@@ -64,7 +80,7 @@ BREAKS = {
     "geo typo": (lambda d: d["geo"].update(orign_m=[0, 0]),
                  "geo: unknown field(s) 'orign_m'"),
     "current not an object": (lambda d: d.update(current=[1, 2]),
-                              "current: expected object, got array"),
+                              "current: expected object or null, got array"),
     "not an object": (lambda d: d.clear(), "missing field 'name'"),
 }
 
