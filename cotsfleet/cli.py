@@ -22,6 +22,7 @@ COMMANDS = {
     "sim": "sim",
     "compare": "compare",
     "report": "report",
+    "link": "link",
 }
 
 

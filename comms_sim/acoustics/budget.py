@@ -152,3 +152,18 @@ class LinkBudget:
             mid = math.sqrt(lo * hi)
             lo, hi = (mid, hi) if self.transmission_loss_db(mid) < tl_db else (lo, mid)
         return hi
+
+
+def crossing_range_m(delivery: Callable[[float], float], level: float,
+                     max_range_m: float) -> float:
+    """The range at which a non-increasing ``delivery(range_m)`` falls to ``level``
+    (0 if it starts below, ``max_range_m`` if it never gets there): bisection to 0.1 m."""
+    if delivery(0.0) < level:
+        return 0.0
+    if delivery(max_range_m) >= level:
+        return max_range_m
+    lo, hi = 0.0, max_range_m
+    while hi - lo > 0.1:
+        mid = (lo + hi) / 2.0
+        lo, hi = (mid, hi) if delivery(mid) >= level else (lo, mid)
+    return lo
