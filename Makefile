@@ -1,31 +1,42 @@
 # Two entry points for a fresh machine with Python 3.11 and pip: `make demo` and `make test`.
-# Both create or update .venv themselves.
+# Both create or update .venv themselves, each installing only what it needs: the demo the
+# package and its run-time dependencies, the tests also pytest and Playwright (test extra),
+# the benchmarks also the reference solvers (bench extra).
 PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
-STAMP  := $(VENV)/.installed
+BASE   := $(VENV)/.installed
+TESTS  := $(VENV)/.installed-test
+BENCH  := $(VENV)/.installed-bench
 
-.PHONY: demo test bench bench-top lint clean
+.PHONY: demo test bench clean
 
-$(STAMP): pyproject.toml
+$(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test]'
-	touch $(STAMP)
 
-$(VENV)/.bench: $(STAMP)
-	$(PY) -m pip install --quiet -e '.[test,bench]'
+# Re-run whenever pyproject.toml changes (new dependencies); the extras follow, being newer.
+$(BASE): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet -e .
+	touch $@
+
+$(TESTS): $(BASE)
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $@
+
+$(BENCH): $(BASE)
+	$(PY) -m pip install --quiet -e '.[bench]'
 	touch $@
 
 # The main job: an emulated mission with the live dashboard, on embedded defaults.
-demo: $(STAMP)
+demo: $(BASE)
 	$(VENV)/bin/cotsfleet run --abort auv2@1200
 
-test: $(STAMP)
+test: $(TESTS)
 	$(PY) -m pytest -q
 
 # Every benchmark; each prints its figures and rewrites its own section of benchmarks/RESULTS.md.
-bench: $(VENV)/.bench
+bench: $(BENCH)
 	$(PY) -m benchmarks.run_all
 
 clean:

@@ -1,4 +1,4 @@
-"""The Team Orienteering yardstick: the 33 Chao et al. instances in ../shared/bench/top."""
+"""The Team Orienteering yardstick: the 33 Chao et al. instances copied into benchmarks/top."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 from hfc_core.problem import Problem
 from hfc_core.top import parse_top
 
-TOP_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "bench" / "top"
+TOP_DIR = Path(__file__).resolve().with_name("top")
 
 
 @dataclass(frozen=True)
@@ -23,8 +23,9 @@ class TopInstance:
         return parse_top(self.path.read_text(), self.name)
 
 
-def instances(top_dir: Path = TOP_DIR) -> list[TopInstance]:
-    with open(top_dir / "bks.csv", newline="") as fh:
+def instances(top_dir: Path = TOP_DIR, table: str = "bks.csv") -> list[TopInstance]:
+    """The 33 shared instances (``table="extra.csv"``: the exact-budget ones of README.md)."""
+    with open(top_dir / table, newline="") as fh:
         rows = list(csv.DictReader(fh))
     return [
         TopInstance(r["instance"], top_dir / "instances" / f"{r['instance']}.txt",

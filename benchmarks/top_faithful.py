@@ -1,7 +1,7 @@
 """The paper's planners on the 33 Team Orienteering instances: the baseline part 2 must beat.
 
 NCM2, CM and the GA run with their paper budgets (150 iterations, population 100; GA 200
-generations) on each instance of ../shared/bench/top; the score is the priority collected, and
+generations) on each instance of benchmarks/top; the score is the priority collected, and
 the gap is relative to the best-known score. NCM1 is left out: it ignores the budget by design,
 so its plans are not TOP solutions. Run: ``python -m benchmarks.top_faithful [--quick]``.
 """

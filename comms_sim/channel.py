@@ -5,17 +5,31 @@ One broadcast medium: a frame a node transmits reaches every other known node af
 receiver settles when that reception ends, because it depends on later transmissions:
 
 - partition: a scheduled link-down window overlaps the reception;
-- range: beyond ``max_range_m`` (or a position is unknown), or the range-curve draw failed;
+- range: beyond the hearing range (`ChannelConfig.horizon_m`) or a position is unknown; with
+  the empirical model also a failed range-curve draw;
+- sinr (physical model): the frame would not have decoded even alone: too weak over the noise
+  at its range, in its fade;
 - half_duplex: the receiver transmitted during the reception;
-- collision: another audible reception overlapped it at the receiver (both are lost);
+- collision: lost to interference. Physical model: the frame would have decoded alone but not
+  at its SINR, the signal over noise plus the strongest sum of overlapping receptions' powers
+  at any instant of it (a near frame survives a far interferer: capture). Empirical model:
+  any audible overlap, both lost;
 - random: the extra uniform loss of fault injection.
 
-When several apply the first listed is reported. Everything within ``max_range_m`` and not
-partitioned is audible: it interferes even when it could not be decoded.
+When several apply the first listed is reported. Everything within the hearing range and not
+partitioned is audible: it interferes and deafens even when it cannot be decoded.
+
+Physical decisions (see `comms_sim.acoustics`): a reception's mean level is SL - TL(d) and its
+SNR that over the band noise; the frame fades by a power gain x drawn for it (Rician, one per
+frame and link); the decoder works at x S / (L N + I) with L the modem's implementation loss
+and I the peak interference; one uniform u decides: delivered if u < P(success at that SINR),
+a collision if only the interference made it fail, sinr if it would have failed alone.
+Events report the mean SNR (``snr_db``: S/N, no fading) and mean SINR (``sinr_db``: S/(N+I)).
 
 Randomness: each link (src, dst) draws from its own stream, derived from one root seed and the
-two node names (`numpy.random.SeedSequence` spawn keys), exactly two uniforms per frame. So a
-link's draws do not depend on which other nodes exist or in which order they appeared.
+two node names (`numpy.random.SeedSequence` spawn keys): a fixed number of uniforms per frame
+(two for the empirical model, four for the physical: decode, extra loss, fade). So a link's
+draws do not depend on which other nodes exist or in which order they appeared.
 """
 
 from __future__ import annotations
@@ -29,6 +43,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from comms_sim.acoustics.fading import power_gain
 from comms_sim.config import PRESETS, ChannelConfig, Partition, TdmaConfig
 from comms_sim.link_event import BROADCAST, DROP_REASONS, LinkEvent
 from comms_sim.stats import LinkCounts, LinkStats
@@ -48,10 +63,15 @@ class _Reception:
     start_s: float
     end_s: float
     frame: bytes
-    fate: str | None  # decided at transmission: "partition", "range", "random" or None
+    fate: str | None  # decided at transmission: "partition", "range", "sinr", "random", None
     audible: bool
     collided: bool = False
     deaf: bool = False  # the receiver transmitted meanwhile
+    # physical model
+    power: float = 0.0  # mean received power, uPa^2: what it adds to others' interference
+    gain: float = 1.0  # this frame's fading power gain on this link
+    u_decode: float = 0.0
+    interferers: list["_Reception"] | None = None  # audible overlaps at the same receiver
 
 
 @dataclass(eq=False, slots=True)
@@ -88,6 +108,17 @@ class Channel:
             self._slots = {n: i for i, n in enumerate(config.tdma.order)}
         self._stats = LinkStats()
         self._settled: list[LinkEvent] = []  # settled by a catch-up, returned by `advance`
+        self._physical = config.model == "physical"
+        self._horizon_m = config.horizon_m
+        if self._physical:  # per-frame work below is a logarithm and an error function
+            budget = config.budget
+            self._budget = budget
+            # received power = SL r^-k 10^(-alpha r / 10), in linear units
+            self._source = 10.0 ** (config.modem.source_level_db / 10.0)
+            self._neg_k = -config.spreading_k
+            self._absorb = -budget.alpha_db_per_km / 1000.0 * math.log(10.0) / 10.0  # per m
+            self._noise = 10.0 ** (budget.noise_db / 10.0)
+            self._decoder_noise = 10.0 ** (budget.decoder_noise_db / 10.0)
 
     # -- nodes and faults ------------------------------------------------------------------
 
@@ -269,7 +300,8 @@ class Channel:
     def _receive(self, src: str, node: _Node, dst: str, dst_node: _Node, frame: bytes,
                  t_s: float) -> None:
         cfg = self.config
-        u_range, u_random = self._link_rng(src, dst).random(2)  # always two: stable streams
+        # a fixed number of draws per frame and link, used or not: stable streams
+        draws = self._link_rng(src, dst).random(4 if self._physical else 2).tolist()
         airtime = cfg.airtime_s(len(frame))
         if node.pos is None or dst_node.pos is None:
             r = _Reception(src, dst, t_s, t_s, t_s + airtime, frame, "range", False)
@@ -279,29 +311,92 @@ class Channel:
             r = _Reception(src, dst, t_s, start, start + airtime, frame, None, True)
             if any(p.cuts(src, dst, start, r.end_s) for p in self._partitions):
                 r.fate, r.audible = "partition", False
-            elif range_m > cfg.max_range_m:
+            elif range_m > self._horizon_m:
                 r.fate, r.audible = "range", False
-            elif u_range >= cfg.delivery_probability(range_m):
+            elif self._physical:
+                self._decide_alone(r, range_m, draws)
+            elif draws[0] >= cfg.delivery_probability(range_m):
                 r.fate = "range"
-            elif u_random < self._extra_loss:
+            elif draws[1] < self._extra_loss:
                 r.fate = "random"
         if r.audible:
             if cfg.half_duplex and dst_node.tx_end_s > r.start_s and dst_node.tx_start_s < r.end_s:
                 r.deaf = True
-            if cfg.collisions:
+            if cfg.collisions and self._physical:  # the SINR decides at settlement
+                for q in dst_node.pending:
+                    if q.start_s < r.end_s and r.start_s < q.end_s:
+                        if q.interferers is None:
+                            q.interferers = [r]
+                        else:
+                            q.interferers.append(r)
+                        if r.interferers is None:
+                            r.interferers = [q]
+                        else:
+                            r.interferers.append(q)
+            elif cfg.collisions:
                 for q in dst_node.pending:
                     if q.start_s < r.end_s and r.start_s < q.end_s:
                         q.collided = r.collided = True
             dst_node.pending.append(r)
         heapq.heappush(self._heap, (r.end_s, next(self._seq), _RX, r))
 
+    def _decide_alone(self, r: _Reception, range_m: float, draws: list[float]) -> None:
+        """Physical model, at transmission: the frame's level, its fade, and whether it would
+        decode with no interference at all (if not: "sinr")."""
+        rm = range_m if range_m > 1.0 else 1.0  # source levels are defined at 1 m
+        r.power = self._source * rm ** self._neg_k * math.exp(self._absorb * rm)
+        r.u_decode = draws[0]
+        r.gain = power_gain(draws[2], draws[3], self.config.rician_k)
+        if r.u_decode >= self._budget.success_ratio(r.power * r.gain / self._decoder_noise,
+                                                     len(r.frame)):
+            r.fate = "sinr"
+        elif draws[1] < self._extra_loss:
+            r.fate = "random"
+
     def _settle(self, r: _Reception) -> LinkEvent:
+        snr_db = sinr_db = None
         if r.audible:
             self._nodes[r.dst].pending.remove(r)
+            if self._physical:
+                snr_db, sinr_db = self._settle_physical(r)
         reason = r.fate
-        if reason not in ("partition", "range"):
+        if reason not in ("partition", "range", "sinr"):
             reason = "half_duplex" if r.deaf else "collision" if r.collided else reason
         event = LinkEvent(r.src, r.dst, r.t_sent_s, r.end_s, len(r.frame), reason is None,
-                          reason, r.frame)
+                          reason, r.frame, snr_db, sinr_db)
         self._stats.record(event)
         return event
+
+    def _settle_physical(self, r: _Reception) -> tuple[float, float]:
+        """The mean SNR and SINR of ``r``; marks it collided if the frame that would have
+        decoded alone does not at its SINR."""
+        snr_db = 10.0 * math.log10(r.power / self._noise)
+        if not r.interferers:
+            return snr_db, snr_db
+        peak = _peak_interference(r)
+        if r.fate is None or r.fate == "random":
+            decoder_snr = r.power * r.gain / (self._decoder_noise + peak)
+            if r.u_decode >= self._budget.success_ratio(decoder_snr, len(r.frame)):
+                r.collided = True
+        return snr_db, 10.0 * math.log10(r.power / (self._noise + peak))
+
+
+def _peak_interference(r: _Reception) -> float:
+    """The largest total power of receptions overlapping ``r`` at any instant of it (the worst
+    SINR over the reception decides: a burst of interference corrupts the bits it covers, and
+    one bad bit loses an uncoded frame)."""
+    others = r.interferers or ()
+    if len(others) == 1:
+        return others[0].power
+    start, end = r.start_s, r.end_s
+    edges = []
+    for q in others:  # clipped to r; half-open: at equal times, ends sort before starts
+        edges.append((q.start_s if q.start_s > start else start, 1, q.power))
+        edges.append((q.end_s if q.end_s < end else end, 0, -q.power))
+    edges.sort()
+    level = peak = 0.0
+    for _, _, delta in edges:
+        level += delta
+        if level > peak:
+            peak = level
+    return peak

@@ -17,13 +17,13 @@ import threading
 from typing import Callable, Protocol, Sequence
 
 import msgpack
-import numpy as np
 import zenoh
 
 from comms_sim.channel import Channel
 from comms_sim.config import ChannelConfig, with_tdma
 from comms_sim.control import apply_control
 from comms_sim.link_event import LinkEvent
+from comms_sim.seeds import channel_rng
 from fleet_bus import keys
 from fleet_bus.clock import WarpClock
 from fleet_bus.link import INTRUDER, LinkControl, LinkRecord, encode_stats
@@ -255,7 +255,7 @@ def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
                 raise ValueError("TDMA needs the roster (--vehicles or the mission's)")
             config = with_tdma(config, list(vehicles))
         clock = WarpClock(epoch_unix, warp if warp is not None else 1.0)
-        channel = Channel(config, np.random.default_rng(0 if seed is None else seed))
+        channel = Channel(config, channel_rng(0 if seed is None else seed))
         roster = frozenset(vehicles) if vehicles else None
         return serve(session, channel, clock, stop, roster, on_ready=lambda _: ready(
             READY, f"epoch_unix={clock.epoch_unix} warp={clock.warp} "

@@ -21,6 +21,8 @@ COMMANDS = {
     "run": "run",
     "sim": "sim",
     "compare": "compare",
+    "report": "report",
+    "link": "link",
 }
 
 

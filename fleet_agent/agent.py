@@ -53,8 +53,9 @@ class Agent:
         self.vehicle = Vehicle(p, index, fleet.paths)
         self.know = Knowledge(fleet, index, config, slots.cycle_s)
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
-        self.decide = Decisions(fleet, config, self.vehicle, self.know, self.radio, now)
         self.counters: dict[str, int] = {}
+        self.decide = Decisions(fleet, config, self.vehicle, self.know, self.radio, now,
+                                self.count)
         self.largest_frame = 0
         self.t = float(now)
         self.restarted = bool(journal)
@@ -284,8 +285,7 @@ class Agent:
             distance_m=float(v.distance_m),
             peers={know.vid(u): s for u, (s, _) in know.members.snapshot().items()},
             claims=know.tids(sorted(know.standing_claims())),
-            counters={**self.counters, "largest_frame": self.largest_frame,
-                      "replans": self.fleet.planner.calls},
+            counters={**self.counters, "largest_frame": self.largest_frame},
         )
 
     def truth(self, now: float) -> Truth:

@@ -14,6 +14,8 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Mapping
 
+import tomli_w
+
 
 @dataclass(frozen=True)
 class AgentConfig:
@@ -97,10 +99,5 @@ def load_config(path: str | Path) -> AgentConfig:
 
 
 def dump_config(config: AgentConfig) -> str:
-    """TOML text of ``config`` (what the launcher writes for each run)."""
-    lines = ["[agent]"]
-    for f in fields(AgentConfig):
-        value = getattr(config, f.name)
-        lines.append(f"{f.name} = {value!r}" if not isinstance(value, str)
-                     else f'{f.name} = "{value}"')
-    return "\n".join(lines) + "\n"
+    """TOML text of ``config`` (what the launcher writes for each run), under ``[agent]``."""
+    return tomli_w.dumps({"agent": {f.name: getattr(config, f.name) for f in fields(AgentConfig)}})

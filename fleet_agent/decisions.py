@@ -11,6 +11,8 @@ Every claim and release is journalled (durable) before the radio is asked to ann
 
 from __future__ import annotations
 
+from typing import Callable
+
 from fleet_agent.config import AgentConfig
 from fleet_agent.cooperation import (cheapest_insertion, cooperation_route, detour_fits,
                                      live_peer, live_self, takeover_share)
@@ -24,9 +26,10 @@ from fleet_agent.vehicle import Vehicle, fit_route
 
 class Decisions:
     def __init__(self, fleet: Fleet, config: AgentConfig, vehicle: Vehicle, know: Knowledge,
-                 radio: Radio, now: float) -> None:
+                 radio: Radio, now: float, count: Callable[[str], None]) -> None:
         self.fleet, self.config, self.vehicle, self.know, self.radio = (
             fleet, config, vehicle, know, radio)
+        self.count = count  # the agent's counters (replans asked of the planner)
         index, k = know.index, know.k
         self.next_coop_s = now + config.coop_period_s * (1.0 + index / k)
         self.coop_soon = False  # a lost claim: look for other work at once
@@ -47,6 +50,7 @@ class Decisions:
         peers = [live_peer(know.problem, v, know.peer_pose.get(v), know.peer_route(v), now)
                  for v in know.active_peers()]
         # The same seed on every survivor: equal views give equal answers.
+        self.count("replans")
         mine = takeover_share(self.fleet.planner, live_self(self.vehicle), peers,
                               frozenset(know.cleared), know.held_map(),
                               seed=self.fleet.seed * 1000 + gone)
@@ -69,6 +73,7 @@ class Decisions:
         free = know.free_spots()
         if not free or not detour_fits(self.vehicle, free, slack):
             return
+        self.count("replans")
         mine = cooperation_route(self.fleet.planner, live_self(self.vehicle),
                                  frozenset(know.cleared), know.held_map(),
                                  seed=self.fleet.seed * 1000 + 100 + know.index)

@@ -56,6 +56,11 @@ class Inbox:
         except queue.Full:
             self.overflow += 1
 
+    def take_overflow(self) -> int:
+        """Items dropped since the last call (counted into the agent by its loop)."""
+        n, self.overflow = self.overflow, 0
+        return n
+
     def get(self, timeout_s: float) -> tuple[str, bytes, float] | None:
         try:
             return self._q.get(timeout=timeout_s) if timeout_s > 0 else self._q.get_nowait()
@@ -114,7 +119,6 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
             start = f"restart, {len(journal.records)} records" if journal.records else "fresh"
             ready(AGENT_READY, f"{vid} at t={now:.1f} s ({start})")
             _loop(driver, inbox, clock, stop)
-            agent.counters["inbox_overflow"] = inbox.overflow
             driver.final_status(clock.now())
     return 0
 
@@ -141,4 +145,7 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: WarpClock, stop: threading.E
                 if name is not None:
                     driver.command(name, at)
             item = inbox.get(0)
+        dropped = inbox.take_overflow()
+        if dropped:
+            driver.agent.count("inbox_overflow", dropped)
         driver.tick(clock.now())

@@ -6,8 +6,14 @@ sum of eq. 7 over the legs. At a spot it hovers for the spot's injection time. B
 runs down with mission time whatever the vehicle does (constant thrust power) until it is
 recovered at the rendezvous. Around land a leg is the waypoint path of the land metric.
 
+In a current (the scenario's ``current``) the vehicle keeps |v| through the water and crabs so
+that it stays on the leg: it moves along the leg at the ground speed of `hfc_core.travel`,
+piece by piece as that model cuts the leg (a gridded field's pieces, the tide's 60 s steps),
+so it arrives exactly when the checker says it does. Yaw and pitch are those of the track.
+
 Pure and exact: `advance` jumps to any later time, settling arrivals and injection ends at
-the moment they happen, so the result does not depend on how often it is called.
+the moment they happen, so the result does not depend on how often it is called (every
+position is computed from the current segment's origin and its precomputed pieces).
 """
 
 from __future__ import annotations
@@ -18,7 +24,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from hfc_core.feasibility import fits, room_s
 from hfc_core.problem import Problem
+from hfc_core.travel import LegError, segment_pieces
 
 Point3 = tuple[float, float, float]
 # (from, to) -> (length_m, waypoints after ``from`` ending at ``to``)
@@ -92,6 +100,10 @@ class Vehicle:
         self._waypoints: list[Point3] = []
         self._target: int | None = None  # task index, or -1 for the rendezvous
         self._origin, self._origin_t, self._origin_dist = self.pos, self.t_s, 0.0
+        self.current = problem.current
+        # In a current: the segment toward the next waypoint as (mission time, metres run)
+        # at the end of each piece of constant ground speed, from the segment's origin.
+        self._pieces: list[tuple[float, float]] = []
         self._retarget()
 
     # -- queries ---------------------------------------------------------------------------
@@ -121,6 +133,8 @@ class Vehicle:
         if self.mode == HOME:
             return 0.0
         route = self.route if route is None else list(route)
+        if self.current is not None:
+            return self._time_to_finish_in_current(route)
         dist = self.problem.dist_m
         total = 0.0
         i = 0
@@ -140,8 +154,62 @@ class Vehicle:
             total += dist[prev, self.problem.end_node(self.index)] / self.speed_mps
         return total
 
+    def _time_to_finish_in_current(self, route: list[int]) -> float:
+        """`time_to_finish_s` through the current: the leg under way as its pieces say, the
+        others from the planner's exact times (steady current) or flown from the moment each
+        starts (tidal)."""
+        p, speed = self.problem, self.speed_mps
+        t = self.t_s
+        i = 0
+        if route and self.mode == INJECTING and route[0] == self.route[0]:
+            t = max(t, self.inject_until_s or t)
+            i = 1
+        elif route:
+            t = self._reach_at_s(route[0]) + float(p.service_s[route[0]])
+            i = 1
+        prev = route[0] if route else None
+        steady = self.current is not None and self.current.steady
+        times = p.travel_s[self.index]
+        for task in [*route[i:], -1]:
+            if prev is None:
+                t = self._reach_at_s(-1)
+                break
+            node = p.end_node(self.index) if task < 0 else task
+            if steady:
+                t += float(times[prev, node])
+            else:
+                t = self._fly_s(p.xyz[prev], self._target_pos(task), t)
+            if task >= 0:
+                t += float(p.service_s[task])
+            prev = task
+        return t - self.t_s
+
+    def _reach_at_s(self, target: int) -> float:
+        """When the vehicle, going now from where it is, reaches ``target`` (-1: rendezvous)."""
+        if self._target == target and self._waypoints:
+            return self._leg_end_s()
+        return self._fly_s(self.pos, self._target_pos(target), self.t_s)
+
+    def _fly_s(self, a: Sequence[float], b: Sequence[float], t_s: float) -> float:
+        """When a leg a -> b (its waypoint path) started at ``t_s`` ends; inf if impossible."""
+        _, waypoints = self.paths(tuple(float(c) for c in a), tuple(float(c) for c in b))  # type: ignore[arg-type]
+        prev = a
+        for w in waypoints:
+            t_s = self._segment_end_s(prev, w, t_s)
+            prev = w
+        return t_s
+
+    def _segment_end_s(self, a: Sequence[float], b: Sequence[float], t_s: float) -> float:
+        try:
+            return t_s + sum(d for d, _ in segment_pieces(self.current, a, b, self.speed_mps, t_s))
+        except LegError:
+            return math.inf  # the current makes the segment impossible: never there
+
     def slack_s(self, reserve_s: float = 0.0) -> float:
-        return self.battery_left_s() - reserve_s - self.time_to_finish_s()
+        """Extra time the rest of the mission may take and still fit the battery less
+        ``reserve_s`` (`hfc_core.feasibility.room_s`): a detour of ``cost`` fits exactly when
+        ``cost <= slack_s(reserve_s)``, by the planner's one rule."""
+        return room_s(self.time_to_finish_s(), self.battery_left_s() - reserve_s)
 
     def next_event_s(self) -> float | None:
         """When the next arrival or injection end happens (None once home)."""
@@ -213,7 +281,8 @@ class Vehicle:
             while self._waypoints:
                 w = self._waypoints[0]
                 seg_m = math.dist(self._origin, w)
-                reach = self._origin_t + seg_m / self.speed_mps
+                reach = (self._origin_t + seg_m / self.speed_mps if self.current is None
+                         else self._pieces[-1][0] if self._pieces else self._origin_t)
                 if reach > until_s:
                     break
                 self._waypoints.pop(0)
@@ -253,6 +322,15 @@ class Vehicle:
 
     def _leg_end_s(self) -> float:
         """When the current leg ends (from the segment origin, independent of stepping)."""
+        if self.current is not None:
+            if not self._waypoints:
+                return self._origin_t
+            t = self._pieces[-1][0] if self._pieces else self._origin_t
+            prev = self._waypoints[0]
+            for w in self._waypoints[1:]:
+                t = self._segment_end_s(prev, w, t)
+                prev = w
+            return t
         total, prev = 0.0, self._origin
         for w in self._waypoints:
             total += math.dist(prev, w)
@@ -262,16 +340,43 @@ class Vehicle:
     def _start_segment(self, origin: Point3, t_s: float, distance_m: float) -> None:
         self._origin, self._origin_t, self._origin_dist = origin, t_s, distance_m
         self.pos, self.distance_m = origin, distance_m
+        self._pieces = []
         if self._waypoints:
             self._heading(origin, self._waypoints[0])
+            if self.current is not None:
+                self._pieces = self._profile(origin, self._waypoints[0], t_s)
+
+    def _profile(self, a: Point3, b: Point3, t_s: float) -> list[tuple[float, float]]:
+        """(mission time, metres run) at the end of each piece of the segment a -> b."""
+        try:
+            pieces = segment_pieces(self.current, a, b, self.speed_mps, t_s)
+        except LegError:
+            return [(math.inf, 0.0)]  # cannot make headway: holds station, never arrives
+        out, t, run = [], t_s, 0.0
+        for duration, length in pieces:
+            t, run = t + duration, run + length
+            out.append((t, run))
+        return out
 
     def _interpolate(self, t_s: float) -> tuple[Point3, float]:
         w = self._waypoints[0]
         seg_m = math.dist(self._origin, w)
-        run_m = min(seg_m, (t_s - self._origin_t) * self.speed_mps)
+        if self.current is None:
+            run_m = min(seg_m, (t_s - self._origin_t) * self.speed_mps)
+        else:
+            run_m = min(seg_m, self._run_m(t_s))
         f = run_m / seg_m if seg_m > _EPS else 1.0
         pos = tuple(a + (b - a) * f for a, b in zip(self._origin, w))
         return pos, self._origin_dist + run_m  # type: ignore[return-value]
+
+    def _run_m(self, t_s: float) -> float:
+        """Metres run along the current segment at ``t_s`` (piece by piece from its origin)."""
+        t0, run0 = self._origin_t, 0.0
+        for t1, run1 in self._pieces:
+            if t_s < t1:
+                return run0 + (run1 - run0) * ((t_s - t0) / (t1 - t0)) if t1 > t0 else run0
+            t0, run0 = t1, run1
+        return run0
 
     def _retarget(self) -> None:
         if self.mode in (HOME, INJECTING):
@@ -314,7 +419,8 @@ def fit_route(vehicle: Vehicle, route: Sequence[int], reserve_s: float) -> list[
     """
     route = list(route)
     priority = vehicle.problem.priority
-    while route and vehicle.time_to_finish_s(route) > vehicle.battery_left_s() - reserve_s:
+    budget_s = vehicle.battery_left_s() - reserve_s
+    while route and not fits(vehicle.time_to_finish_s(route), budget_s):
         base = vehicle.time_to_finish_s(route)
         best, best_score = None, -math.inf
         for i, task in enumerate(route):
@@ -331,10 +437,13 @@ def fit_route(vehicle: Vehicle, route: Sequence[int], reserve_s: float) -> list[
 
 
 def position_along(problem: Problem, v: int, pos: Point3, route: Sequence[int], dt_s: float,
-                   first_service_left_s: float = 0.0) -> Point3:
-    """Dead reckoning: where vehicle ``v`` is ``dt_s`` after being at ``pos`` with ``route``
-    ahead (straight legs; a spot being injected first if ``first_service_left_s`` > 0)."""
+                   first_service_left_s: float = 0.0, t0_s: float = 0.0) -> Point3:
+    """Dead reckoning: where vehicle ``v`` is ``dt_s`` after being at ``pos`` (at mission time
+    ``t0_s``, which matters only in a tidal current) with ``route`` ahead (straight legs; a
+    spot being injected first if ``first_service_left_s`` > 0)."""
     speed = problem.vehicles[v].speed_mps
+    if problem.current is not None:
+        return _drift_along(problem, speed, pos, route, v, dt_s, first_service_left_s, t0_s)
     t = dt_s - first_service_left_s
     here = np.asarray(pos, dtype=float)
     targets = [problem.xyz[task] for task in route] + [np.asarray(problem.vehicles[v].rendezvous)]
@@ -351,3 +460,29 @@ def position_along(problem: Problem, v: int, pos: Point3, route: Sequence[int], 
         here = np.asarray(target, dtype=float)
         t -= service
     return (float(here[0]), float(here[1]), float(here[2]))
+
+
+def _drift_along(problem: Problem, speed: float, pos: Point3, route: Sequence[int], v: int,
+                 dt_s: float, first_service_left_s: float, t0_s: float) -> Point3:
+    """`position_along` in a current: each straight leg at its ground speed, piece by piece."""
+    now, until = t0_s + first_service_left_s, t0_s + dt_s
+    here = tuple(float(c) for c in pos)
+    targets = [tuple(float(c) for c in problem.xyz[task]) for task in route]
+    services = [float(problem.service_s[task]) for task in route] + [math.inf]
+    for target, service in zip([*targets, problem.vehicles[v].rendezvous], services):
+        if now >= until:
+            break
+        try:
+            pieces = segment_pieces(problem.current, here, target, speed, now)
+        except LegError:
+            break  # no headway against the current: it stays where it is
+        run, leg = 0.0, math.dist(here, target)
+        for duration, length in pieces:
+            if now + duration >= until:
+                run += length * ((until - now) / duration)
+                f = run / leg
+                return tuple(a + (b - a) * f for a, b in zip(here, target))  # type: ignore[return-value]
+            now, run = now + duration, run + length
+        here = tuple(float(c) for c in target)
+        now += service
+    return here  # type: ignore[return-value]

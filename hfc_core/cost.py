@@ -21,10 +21,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Sequence
 
 import numpy as np
 
+from hfc_core.feasibility import fits
 from hfc_core.problem import Problem, ScenarioError
 
 PAPER_BATTERY_S = 3600.0
@@ -75,15 +77,17 @@ def eq9_cost(
 
 
 class RouteModel:
-    """What the operators need from a `Problem`, laid out for speed: the distance matrix both
-    as an array (vectorised evaluations) and as nested lists (the O(1) move deltas)."""
+    """What the operators need from a `Problem`, laid out for speed: each vehicle's travel
+    times (eq. 8; through the current if the scenario has one) both as an array (vectorised
+    evaluations) and as nested lists (the O(1) move deltas), and the 3-D metric of eq. 7."""
 
     def __init__(self, problem: Problem) -> None:
         self.problem = problem
         self.n = problem.n_tasks
         self.k = problem.n_vehicles
         self.dist_m = problem.dist_m
-        self.dist_rows = problem.dist_m.tolist()
+        self.travel_s = problem.travel_s
+        self.symmetric = problem.symmetric
         self.service_s = problem.service_s
         self.priority = problem.priority
         self.start = [problem.start_node(v) for v in range(self.k)]
@@ -92,14 +96,31 @@ class RouteModel:
         self.battery_s = np.array([v.battery_s for v in problem.vehicles])
         self.xyz = problem.xyz
 
+    @cached_property
+    def dist_rows(self) -> list[list[float]]:
+        return self.dist_m.tolist()
+
+    @cached_property
+    def time_rows(self) -> list[list[list[float]]]:
+        """Per vehicle, its travel times as nested lists (one list per distinct array)."""
+        rows: dict[int, list[list[float]]] = {}
+        for t in self.travel_s:
+            if id(t) not in rows:
+                rows[id(t)] = t.tolist()
+        return [rows[id(t)] for t in self.travel_s]
+
     def length_m(self, v: int, route: Sequence[int]) -> float:
         nodes = np.fromiter((self.start[v], *route, self.end[v]), dtype=np.intp)
         return float(self.dist_m[nodes[:-1], nodes[1:]].sum())
 
+    def travel_time_s(self, v: int, route: Sequence[int]) -> float:
+        nodes = np.fromiter((self.start[v], *route, self.end[v]), dtype=np.intp)
+        return float(self.travel_s[v][nodes[:-1], nodes[1:]].sum())
+
     def time_s(self, v: int, route: Sequence[int]) -> float:
         """Eq. (8): travel at the vehicle's speed plus each spot's injection time once."""
         service = float(self.service_s[list(route)].sum()) if route else 0.0
-        return self.length_m(v, route) / float(self.speed_mps[v]) + service
+        return self.travel_time_s(v, route) + service
 
     def cost(self, v: int, route: Sequence[int], weights: CostWeights) -> float:
         """Eq. (9) cost of vehicle ``v`` on ``route``."""
@@ -123,7 +144,7 @@ class RouteModel:
         """A budgeted mode cannot return a feasible plan if a vehicle cannot even go straight
         from its start to its rendezvous: that is a scenario error, not a planner failure."""
         for v in range(self.k):
-            if self.time_s(v, []) > self.battery_s[v]:
+            if not fits(self.time_s(v, []), self.battery_s[v]):
                 vid = self.problem.vehicles[v].id
                 raise ScenarioError(
                     f"vehicle {vid}: start to rendezvous takes {self.time_s(v, []):.1f} s, "

@@ -20,6 +20,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from hfc_core.cost import CostWeights, RouteModel
+from hfc_core.feasibility import fits
 from hfc_core.hfc import record
 from hfc_core.operators.clustering import clusters_of_vehicles
 from hfc_core.operators.ordering import MOVES, order_route
@@ -91,12 +92,13 @@ def mutate_ordering(
     return order_route(route, rng, model=model, v=v)
 
 
-def lengths_m(model: RouteModel, v: int, population: list[list[int]]) -> np.ndarray:
-    """Route length of every individual at once (all are permutations of one spot set)."""
+def lengths_s(model: RouteModel, v: int, population: list[list[int]]) -> np.ndarray:
+    """Route travel time of every individual at once (all are permutations of one spot set):
+    the route length over the speed in still water (eq. 7-8)."""
     pop = np.array(population, dtype=np.intp)
+    d = model.travel_s[v]
     if pop.shape[1] == 0:
-        return np.full(len(population), model.dist_m[model.start[v], model.end[v]])
-    d = model.dist_m
+        return np.full(len(population), d[model.start[v], model.end[v]])
     inner = d[pop[:, :-1], pop[:, 1:]].sum(axis=1)
     return d[model.start[v], pop[:, 0]] + inner + d[pop[:, -1], model.end[v]]
 
@@ -127,7 +129,7 @@ def _drop_last_if_overdue(
     model: RouteModel, v: int, population: list[list[int]], best: list[int]
 ) -> list[list[int]]:
     """Leave the last ordered spot of the best route if that route overruns the battery."""
-    if not best or model.time_s(v, best) <= model.battery_s[v]:
+    if not best or fits(model.time_s(v, best), model.battery_s[v]):
         return population
     last = best[-1]
     return [[t for t in ind if t != last] for ind in population]
@@ -146,19 +148,19 @@ def solve_ga(problem: Problem, stop: Stop, rng: np.random.Generator, **raw: Any)
     generation = 0
     while not stop.done(generation):
         for v in range(model.k):
-            length = lengths_m(model, v, pops[v])
+            length = lengths_s(model, v, pops[v])
             best[v] = list(pops[v][int(np.argmin(length))])
             pops[v] = _drop_last_if_overdue(model, v, pops[v], best[v])
-            length = lengths_m(model, v, pops[v])
+            length = lengths_s(model, v, pops[v])
             mutation = (mutate if params.mutation == "move"
                         else partial(mutate_ordering, model=model, v=v))
             pops[v] = next_generation(pops[v], length, params, rng, mutation)
         generation += 1
-        best = [list(p[int(np.argmin(lengths_m(model, v, p)))]) for v, p in enumerate(pops)]
+        best = [list(p[int(np.argmin(lengths_s(model, v, p)))]) for v, p in enumerate(pops)]
         history.append(record(model, best, weights, generation, stop.elapsed_s()))
     repaired = False
     for v, route in enumerate(best):
-        while route and model.time_s(v, route) > model.battery_s[v]:
+        while route and not fits(model.time_s(v, route), model.battery_s[v]):
             route = route[:-1]
             repaired = True
         best[v] = route

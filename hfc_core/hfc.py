@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from hfc_core.cost import CostWeights, RouteModel
+from hfc_core.feasibility import fits
 from hfc_core.operators import cooperate, initial_routes, order, screen
 from hfc_core.operators.clustering import METHODS, clusters_of_vehicles
 from hfc_core.operators.screening import screen_route
@@ -77,7 +78,7 @@ def record(
 
 
 def _fits(model: RouteModel, routes: Routes) -> bool:
-    return bool(np.all(model.times_s(routes) <= model.battery_s))
+    return bool(np.all(fits(model.times_s(routes), model.battery_s)))
 
 
 def run_hfc(

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Sequence
 
+from hfc_core.feasibility import fits
 from hfc_core.problem import Problem
 
 
@@ -70,5 +71,6 @@ def plan_to_dict(problem: Problem, plan: Plan) -> dict[str, Any]:
         "tasks_total": problem.n_tasks,
         "priority_collected": sum(f.priority for f in figs),
         "priority_total": float(problem.priority.sum()),
-        "feasible": all(f.violation_s <= 1e-9 for f in figs),
+        "feasible": all(fits(f.mission_time_s, problem.vehicles[v].battery_s)
+                        for v, f in enumerate(figs)),
     }

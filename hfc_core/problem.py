@@ -5,8 +5,10 @@ A `Problem` is immutable. Tasks are addressed internally by their index ``0..n-1
 
 Node numbering of the distance matrix ``dist_m`` (shape ``(n + 2k, n + 2k)``):
 ``0..n-1`` are tasks, ``n + 2*v`` is vehicle ``v``'s start, ``n + 2*v + 1`` its rendezvous.
-Travel time between two nodes for vehicle ``v`` is ``dist_m[a, b] / vehicles[v].speed_mps``
-(eq. 7-8). With forbidden polygons the matrix holds shortest paths around land
+Travel time between two nodes for vehicle ``v`` is ``travel_s[v][a, b]``: in still water
+``dist_m[a, b] / vehicles[v].speed_mps`` (eq. 7-8); with a ``current`` the time through the
+moving water (`hfc_core.travel`: asymmetric; for a tidal current, the longest the leg can take
+during the mission). With forbidden polygons the matrix holds shortest paths around land
 (see `hfc_core.geometry`), and ``Problem.land`` gives paths and distances from any position.
 """
 
@@ -19,7 +21,9 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 if TYPE_CHECKING:
+    from hfc_core.current import CurrentField
     from hfc_core.geometry import LandMap
+    from hfc_core.travel import Travel
 
 Point3 = tuple[float, float, float]
 
@@ -117,6 +121,11 @@ class Problem:
     # Shortest paths around ``forbidden`` (None without land): distances from positions off
     # the nodes (replanning mid-route) and the waypoint path of every leg.
     land: "LandMap | None" = field(default=None, repr=False)
+    # The water's current (None: still water) and what it makes of travel: the planning
+    # times per vehicle (one shared array per distinct speed), times from any position.
+    current: "CurrentField | None" = field(default=None, repr=False)
+    travel: "Travel | None" = field(default=None, repr=False)
+    travel_s: tuple[np.ndarray, ...] = field(default=(), repr=False)
 
     @staticmethod
     def build(
@@ -125,9 +134,11 @@ class Problem:
         tasks: Sequence[Task],
         forbidden: Sequence[Sequence[Sequence[float]]] = (),
         dist_m: np.ndarray | None = None,
+        current: "CurrentField | None" = None,
     ) -> "Problem":
         """Validate and assemble a problem; ``dist_m`` defaults to the metric of
-        `hfc_core.geometry.distance_matrix` (Euclidean, or around ``forbidden`` land)."""
+        `hfc_core.geometry.distance_matrix` (Euclidean, or around ``forbidden`` land);
+        ``current`` (`hfc_core.current`) makes travel times those through moving water."""
         vehicles = tuple(vehicles)
         tasks = tuple(tasks)
         if not vehicles:
@@ -172,6 +183,17 @@ class Problem:
         service = np.array([t.service_s for t in tasks], dtype=float)
         priority.setflags(write=False)
         service.setflags(write=False)
+        from hfc_core.travel import Travel
+
+        travel = Travel(current, (0.0, max(v.battery_s for v in vehicles)), land)
+        by_speed: dict[float, np.ndarray] = {}
+        for v in vehicles:
+            if v.speed_mps not in by_speed:
+                by_speed[v.speed_mps] = travel.matrix(xyz, dist_m, v.speed_mps)
+                by_speed[v.speed_mps].setflags(write=False)
+        travel_s = tuple(by_speed[v.speed_mps] for v in vehicles)
+        if current is not None:
+            _require_way_home(travel, xyz, n, vehicles, travel_s)
         return Problem(
             name=name,
             vehicles=vehicles,
@@ -184,6 +206,9 @@ class Problem:
             task_index=task_index,
             vehicle_index=vehicle_index,
             land=land,
+            current=current,
+            travel=travel,
+            travel_s=travel_s,
         )
 
     @property
@@ -201,15 +226,57 @@ class Problem:
         return self.n_tasks + 2 * v + 1
 
     def route_time_s(self, v: int, route: Sequence[int]) -> float:
-        """Mission time T^M of vehicle ``v`` on ``route`` (task indices): travel
-        start -> tasks -> rendezvous at the vehicle's speed, plus each task's service once."""
+        """Mission time T^M of vehicle ``v`` on ``route`` (task indices) as flown from mission
+        time 0: travel start -> tasks -> rendezvous at the vehicle's speed (through the
+        current, if any), plus each task's service once; ``inf`` if a leg is impossible."""
         nodes = [self.start_node(v), *route, self.end_node(v)]
-        travel_m = float(self.dist_m[nodes[:-1], nodes[1:]].sum())
+        if self.current is not None and not self.current.steady:
+            return self._flown_time_s(v, nodes)
+        travel = float(self.travel_s[v][nodes[:-1], nodes[1:]].sum())
         service = float(self.service_s[list(route)].sum()) if len(route) else 0.0
-        return travel_m / self.vehicles[v].speed_mps + service
+        return travel + service
+
+    def _flown_time_s(self, v: int, nodes: Sequence[int]) -> float:
+        """Time-dependent current: each leg timed from the moment it starts."""
+        from hfc_core.travel import LegError
+
+        assert self.travel is not None
+        speed, t = self.vehicles[v].speed_mps, 0.0
+        try:
+            for a, b in zip(nodes[:-1], nodes[1:]):
+                t += self.travel.leg_time_s(self.xyz[a], self.xyz[b], speed, t)
+                if b < self.n_tasks:
+                    t += float(self.service_s[b])
+        except LegError:
+            return math.inf
+        return t
+
+    @property
+    def symmetric(self) -> bool:
+        """Do all planning times read the same both ways (no current)?"""
+        return self.current is None
 
     def route_priority(self, route: Sequence[int]) -> float:
         return float(self.priority[list(route)].sum()) if len(route) else 0.0
+
+
+def _require_way_home(travel: "Travel", xyz: np.ndarray, n: int, vehicles: Sequence[Vehicle],
+                      travel_s: Sequence[np.ndarray]) -> None:
+    """Against a strong current a vehicle may not even reach its rendezvous: say why."""
+    from hfc_core.travel import IMPOSSIBLE_S, LegError
+
+    for v, vehicle in enumerate(vehicles):
+        s, e = n + 2 * v, n + 2 * v + 1
+        if travel_s[v][s, e] < IMPOSSIBLE_S:
+            continue
+        try:  # the planning bound is infinite: find the moment and the reason
+            for t in np.arange(travel.window_s[0], travel.window_s[1] + 60.0, 60.0):
+                travel.leg_time_s(xyz[s], xyz[e], vehicle.speed_mps, float(t))
+        except LegError as err:
+            raise ScenarioError(f"vehicle {vehicle.id}: cannot go from its start to its "
+                                f"rendezvous: {err}") from None
+        raise ScenarioError(f"vehicle {vehicle.id}: cannot go from its start to its rendezvous "
+                            "against the current")
 
 
 def _require_water(

@@ -166,8 +166,13 @@ class _Setup:
                           for v in self.vehicles], dtype=float)
         if np.any(speed <= 0):
             raise ScenarioError("a live vehicle has a non-positive speed")
+        by_speed: dict[float, np.ndarray] = {}
+        for s in speed:
+            if float(s) not in by_speed:
+                by_speed[float(s)] = self._times(dist, from_pos, pos, ends, float(s))
+        travel = tuple(by_speed[float(s)] for s in speed)
         start = np.array([self.locked[i][-1] if self.locked[i] else n + 2 * i for i in range(k)])
-        self.budget_s = np.array([v.battery_s - self._locked_time(dist, speed, i)
+        self.budget_s = np.array([v.battery_s - self._locked_time(travel[i], i)
                                   for i, v in enumerate(self.vehicles)], dtype=float)
         free = ~(self.cleared | self.locked_mask)
         allowed = np.repeat(free[None, :], k, axis=0)
@@ -181,8 +186,8 @@ class _Setup:
         value[moved] -= self.penalty
         return Instance(
             dist_m=dist,
+            travel_s=travel,
             service_s=np.asarray(p.service_s, dtype=float),
-            speed_mps=speed,
             budget_s=np.maximum(self.budget_s, 0.0),
             start=start,
             end=np.arange(k) * 2 + n + 1,
@@ -190,17 +195,42 @@ class _Setup:
             allowed=allowed,
         )
 
+    def _times(self, dist: np.ndarray, from_pos: np.ndarray, pos: np.ndarray, ends: list[int],
+               speed: float) -> np.ndarray:
+        """Travel times at water speed ``speed`` between the instance's nodes: the metric over
+        the speed in still water; through the current, the scenario's planning times between
+        spots and rendezvous, and fresh ones from each vehicle's position."""
+        p = self.problem
+        if p.current is None or p.travel is None:
+            return dist / speed
+        n, k = p.n_tasks, len(self.vehicles)
+        full = next((t for t, v in zip(p.travel_s, p.vehicles) if v.speed_mps == speed), None)
+        if full is None:  # a live speed no scenario vehicle has
+            full = p.travel.matrix(p.xyz, p.dist_m, speed)
+        targets = np.vstack([p.xyz[:n], p.xyz[ends]])
+        out = dist / speed  # entries no route uses (into a position) keep the still-water value
+        out[:n, :n] = full[:n, :n]
+        for i in range(k):
+            s, e = n + 2 * i, n + 2 * i + 1
+            row = p.travel.times_from(pos[i], targets, speed, from_pos[i])
+            out[s, :n] = row[:n]
+            out[e, :n], out[:n, e] = full[ends[i], :n], full[:n, ends[i]]
+            for j in range(k):
+                out[s, n + 2 * j + 1] = row[n + j]
+                out[e, n + 2 * j + 1] = full[ends[i], ends[j]]
+        return out
+
     def _from(self, pos: np.ndarray, targets: np.ndarray) -> np.ndarray:
         if self.problem.land is not None:
             return self.problem.land.distances_from(pos, targets)
         return np.linalg.norm(targets - pos[None, :], axis=1)
 
-    def _locked_time(self, dist: np.ndarray, speed: np.ndarray, i: int) -> float:
+    def _locked_time(self, travel: np.ndarray, i: int) -> float:
         n = self.problem.n_tasks
         nodes = [n + 2 * i, *self.locked[i]]
-        travel = sum(float(dist[a, b]) for a, b in zip(nodes[:-1], nodes[1:]))
+        time = sum(float(travel[a, b]) for a, b in zip(nodes[:-1], nodes[1:]))
         service = sum(float(self.problem.service_s[u]) for u in self.locked[i])
-        return travel / float(speed[i]) + service
+        return time + service
 
     def _home(self) -> np.ndarray:
         """Which live vehicle's current route each task is in (first one wins), -1 if none."""

@@ -6,15 +6,18 @@ JSON shape (extra fields allowed and ignored)::
      "vehicles": [{"id": str, "start": [x,y,z], "rendezvous": [x,y,z],
                    "battery_s": float, "speed_mps"?: float}],
      "tasks": [{"id": int, "pos": [x,y,z], "priority": float, "service_s": float}],
-     "forbidden"?: [[[x,y], ...], ...]}
+     "forbidden"?: [[[x,y], ...], ...],
+     "current"?: {"kind": "uniform" | "tidal" | "grid", ...}}
 
-Metres and seconds; z is negative down.
+Metres and seconds; z is negative down. ``current``: see `hfc_core.current` (absent or null:
+still water, the paper's Assumption 1).
 """
 
 from __future__ import annotations
 
 from typing import Any, Mapping
 
+from hfc_core.current import current_from_dict
 from hfc_core.problem import Problem, ScenarioError, Task, Vehicle, _finite
 
 
@@ -64,7 +67,9 @@ def problem_from_dict(doc: Mapping[str, Any]) -> Problem:
             )
         )
     forbidden = _list(doc.get("forbidden", []), "scenario: forbidden")
-    return Problem.build(name, vehicles, tasks, forbidden)
+    current = doc.get("current")
+    return Problem.build(name, vehicles, tasks, forbidden,
+                         current=None if current is None else current_from_dict(current))
 
 
 def problem_to_dict(problem: Problem) -> dict[str, Any]:
@@ -90,4 +95,6 @@ def problem_to_dict(problem: Problem) -> dict[str, Any]:
     }
     if problem.forbidden:
         doc["forbidden"] = [poly.tolist() for poly in problem.forbidden]
+    if problem.current is not None:
+        doc["current"] = problem.current.to_dict()
     return doc

@@ -18,7 +18,7 @@ from hfc_core.problem import Problem
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
-TOP_DIR = SHARED / "bench" / "top" / "instances"
+TOP_DIR = REPO / "benchmarks" / "top" / "instances"
 
 
 @pytest.fixture

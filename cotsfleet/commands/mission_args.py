@@ -6,14 +6,16 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 from cotsfleet.cli import UsageError
 from cotsfleet.mission.faults import Fault, FaultError, check_schedule, parse_faults
 from cotsfleet.mission.runner import horizon_of
-from fleet_agent.config import AgentConfig, load_config
+from fleet_agent.config import AgentConfig
+from fleet_bus.telemetry import Event
 from hfc_core.problem import Problem, ScenarioError
 from hfc_core.scenario import problem_from_dict
 
@@ -78,17 +80,12 @@ def scenario_doc(path: Path | None, vehicles: int | None, seed: int) -> dict[str
 
 
 def agent_config(path: Path | None) -> AgentConfig:
-    """The agent settings file, or the defaults; a clean usage error for a bad file."""
+    """The agent settings file (schema-checked, a clean usage error if bad), or the defaults."""
     if path is None:
         return AgentConfig()
-    try:
-        return load_config(path)
-    except FileNotFoundError:
-        raise UsageError(f"--config {path}: no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UsageError(f"--config {path}: cannot read: {exc}") from None
-    except ValueError as exc:  # tomllib.TOMLDecodeError is a ValueError too
-        raise UsageError(f"--config {path}: {exc}") from None
+    from cotsfleet.io import read_agent_config
+
+    return read_agent_config(path)
 
 
 def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionArgs:
@@ -109,3 +106,20 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
     except ScenarioError:
         raise
     return MissionArgs(problem, doc, seed, agent_config(args.config), tuple(faults), args.loss)
+
+
+def write_reports(report: dict[str, Any], path: Path, events: Sequence[Event],
+                  scenario: dict[str, Any] | None) -> None:
+    """``report.json`` at ``path`` and, beside it, ``report.md`` with its figures; the summary
+    and its warnings on the terminal."""
+    from cotsfleet.mission.report import format_report
+    from cotsfleet.reporting import write_report_bundle
+    from cotsfleet.reporting.markdown import warnings
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(report, indent=2), encoding="utf-8")
+    bundle = write_report_bundle(report, path.parent, list(events), scenario)
+    print(format_report(report))
+    for line in warnings(report):
+        print(f"warning: {line}")
+    print(f"report: {path} and {bundle[0]}")

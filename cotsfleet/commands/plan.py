@@ -5,8 +5,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import textwrap
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from cotsfleet.cli import UsageError
 from cotsfleet.io import read_scenario
@@ -39,6 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--vehicles", metavar="ID[,ID...]",
                         help="plan for these vehicles only (e.g. the ones still at sea)")
     parser.add_argument("--json", metavar="OUT", help="write the plan as JSON")
+    parser.add_argument("--geojson", metavar="OUT",
+                        help="write the routes, spots and stations as GeoJSON in "
+                             "longitude/latitude (scenarios made with --from-geojson)")
     parser.add_argument("--rrd", metavar="FILE", help="write a Rerun recording of the plan")
 
 
@@ -84,6 +90,49 @@ def select_vehicles(problem: Problem, spec: str | None) -> Problem:
     return Problem.build(problem.name, vehicles, problem.tasks, problem.forbidden)
 
 
+def fits_alone(problem: Problem) -> int:
+    """How many spots some vehicle could treat on its own (start, spot, rendezvous within its
+    battery): the most any plan could hope for, and 0 when the batteries are too short."""
+    fits = np.zeros(problem.n_tasks, dtype=bool)
+    tasks = np.arange(problem.n_tasks)
+    for v, vehicle in enumerate(problem.vehicles):
+        there = problem.dist_m[problem.start_node(v), tasks]
+        back = problem.dist_m[tasks, problem.end_node(v)]
+        fits |= (there + back) / vehicle.speed_mps + problem.service_s <= vehicle.battery_s
+    return int(fits.sum())
+
+
+# Why a faithful mode can end with few spots, in a sentence (paper sections III-IV).
+WHY_FEW = {
+    "ga": "Mode ga splits the spots by k-means, then drops the far end of each route until it "
+          "fits (paper IV-C), so spots a joint plan could take are lost.",
+    "hfc-ncm2": "Mode hfc-ncm2 screens each k-means cluster until its route fits, and no "
+                "vehicle helps another.",
+    "hfc-cm": "Mode hfc-cm screens each k-means cluster until its route fits; cooperation only "
+              "adds spots near a vehicle's route.",
+}
+
+
+def _note(text: str) -> str:
+    return textwrap.fill(text, 92, initial_indent="note: ", subsequent_indent="      ")
+
+
+def outcome_note(problem: Problem, result: SolveResult, tasks: int) -> str | None:
+    """A few lines saying what a poor result means, or None when there is nothing to say."""
+    if result.mode in BUDGET_FREE_MODES or problem.n_tasks == 0:
+        return None
+    alone = fits_alone(problem)
+    if alone == 0:
+        return _note("no spot can be treated within any battery, even alone between start and "
+                     "rendezvous: the batteries are too short for this field.")
+    if tasks >= alone // 2:
+        return None
+    why = WHY_FEW.get(result.mode, f"Mode {result.mode} stopped at its budget.")
+    return (_note(f"{tasks} of {problem.n_tasks} spots planned; {alone} fit a battery on their "
+                  f"own (though not all together). {why}")
+            + "\n      for the most priority: --mode best (or more --iterations)")
+
+
 def summary(problem: Problem, result: SolveResult) -> str:
     """The readable report: per vehicle tasks, priority, mission time, T_diff, violation."""
     figs = vehicle_figures(problem, result.plan)
@@ -101,10 +150,16 @@ def summary(problem: Problem, result: SolveResult) -> str:
         f"{sum(f.mission_time_s for f in figs):>11.1f}{sum(f.t_diff_s for f in figs):>+10.1f}"
         f"{sum(f.violation_s for f in figs):>13.1f}"
     )
-    lines.append(f"tasks completed {sum(f.tasks for f in figs)}/{problem.n_tasks}, priority "
-                 f"{sum(f.priority for f in figs):.1f}/{float(problem.priority.sum()):.1f}")
+    tasks, priority = sum(f.tasks for f in figs), sum(f.priority for f in figs)
+    total = float(problem.priority.sum())
+    share = f" ({100.0 * priority / total:.0f} % of the scenario's total priority)" if total else ""
+    lines.append(f"tasks completed {tasks}/{problem.n_tasks}, priority {priority:.1f}/{total:.1f}"
+                 f"{share}")
     if result.mode in BUDGET_FREE_MODES:
         lines.append("note: NCM1 ignores the battery by design (paper IV-A); routes may overrun it")
+    note = outcome_note(problem, result, tasks)
+    if note:
+        lines.append(note)
     return "\n".join(lines)
 
 
@@ -127,12 +182,40 @@ def plan_document(problem: Problem, result: SolveResult) -> dict[str, Any]:
     return doc
 
 
+def check_output(path: str | None, flag: str) -> None:
+    """Fail before planning, not after, when an output file cannot be written."""
+    if path is None:
+        return
+    target = Path(path)
+    if target.is_dir():
+        raise UsageError(f"{flag} {path}: is a directory")
+    if not target.parent.is_dir():
+        raise UsageError(f"{flag} {path}: no such directory {str(target.parent)!r}")
+
+
+def write_json(path: str, doc: Any) -> None:
+    try:
+        Path(path).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    except OSError as exc:
+        raise UsageError(f"cannot write {path}: {exc}") from None
+
+
 def run(args: argparse.Namespace) -> int:
+    for path, flag in ((args.json, "--json"), (args.geojson, "--geojson"), (args.rrd, "--rrd")):
+        check_output(path, flag)
     try:
         problem, doc = read_scenario(args.scenario)
         problem = select_vehicles(problem, args.vehicles)
     except NotImplementedError as exc:  # e.g. land polygons before the land metric exists
         raise UsageError(f"{args.scenario}: {exc}") from None
+    frame = None
+    if args.geojson:
+        from cotsfleet.geo import LocalFrame
+
+        frame = LocalFrame.of_scenario(doc)
+        if frame is None:
+            raise UsageError(f"--geojson: {args.scenario} has no 'geo' section (made by "
+                             "'cotsfleet scenario --from-geojson'): it is not on the globe")
     stop = budget(args)
     params = engine_params(args)
     try:
@@ -148,12 +231,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"internal error: the independent checker rejects this plan: {errors}")
         return 1
     if args.json:
-        try:
-            Path(args.json).write_text(json.dumps(plan_document(problem, result), indent=1) + "\n")
-        except OSError as exc:
-            raise UsageError(f"cannot write {args.json}: {exc}") from None
+        write_json(args.json, plan_document(problem, result))
+    if frame is not None:
+        from cotsfleet.geo.export import plan_geojson
+
+        write_json(args.geojson, plan_geojson(problem, result.plan.routes, frame, doc))
     if args.rrd:
         from ground_station.plan_recording import record_plan
 
-        record_plan(problem, result, args.rrd, scenario=doc)
+        try:
+            record_plan(problem, result, args.rrd, scenario=doc)
+        except OSError as exc:
+            raise UsageError(f"cannot write {args.rrd}: {exc}") from None
     return 0

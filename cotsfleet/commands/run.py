@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import signal
 import socket
 import sys
@@ -11,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from cotsfleet.cli import UsageError
-from cotsfleet.commands.mission_args import add_mission_arguments, mission_args
+from cotsfleet.commands.mission_args import add_mission_arguments, mission_args, write_reports
 from cotsfleet.mission.faults import FaultError
 
 HELP = "run an emulated mission: router, link emulator, one agent process per AUV, dashboard"
@@ -58,7 +57,6 @@ def _check_listen(endpoint: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
-    from cotsfleet.mission.report import format_report
     from cotsfleet.mission.runner import run_mission
 
     viewer = args.viewer
@@ -95,10 +93,7 @@ def run(args: argparse.Namespace) -> int:
             signal.signal(sig, signal.SIG_DFL)
     report = outcome.report
     path = args.report or backend.run_dir / "report.json"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(report, indent=2), encoding="utf-8")
-    print(format_report(report))
-    print(f"report: {path}")
+    write_reports(report, path, backend.ledger.events, m.scenario)
     if report.get("failure"):
         print(f"cotsfleet run: the mission ended early: {report['failure']}", file=sys.stderr)
     backend.hold_viewer()

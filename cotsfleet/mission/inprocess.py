@@ -18,11 +18,12 @@ from comms_sim.channel import Channel
 from comms_sim.config import ChannelConfig
 from comms_sim.control import apply_control
 from comms_sim.des import EventLoop, Handle, InProcessNetwork
+from comms_sim.seeds import MISSION_STREAMS, channel_rng
 from comms_sim.link_event import LinkEvent
 from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault
 from cotsfleet.mission.intruder import NODE as INTRUDER
-from cotsfleet.mission.intruder import Intruder
+from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.runner import Outcome, horizon_of, run_mission
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
@@ -48,7 +49,6 @@ class Seat:
     journal: MemoryJournal
     driver: AgentDriver | None = None
     handle: Handle | None = None
-    last_status: Status | None = None
 
     @property
     def agent(self) -> Agent | None:
@@ -65,8 +65,10 @@ class _SeatTransport:
         self.backend.net.send(self.seat.vid, frame, kind)
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
-        if topic == "status":
-            self.seat.last_status = payload  # type: ignore[assignment]
+        if topic == "truth":  # where the vehicle is, for the channel: as the relay learns it
+            truth: Truth = payload  # type: ignore[assignment]
+            self.backend.channel.set_position(self.seat.vid, truth.pos, truth.t_s)
+        elif topic == "status":
             self.backend.ledger.add_status(payload)  # type: ignore[arg-type]
         elif topic == "event":
             self.backend.ledger.add_event(payload)  # type: ignore[arg-type]
@@ -81,17 +83,16 @@ class InProcessBackend:
                  oracle_iterations: int = 300, tap: Tap | None = None) -> None:
         self.problem = problem
         self.seed = seed
-        root = np.random.SeedSequence(seed)
-        channel_seed, attack_seed, key_seed = root.spawn(3)
-        key = key or np.random.default_rng(key_seed).bytes(16)
+        key = key or np.random.default_rng(
+            np.random.SeedSequence(seed).spawn(MISSION_STREAMS)[2]).bytes(16)
         self.config = config.with_key(key)
         self.fleet = Fleet.build(problem, key, seed, self.config, planner)
         self.loop = EventLoop()
         self.channel = Channel(replace(channel or ChannelConfig(), extra_loss=loss),
-                               np.random.default_rng(channel_seed))
-        self.net = InProcessNetwork(self.channel, self.loop, self._positions)
+                               channel_rng(seed))
+        self.net = InProcessNetwork(self.channel, self.loop)
         self.net.add_listener(self._overhear)
-        self.intruder = Intruder(problem, np.random.default_rng(attack_seed))
+        self.intruder = Intruder(problem, intruder_rng(seed))
         self.oracle_iterations = oracle_iterations
         self.tap = tap
         self.ledger = FleetLedger()
@@ -127,7 +128,8 @@ class InProcessBackend:
         now = self.now()
         if any(f.t_s > now for f in self._pending if f.kind in ("restart", "abort")):
             return False
-        return all(s.agent is None or s.agent.quiet for s in self.seats.values())
+        dead = {vid for vid, s in self.seats.items() if s.driver is None}
+        return self.ledger.all_final(list(self.seats), dead)
 
     def link_counts(self) -> LinkCounts:
         return self.channel.stats()
@@ -153,13 +155,6 @@ class InProcessBackend:
         self.loop.call_at(t_s, lambda: self._deliver(vid, data, self.loop.now()))
 
     # -- vehicles ---------------------------------------------------------------------------
-
-    def _positions(self, t_s: float) -> dict[str, tuple[float, float, float]]:
-        out = {vid: s.agent.vehicle.pos for vid, s in self.seats.items() if s.agent is not None}
-        for vid, s in self.seats.items():
-            if s.agent is None and s.last_status is not None:
-                out[vid] = s.last_status.pos  # dead in the water where it stopped
-        return out
 
     def _start_agent(self, vid: str, now: float, journal: MemoryJournal) -> None:
         index = self.problem.vehicle_index[vid]
@@ -213,9 +208,9 @@ class InProcessBackend:
         elif f.kind == "kill" and seat is not None and seat.driver is not None:
             agent = seat.driver.agent
             self._snapshot_oracle(f.vid, now)
-            seat.last_status = agent.status(now)
-            self.ledger.add_status(seat.last_status)
-            self.at_kill[f.vid] = (seat.last_status, frozenset(agent.know.cleared))
+            # What the dead agent knew (for tests); the fleet and the report only have what it
+            # last published, as in a real mission.
+            self.at_kill[f.vid] = (agent.status(now), frozenset(agent.know.cleared))
             seat.driver = None
             if seat.handle is not None:
                 seat.handle.cancel()
@@ -250,8 +245,9 @@ class InProcessBackend:
                      and not a.vehicle.done and not a.vehicle.aborted]
         cleared = frozenset(t for a in agents.values() if a is not None
                             for t, _ in a.know.treated) | frozenset(
-            self.problem.task_index[x] for s in self.seats.values()
-            if s.agent is None and s.last_status is not None for x in s.last_status.treated)
+            self.problem.task_index[x] for vid, s in self.seats.items()
+            if s.agent is None and vid in self.ledger.statuses
+            for x in self.ledger.statuses[vid].treated)
         live = []
         for a in survivors:
             v = a.vehicle

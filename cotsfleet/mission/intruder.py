@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from comms_sim.seeds import MISSION_STREAMS
 from fleet_agent.wire import Codec, Digest, Pose
 from hfc_core.problem import Problem
 
@@ -19,7 +20,7 @@ CAPTURE_LIMIT = 256
 
 def intruder_rng(seed: int) -> np.random.Generator:
     """The intruder's stream of a mission seeded ``seed`` (the second child of its seed)."""
-    return np.random.default_rng(np.random.SeedSequence(seed).spawn(3)[1])
+    return np.random.default_rng(np.random.SeedSequence(seed).spawn(MISSION_STREAMS)[1])
 
 
 class Intruder:

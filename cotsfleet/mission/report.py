@@ -68,7 +68,7 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
         for k, n in s.counters.items():
             if k == "largest_frame":
                 largest = max(largest, int(n))
-            elif k != "replans":
+            else:
                 agent_totals[k] = agent_totals.get(k, 0) + int(n)
     frames_sent = sum(n for k, n in agent_totals.items()
                       if k.startswith("tx_") and k != "tx_bytes")
@@ -97,6 +97,7 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
             "spots_taken_over": len(taken_over),
             "claims": sum(1 for e in events if e.kind == "claim"),
             "claims_lost": sum(1 for e in events if e.kind == "claim_lost"),
+            "replans": agent_totals.get("replans", 0),
         },
         "messages": {
             "frames_sent": frames_sent,

@@ -16,7 +16,8 @@ from scipy.optimize import linear_sum_assignment
 from hfc_core.best.insert import fill
 from hfc_core.best.instance import Instance
 from hfc_core.best.intra import improve_route
-from hfc_core.best.state import MARGIN_S, State
+from hfc_core.best.state import State
+from hfc_core.feasibility import fits
 
 
 def medoid_clusters(inst: Instance, rng: np.random.Generator, rounds: int = 10) -> np.ndarray:
@@ -65,8 +66,8 @@ def match_clusters(inst: Instance, labels: np.ndarray) -> np.ndarray:
 
 
 def order(inst: Instance, v: int, tasks: list[int]) -> list[int]:
-    """Nearest-neighbour tour from ``v``'s start, then 2-opt/or-opt."""
-    dist = inst.dist_m
+    """Nearest-neighbour tour (in travel time) from ``v``'s start, then 2-opt/or-opt."""
+    dist = inst.travel_s[v]
     left = list(tasks)
     at, route = int(inst.start[v]), []
     while left:
@@ -75,18 +76,18 @@ def order(inst: Instance, v: int, tasks: list[int]) -> list[int]:
         left.remove(nxt)
         at = nxt
     nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)
-    return [int(u) for u in improve_route(dist, nodes)[1:-1]]
+    return [int(u) for u in improve_route(dist, nodes, inst.symmetric)[1:-1]]
 
 
 def screen(inst: Instance, v: int, route: list[int]) -> list[int]:
     """Drop the task with the least value per second saved until the route fits."""
-    dist = inst.dist_m
+    time = inst.travel_s[v]
     route = list(route)
-    while route and inst.route_time_s(v, route) > inst.budget_s[v] - MARGIN_S:
+    while route and not fits(inst.route_time_s(v, route), float(inst.budget_s[v])):
         nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)
         prev, cur, nxt = nodes[:-2], nodes[1:-1], nodes[2:]
-        saving = dist[prev, cur] + dist[cur, nxt] - dist[prev, nxt]
-        saving_s = saving / inst.speed_mps[v] + inst.service_s[route] + 1e-9
+        saving = time[prev, cur] + time[cur, nxt] - time[prev, nxt]
+        saving_s = saving + inst.service_s[route] + 1e-9
         route.pop(int((inst.value[v, route] / saving_s).argmin()))
     return route
 
@@ -104,6 +105,7 @@ def construct(inst: Instance, rng: np.random.Generator, labels: np.ndarray | Non
         ]
         route = screen(inst, v, order(inst, v, members))
         nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)
-        routes.append([int(u) for u in improve_route(inst.dist_m, nodes)[1:-1]])
+        routes.append([int(u) for u in improve_route(inst.travel_s[v], nodes,
+                                                     inst.symmetric)[1:-1]])
     state = State(inst, routes)
     return fill(state)

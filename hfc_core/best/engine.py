@@ -60,7 +60,7 @@ def shorten(state: State, vehicles: list[int]) -> bool:
     for v in vehicles:
         if len(state.routes[v]) < 2:
             continue
-        nodes = improve_route(state.inst.dist_m, state.nodes(v))
+        nodes = improve_route(state.inst.travel_s[v], state.nodes(v), state.inst.symmetric)
         route = [int(u) for u in nodes[1:-1]]
         if route != state.routes[v]:
             state.set_route(v, route)

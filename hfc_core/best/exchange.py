@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hfc_core.best.state import MARGIN_S, State
+from hfc_core.best.state import State
+from hfc_core.feasibility import fits
 
 
 # Up to this many (routed, unrouted) pairs every pair is evaluated; beyond, each routed task
@@ -36,7 +37,7 @@ def best_replaces(state: State) -> list[tuple[float, int, int, int, int]]:
     if not len(free) or not any(state.routes):
         return []
     state.refresh()
-    dist = inst.dist_m
+    stack, which = inst.stacked()
     lengths = [len(r) for r in state.routes]
     terms = [state.nodes(v) for v in range(inst.k)]
     cur = np.concatenate([t[1:-1] for t in terms])
@@ -46,16 +47,21 @@ def best_replaces(state: State) -> list[tuple[float, int, int, int, int]]:
     prev = np.concatenate([t[:-2] for t in terms])[row]
     nxt = np.concatenate([t[2:] for t in terms])[row]
     u = cur[row]
-    speed = inst.speed_mps[veh]
-    saving_s = (dist[prev, u] + dist[u, nxt] - dist[prev, nxt]) / speed + inst.service_s[u]
-    gap_m = dist[prev, w] + dist[w, nxt] - dist[prev, nxt]
+    if len(stack) == 1:  # every vehicle the same travel times (the usual case): plain lookups
+        time = stack[0]
+        saving_s = time[prev, u] + time[u, nxt] - time[prev, nxt] + inst.service_s[u]
+        gap_s = time[prev, w] + time[w, nxt] - time[prev, nxt]
+    else:
+        c = which[veh]
+        saving_s = stack[c, prev, u] + stack[c, u, nxt] - stack[c, prev, nxt] + inst.service_s[u]
+        gap_s = stack[c, prev, w] + stack[c, w, nxt] - stack[c, prev, nxt]
     pos = state.ins_pos[veh, w]
-    elsewhere_m = np.where((pos == idx) | (pos == idx + 1), np.inf, state.ins_len[veh, w])
-    use_gap = gap_m <= elsewhere_m
+    elsewhere_s = np.where((pos == idx) | (pos == idx + 1), np.inf, state.ins_s[veh, w])
+    use_gap = gap_s <= elsewhere_s
     times = np.array([state.time_s(v) for v in range(inst.k)])
-    new_time = times[veh] - saving_s + np.minimum(gap_m, elsewhere_m) / speed + inst.service_s[w]
+    new_time = times[veh] - saving_s + np.minimum(gap_s, elsewhere_s) + inst.service_s[w]
     gain = inst.value[veh, w] - inst.value[veh, u]
-    ok = (gain > 0) & (new_time <= inst.budget_s[veh] - MARGIN_S) & inst.allowed[veh, w]
+    ok = (gain > 0) & fits(new_time, inst.budget_s[veh]) & inst.allowed[veh, w]
     if not ok.any():
         return []
     # Per vehicle: richest gain first, then the shortest resulting mission.
@@ -74,17 +80,24 @@ def replace_improve(state: State, max_rounds: int = 1000) -> bool:
     """Apply replace moves until none improves; True if any was applied. Each round applies
     the best move of every route whose incoming task no richer move has taken (moves in
     different routes are independent)."""
-    for rounds in range(max_rounds):
-        moves = best_replaces(state)
-        if not moves:
-            return rounds > 0
+    applied_any = False
+    for _ in range(max_rounds):
+        applied = False
         taken: set[int] = set()
-        for _, v, i, task, at in moves:
+        for _, v, i, task, at in best_replaces(state):
             if task in taken:
                 continue
             taken.add(task)
-            route = list(state.routes[v])
+            before = state.routes[v]
+            route = list(before)
             route.pop(i)
             route.insert(at, task)
             state.set_route(v, route)
-    return True
+            if not state.fits(v):  # the estimate fitted, the route's own sum does not: undo
+                state.set_route(v, before)
+                continue
+            applied = True
+        if not applied:
+            break
+        applied_any = True
+    return applied_any

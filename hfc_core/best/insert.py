@@ -56,7 +56,7 @@ def fill(
     score = np.full((k, inst.n), -np.inf)
 
     def rescore(v: int) -> None:
-        extra = state.ins_len[v] / float(inst.speed_mps[v]) + inst.service_s
+        extra = state.ins_s[v] + inst.service_s
         ok = usable[v] & (extra <= state.slack_s(v))
         score[v] = np.where(ok, _weighted(value[v], extra, exponent, floor_s), -np.inf)
 
@@ -68,7 +68,11 @@ def fill(
         if score[v, u] == -np.inf:
             return state
         state.insert(v, u, int(state.ins_pos[v, u]))
-        usable[:, u] = False
-        score[:, u] = -np.inf
+        if state.fits(v):
+            usable[:, u] = False
+            score[:, u] = -np.inf
+        else:  # the cached estimate fitted, the route's own sum does not (rounding): undo
+            state.remove([u])
+            usable[v, u] = False
         state.refresh_route(v)
         rescore(v)

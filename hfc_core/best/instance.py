@@ -1,9 +1,12 @@
-"""The array view the `best` engine searches: one node metric, per-vehicle budgets and values.
+"""The array view the `best` engine searches: travel times per vehicle, budgets and values.
 
 `Problem` is the scenario; `Instance` is what the search needs, and it is general enough for
 replanning too: a vehicle's start node may be any node (its current position, or the last of
 the tasks it is locked to), its budget is whatever battery is left, and ``value[v, u]`` (what
 vehicle ``v`` earns by treating task ``u``) carries the stability penalty of the replanner.
+
+Times are in seconds from ``travel_s[v]`` (the vehicle's speed, and the current if any: then
+asymmetric); ``dist_m`` only says which spots are near which (ruin, clustering).
 """
 
 from __future__ import annotations
@@ -19,9 +22,9 @@ from hfc_core.problem import Problem
 class Instance:
     """Nodes ``0..n-1`` are tasks; ``start``/``end`` index each vehicle's terminal nodes."""
 
-    dist_m: np.ndarray  # (m, m) symmetric travel metric, m >= n
+    dist_m: np.ndarray  # (m, m) symmetric metric, m >= n: nearness only
+    travel_s: tuple[np.ndarray, ...]  # k arrays (m, m): travel time of vehicle v (shared)
     service_s: np.ndarray  # (n,)
-    speed_mps: np.ndarray  # (k,)
     budget_s: np.ndarray  # (k,)
     start: np.ndarray  # (k,) node index
     end: np.ndarray  # (k,) node index
@@ -29,18 +32,20 @@ class Instance:
     allowed: np.ndarray  # (k, n) bool: may vehicle v treat task u
 
     def __post_init__(self) -> None:
-        n, k = len(self.service_s), len(self.speed_mps)
+        n, k = len(self.service_s), len(self.budget_s)
         m = self.dist_m.shape[0]
         if self.dist_m.shape != (m, m) or m < n:
             raise ValueError(f"dist_m has shape {self.dist_m.shape}, need square with >= {n} rows")
+        if len(self.travel_s) != k or any(t.shape != (m, m) for t in self.travel_s):
+            raise ValueError(f"travel_s needs {k} arrays of shape {(m, m)}")
         for name in ("budget_s", "start", "end"):
             if getattr(self, name).shape != (k,):
                 raise ValueError(f"{name} needs shape ({k},)")
         for name in ("value", "allowed"):
             if getattr(self, name).shape != (k, n):
                 raise ValueError(f"{name} needs shape ({k}, {n})")
-        if np.any(self.speed_mps <= 0):
-            raise ValueError("speeds must be positive")
+        if any(np.any(t < 0) for t in self.travel_s):
+            raise ValueError("travel times must be >= 0")
 
     @property
     def n(self) -> int:
@@ -48,13 +53,38 @@ class Instance:
 
     @property
     def k(self) -> int:
-        return len(self.speed_mps)
+        return len(self.budget_s)
 
+    @property
+    def symmetric(self) -> bool:
+        """Every vehicle's travel times read the same both ways (still water): the 2-opt and
+        or-opt shortcuts that assume it apply (cached)."""
+        if "_symmetric" not in self.__dict__:
+            distinct = {id(t): t for t in self.travel_s}.values()
+            self.__dict__["_symmetric"] = all(np.array_equal(t, t.T) for t in distinct)
+        return self.__dict__["_symmetric"]
+
+    def stacked(self) -> tuple[np.ndarray, np.ndarray]:
+        """(c, m, m) the distinct travel arrays and (k,) which one each vehicle uses (cached):
+        for moves evaluated across all routes at once."""
+        if "_stacked" not in self.__dict__:
+            ids: dict[int, int] = {}
+            arrays = []
+            for t in self.travel_s:
+                if id(t) not in ids:
+                    ids[id(t)] = len(arrays)
+                    arrays.append(t)
+            which = np.array([ids[id(t)] for t in self.travel_s], dtype=np.int64)
+            stack = arrays[0][None] if len(arrays) == 1 else np.stack(arrays)
+            self.__dict__["_stacked"] = (stack, which)
+        return self.__dict__["_stacked"]
     def route_time_s(self, v: int, route: list[int]) -> float:
-        """Travel start -> route -> end at ``v``'s speed plus service, summed in a fixed order."""
+        """Travel start -> route -> end at ``v``'s speed plus service, summed as `State` sums
+        it (so both judge a route alike)."""
         nodes = [int(self.start[v]), *route, int(self.end[v])]
-        length = float(self.dist_m[nodes[:-1], nodes[1:]].sum()) if len(nodes) > 1 else 0.0
-        return length / float(self.speed_mps[v]) + float(sum(self.service_s[route]))
+        travel = float(self.travel_s[v][nodes[:-1], nodes[1:]].sum())
+        service = float(self.service_s[route].sum()) if route else 0.0
+        return travel + service
 
     def nearest_tasks(self, m: int) -> np.ndarray:
         """(n, min(m, n-1)) the nearest other tasks of each task, nearest first (cached)."""
@@ -86,8 +116,8 @@ def instance_from_problem(problem: Problem) -> Instance:
     priority = np.asarray(problem.priority, dtype=float)
     return Instance(
         dist_m=problem.dist_m,
+        travel_s=problem.travel_s,
         service_s=np.asarray(problem.service_s, dtype=float),
-        speed_mps=np.array([v.speed_mps for v in problem.vehicles]),
         budget_s=np.array([v.battery_s for v in problem.vehicles]),
         start=np.array([problem.start_node(v) for v in range(k)]),
         end=np.array([problem.end_node(v) for v in range(k)]),

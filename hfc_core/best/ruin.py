@@ -74,13 +74,13 @@ def worst_removal(state: State, rng: np.random.Generator, size: int) -> State:
     for v, route in enumerate(state.routes):
         if not route:
             continue
-        nodes = state.nodes(v)
-        saving_m = (
-            inst.dist_m[nodes[:-2], nodes[1:-1]]
-            + inst.dist_m[nodes[1:-1], nodes[2:]]
-            - inst.dist_m[nodes[:-2], nodes[2:]]
+        nodes, time = state.nodes(v), inst.travel_s[v]
+        saving_s = (
+            time[nodes[:-2], nodes[1:-1]]
+            + time[nodes[1:-1], nodes[2:]]
+            - time[nodes[:-2], nodes[2:]]
+            + inst.service_s[route]
         )
-        saving_s = saving_m / inst.speed_mps[v] + inst.service_s[route]
         tasks += route
         ratio += list(inst.value[v, route] / (saving_s + 1e-3 * float(inst.budget_s[v])))
     if not tasks:

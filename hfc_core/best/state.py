@@ -1,10 +1,10 @@
-"""The search state: routes with cached lengths, and cached best insertions per route.
+"""The search state: routes with cached travel times, and cached best insertions per route.
 
-Routes hold task nodes only; a vehicle's terminals come from the instance. Each route's
-length is recomputed from the metric whenever the route changes (never accumulated), so
-feasibility never drifts. ``ins_len[v, u]`` / ``ins_pos[v, u]`` cache the cheapest insertion
-of every task into route ``v`` (extra metres, position); a route's row is refreshed lazily
-after it changes, which is what makes repeated greedy insertion cheap.
+Routes hold task nodes only; a vehicle's terminals come from the instance. Each route's travel
+time is recomputed from the vehicle's travel times whenever the route changes (never
+accumulated), so feasibility never drifts. ``ins_s[v, u]`` / ``ins_pos[v, u]`` cache the
+cheapest insertion of every task into route ``v`` (extra travel seconds, position); a route's
+row is refreshed lazily after it changes, which is what makes repeated greedy insertion cheap.
 """
 
 from __future__ import annotations
@@ -12,17 +12,15 @@ from __future__ import annotations
 import numpy as np
 
 from hfc_core.best.instance import Instance
+from hfc_core.feasibility import fits, room_s
 
 UNASSIGNED = -1
-# Feasibility margin in seconds: a route must fit with this much to spare, so that rounding
-# in any other evaluation (the independent checker sums legs differently) cannot tip it over.
-MARGIN_S = 1e-7
 
 
 class State:
     """Mutable; operators work on a `copy` and return it."""
 
-    __slots__ = ("inst", "routes", "length_m", "service_s", "owner", "ins_len", "ins_pos", "stale",
+    __slots__ = ("inst", "routes", "travel_s", "service_s", "owner", "ins_s", "ins_pos", "stale",
                  "_nodes")
 
     def __init__(self, inst: Instance, routes: list[list[int]] | None = None) -> None:
@@ -33,9 +31,9 @@ class State:
         for v, route in enumerate(self.routes):
             self.owner[route] = v
         self._nodes = [self._terminals(v) for v in range(k)]
-        self.length_m = [self._length(v) for v in range(k)]
+        self.travel_s = [self._travel(v) for v in range(k)]
         self.service_s = [self._service(v) for v in range(k)]
-        self.ins_len = np.zeros((k, n))
+        self.ins_s = np.zeros((k, n))
         self.ins_pos = np.zeros((k, n), dtype=np.int64)
         self.stale = np.ones(k, dtype=bool)
 
@@ -44,10 +42,10 @@ class State:
         other.inst = self.inst
         other.routes = [list(r) for r in self.routes]
         other._nodes = list(self._nodes)  # arrays are never modified in place
-        other.length_m = list(self.length_m)
+        other.travel_s = list(self.travel_s)
         other.service_s = list(self.service_s)
         other.owner = self.owner.copy()
-        other.ins_len = self.ins_len.copy()
+        other.ins_s = self.ins_s.copy()
         other.ins_pos = self.ins_pos.copy()
         other.stale = self.stale.copy()
         return other
@@ -61,9 +59,9 @@ class State:
         inst = self.inst
         return np.array([inst.start[v], *self.routes[v], inst.end[v]], dtype=np.int64)
 
-    def _length(self, v: int) -> float:
+    def _travel(self, v: int) -> float:
         nodes = self.nodes(v)
-        return float(self.inst.dist_m[nodes[:-1], nodes[1:]].sum())
+        return float(self.inst.travel_s[v][nodes[:-1], nodes[1:]].sum())
 
     def _service(self, v: int) -> float:
         route = self.routes[v]
@@ -71,15 +69,20 @@ class State:
 
     def _changed(self, v: int) -> None:
         self._nodes[v] = self._terminals(v)
-        self.length_m[v] = self._length(v)
+        self.travel_s[v] = self._travel(v)
         self.service_s[v] = self._service(v)
         self.stale[v] = True
 
     def time_s(self, v: int) -> float:
-        return self.length_m[v] / float(self.inst.speed_mps[v]) + self.service_s[v]
+        return self.travel_s[v] + self.service_s[v]
 
     def slack_s(self, v: int) -> float:
-        return float(self.inst.budget_s[v]) - self.time_s(v) - MARGIN_S
+        """Extra time route ``v`` may take and still fit (`hfc_core.feasibility.room_s`)."""
+        return room_s(self.time_s(v), float(self.inst.budget_s[v]))
+
+    def fits(self, v: int) -> bool:
+        """Route ``v`` fits its budget, by its own sum (`hfc_core.feasibility.fits`)."""
+        return bool(fits(self.time_s(v), float(self.inst.budget_s[v])))
 
     def value(self) -> float:
         val = self.inst.value
@@ -93,7 +96,7 @@ class State:
         return self.value() - tie_weight * self.total_time_s()
 
     def feasible(self) -> bool:
-        return all(self.slack_s(v) >= -MARGIN_S for v in range(self.inst.k))
+        return all(self.fits(v) for v in range(self.inst.k))
 
     # --- edits ---------------------------------------------------------------------------
     def set_route(self, v: int, route: list[int]) -> None:
@@ -120,14 +123,17 @@ class State:
     def refresh_route(self, v: int) -> None:
         """Recompute the cheapest insertion of every task into route ``v``."""
         n = self.inst.n
-        dist = self.inst.dist_m
+        time = self.inst.travel_s[v]
         nodes = self.nodes(v)
-        to_tasks = dist[nodes, :n]  # (L, n)
-        extra = to_tasks[:-1] + to_tasks[1:]
-        extra -= dist[nodes[:-1], nodes[1:]][:, None]
+        to_tasks = time[nodes, :n]  # (L, n)
+        if self.inst.symmetric:
+            extra = to_tasks[:-1] + to_tasks[1:]
+        else:  # edge a -> b becomes a -> u -> b
+            extra = to_tasks[:-1] + time[:n, nodes[1:]].T
+        extra -= time[nodes[:-1], nodes[1:]][:, None]
         pos = extra.argmin(axis=0)
         self.ins_pos[v] = pos
-        self.ins_len[v] = extra[pos, np.arange(n)]
+        self.ins_s[v] = extra[pos, np.arange(n)]
         self.stale[v] = False
 
     def refresh(self) -> None:
@@ -138,5 +144,4 @@ class State:
     def insertion_time_s(self) -> np.ndarray:
         """(k, n) extra mission time of each task's cheapest insertion into each route."""
         self.refresh()
-        inst = self.inst
-        return self.ins_len / inst.speed_mps[:, None] + inst.service_s[None, :]
+        return self.ins_s + self.inst.service_s[None, :]

@@ -15,6 +15,7 @@ from typing import Sequence
 import numpy as np
 
 from hfc_core.cost import RouteModel
+from hfc_core.feasibility import fits
 from hfc_core.operators.ordering import order_route
 
 def take_nearest(
@@ -29,7 +30,7 @@ def take_nearest(
         nearest = int(candidates[np.argmin(model.dist_m[last, candidates])])  # eq. (13)
         # the mission time is recomputed, not accumulated, so "fits" means what the
         # screening and the final feasibility test mean by it
-        if model.time_s(v, [*out, nearest]) > model.battery_s[v]:
+        if not fits(model.time_s(v, [*out, nearest]), model.battery_s[v]):
             break
         out.append(nearest)
         abandoned[nearest] = False

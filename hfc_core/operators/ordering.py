@@ -8,8 +8,10 @@ route both remaining terms fall with its length, so the two agree. For a route w
 the |T^M - T^B| term would reward detours, so we follow Algorithm 1: shorter is better, and the
 time saved is what cooperation fills.
 
-Moves are evaluated in O(1) from the distance matrix (symmetric, as eq. 7-8 make it) and only
-kept moves touch the route. Ordering never changes which tasks a route holds.
+Moves are evaluated in O(1) from the vehicle's travel times (symmetric in still water, as eq.
+7-8 make it) and only kept moves touch the route; against a current, where a stretch flown
+backwards takes a different time, a reversion also counts that change (O(length of the
+stretch)). Ordering never changes which tasks a route holds; "longer" means longer in time.
 """
 
 from __future__ import annotations
@@ -48,9 +50,11 @@ def reversion(route: Sequence[int], i: int, j: int) -> list[int]:
 MOVES = {SWAP: swap, INSERTION: insertion, REVERSION: reversion}
 
 
-def move_delta_m(d: list[list[float]], seq: list[int], kind: int, i: int, j: int) -> float:
-    """Change of length of ``seq`` (terminals included) if move ``kind`` is applied at route
-    positions i != j (route position p is ``seq[p + 1]``)."""
+def move_delta_m(d: list[list[float]], seq: list[int], kind: int, i: int, j: int,
+                 symmetric: bool = True) -> float:
+    """Change of length (or time: ``d`` is a metric or travel times) of ``seq`` (terminals
+    included) if move ``kind`` is applied at route positions i != j (route position p is
+    ``seq[p + 1]``). ``symmetric=False``: ``d`` differs by direction."""
     if kind == INSERTION:
         if i > j:  # the later task x moves before the earlier one
             a, b = j + 1, i + 1
@@ -64,7 +68,11 @@ def move_delta_m(d: list[list[float]], seq: list[int], kind: int, i: int, j: int
     a, b = (i + 1, j + 1) if i < j else (j + 1, i + 1)
     p, x, y, q = seq[a - 1], seq[a], seq[b], seq[b + 1]
     if kind == REVERSION or b == a + 1:  # adjacent swap == reversion of two
-        return d[p][y] + d[x][q] - d[p][x] - d[y][q]
+        delta = d[p][y] + d[x][q] - d[p][x] - d[y][q]
+        if not symmetric:  # the stretch seq[a..b] is flown backwards
+            for c in range(a, b):
+                delta += d[seq[c + 1]][seq[c]] - d[seq[c]][seq[c + 1]]
+        return delta
     xn, yp = seq[a + 1], seq[b - 1]  # x's successor, y's predecessor
     return (d[p][y] + d[y][xn] + d[yp][x] + d[x][q]) - (d[p][x] + d[x][xn] + d[yp][y] + d[y][q])
 
@@ -83,10 +91,10 @@ def order_route(
     first = rng.integers(0, n, size=count).tolist()
     second = rng.integers(0, n - 1, size=count).tolist()
     seq = [model.start[v], *route, model.end[v]]
-    d = model.dist_rows
+    d, symmetric = model.time_rows[v], model.symmetric
     for kind, i, j in zip(kinds, first, second):
         j += j >= i  # a second position different from the first, uniformly
-        if move_delta_m(d, seq, kind, i, j) <= 0.0:
+        if move_delta_m(d, seq, kind, i, j, symmetric) <= 0.0:
             seq[1:-1] = MOVES[kind](seq[1:-1], i, j)
     return seq[1:-1]
 

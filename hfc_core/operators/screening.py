@@ -18,6 +18,7 @@ from typing import Sequence
 import numpy as np
 
 from hfc_core.cost import CostWeights, RouteModel, eq9_cost
+from hfc_core.feasibility import fits
 
 
 def removal_costs(
@@ -25,11 +26,11 @@ def removal_costs(
 ) -> tuple[np.ndarray, np.ndarray]:
     """(eq. 9 cost, mission time) of ``route`` without its i-th task, for every i."""
     nodes = np.fromiter((model.start[v], *route, model.end[v]), dtype=np.intp)
-    d = model.dist_m
+    d = model.travel_s[v]
     prev, cur, nxt = nodes[:-2], nodes[1:-1], nodes[2:]
-    saved_m = d[prev, cur] + d[cur, nxt] - d[prev, nxt]
+    saved_s = d[prev, cur] + d[cur, nxt] - d[prev, nxt]
     time_s = model.time_s(v, route)
-    new_time_s = time_s - saved_m / model.speed_mps[v] - model.service_s[cur]
+    new_time_s = time_s - saved_s - model.service_s[cur]
     new_priority = float(model.priority[cur].sum()) - model.priority[cur]
     return eq9_cost(new_time_s, model.battery_s[v], new_priority, weights), new_time_s
 
@@ -39,7 +40,7 @@ def screen_route(
 ) -> list[int]:
     """Algorithm 2 on one route: abandon the cheapest-to-lose task until the route fits."""
     out = list(route)
-    while out and model.time_s(v, out) > model.battery_s[v]:
+    while out and not fits(model.time_s(v, out), model.battery_s[v]):
         costs, _ = removal_costs(out, model=model, v=v, weights=weights)
         del out[int(np.argmin(costs))]
     return out
@@ -53,7 +54,7 @@ def screen(
     version if it costs less. (Deterministic; ``rng`` keeps the operator signature.)"""
     out = [list(r) for r in routes]
     for v, route in enumerate(out):
-        if model.time_s(v, route) <= model.battery_s[v]:
+        if fits(model.time_s(v, route), model.battery_s[v]):
             continue
         screened = screen_route(route, model=model, v=v, weights=weights)
         if model.cost(v, screened, weights) < model.cost(v, route, weights):

@@ -3,11 +3,16 @@ import re
 import subprocess
 import sys
 
+from pathlib import Path
+
+import numpy as np
 import pytest
 
 from cotsfleet.cli import main
+from cotsfleet.commands.plan import fits_alone
+from cotsfleet.io import read_scenario
 from hfc_core.generate import GeneratorParams, generate_doc
-import numpy as np
+from hfc_core.scenario import problem_from_dict
 
 FAST = ["--iterations", "15", "--population", "8"]
 
@@ -147,3 +152,73 @@ def test_planning_comparison_quick(capsys):
     for mode in ("hfc-ncm1", "hfc-ncm2", "hfc-cm", "ga"):
         assert re.search(rf"{mode}\s+total", out), mode
     assert "paper (Table I" in out
+
+
+REPO_TOP = Path(__file__).resolve().parents[2] / "benchmarks" / "top" / "instances"
+
+
+def _fits_alone_brute_force(problem) -> int:
+    count = 0
+    for i in range(problem.n_tasks):
+        for v, vehicle in enumerate(problem.vehicles):
+            there = problem.dist_m[problem.start_node(v), i]
+            back = problem.dist_m[i, problem.end_node(v)]
+            if (there + back) / vehicle.speed_mps + problem.service_s[i] <= vehicle.battery_s:
+                count += 1
+                break
+    return count
+
+
+def test_a_poor_result_says_what_it_means(capsys):
+    """The GA on a tight TOP instance plans nothing: the summary says why, and how many
+    spots could have been reached, instead of a bare 0/98."""
+    path = REPO_TOP / "p4.3.f.txt"
+    assert main(["plan", str(path), "--mode", "ga", "--iterations", "60"]) == 0
+    out = capsys.readouterr().out
+    problem, _ = read_scenario(path)
+    planned = int(re.search(r"tasks completed (\d+)/", out).group(1))
+    alone = _fits_alone_brute_force(problem)
+    assert planned < alone // 2, "the fixture no longer shows a poor result"
+    assert f"note: {planned} of {problem.n_tasks} spots planned; {alone} fit" in out
+    assert "k-means" in out and "--mode best" in out
+
+
+def test_a_good_result_has_no_note(scenario_file, capsys):
+    assert main(["plan", str(scenario_file), "--mode", "hfc-cm", *FAST]) == 0
+    out = capsys.readouterr().out
+    assert "note:" not in out and "% of the scenario's total priority" in out
+
+
+def test_batteries_too_short_for_any_spot(tmp_path, capsys):
+    doc = {"name": "short", "speed_mps": 1.0,
+           "vehicles": [{"id": "a", "start": [0, 0], "rendezvous": [0, 0], "battery_s": 50.0}],
+           "tasks": [{"id": 1, "pos": [100, 0], "priority": 5, "service_s": 10}]}
+    path = tmp_path / "short.json"
+    path.write_text(json.dumps(doc))
+    assert main(["plan", str(path), "--mode", "hfc-cm", *FAST]) == 0
+    assert "batteries are too short" in capsys.readouterr().out
+
+
+def test_fits_alone_counts_what_one_vehicle_can_reach(scenario_doc):
+    problem = problem_from_dict(scenario_doc)
+    assert fits_alone(problem) == _fits_alone_brute_force(problem) > 0
+
+
+@pytest.mark.parametrize("flag", ["--json", "--geojson", "--rrd"])
+def test_outputs_are_checked_before_planning(flag, scenario_file, tmp_path, capsys):
+    assert main(["plan", str(scenario_file), flag, str(tmp_path / "no" / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"cotsfleet plan: error: {flag} {tmp_path / 'no' / 'out'}: no such " \
+                  f"directory {str(tmp_path / 'no')!r}"
+    assert main(["plan", str(scenario_file), flag, str(tmp_path)]) == 2
+    assert "is a directory" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("make", [lambda p: p.mkdir(), lambda p: p.write_bytes(b"\xff\xfe\x00"),
+                                  lambda p: None])
+def test_unreadable_scenario_paths_exit_2(make, tmp_path, capsys):
+    path = tmp_path / "s.json"
+    make(path)
+    assert main(["plan", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"cotsfleet plan: error: {path}: ") and "\n" not in err

@@ -43,3 +43,22 @@ def test_bad_flags_exit_2_with_one_line(argv, capsys):
     assert main(["scenario", *argv]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("cotsfleet scenario: error:") and "\n" not in err
+
+
+def test_unit_named_flags_are_the_same_as_the_short_ones(tmp_path):
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    assert main(["scenario", "--tasks", "6", "--battery", "900", "--speed", "1.5",
+                 "--service", "40", "-o", str(a)]) == 0
+    assert main(["scenario", "--tasks", "6", "--battery-s", "900", "--speed-mps", "1.5",
+                 "--service-s", "40", "-o", str(b)]) == 0
+    doc = json.loads(b.read_text())
+    assert a.read_text() == b.read_text()
+    assert doc["speed_mps"] == 1.5 and doc["vehicles"][0]["battery_s"] == 900.0
+
+
+def test_written_scenarios_fit_the_schema(tmp_path):
+    from cotsfleet.schemas import validate
+
+    out = tmp_path / "s.json"
+    assert main(["scenario", "--tasks", "30", "--land-forbidden", "-o", str(out)]) == 0
+    validate(json.loads(out.read_text()), "scenario")

@@ -7,6 +7,7 @@ import functools
 import numpy as np
 import pytest
 
+from comms_sim.channel import Channel
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import InProcessBackend, SimResult, simulate
 from fleet_agent.config import AgentConfig
@@ -173,15 +174,14 @@ def test_vehicles_route_around_land() -> None:
     problem = problem_from_dict(generate_doc(params, np.random.default_rng(3)))
     assert problem.land is not None
     inside: list[bool] = []
-    original = InProcessBackend._positions
+    original = Channel.set_position
 
-    def watch(self, t_s: float):  # every position the channel ever asks for: in the water
-        pos = original(self, t_s)
-        inside.extend(problem.land.inside(np.array(list(pos.values()))[:, :2]).tolist())
-        return pos
+    def watch(self, node, pos, t_s):  # every position the water is told of: in the water
+        inside.append(bool(problem.land.inside(np.array([pos[:2]]))[0]))
+        return original(self, node, pos, t_s)
 
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(InProcessBackend, "_positions", watch)
+        mp.setattr(Channel, "set_position", watch)
         result = simulate(problem, CONFIG, seed=3, faults=(Fault("abort", 800.0, "auv1"),))
     assert inside and not any(inside)
     f = result.report["fleet"]
