@@ -143,7 +143,7 @@ FLEET_HEADER = ["channel", "vehicles", "runs", "priority (mean)", "priority (min
                 "drops (share of receptions)"]
 
 
-def main(runs: int, quick: bool) -> None:
+def main(runs: int, write: bool) -> None:
     t0 = time.perf_counter()
     presets = markdown_table(PRESET_HEADER, [preset_row(n, c) for n, c in PRESETS.items()])
     print(presets, flush=True)
@@ -173,7 +173,7 @@ def main(runs: int, quick: bool) -> None:
         "curve and the physical channel (receptions: one per frame per receiver). The "
         "12-vehicle row waits for the redesign (the wire format caps fleets at 8 today). "
         f"Total {time.perf_counter() - t0:.0f} s wall.\n\n{fleet}\n")
-    if not quick:
+    if write:
         write_section("channel_physics", "comms_sim: the physical channel", body)
 
 
@@ -181,5 +181,6 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=20, help="fleet runs per row")
     parser.add_argument("--quick", action="store_true", help="2 runs, no RESULTS.md update")
+    parser.add_argument("--no-write", action="store_true", help="print only: no RESULTS.md")
     args = parser.parse_args()
-    main(2 if args.quick else args.runs, args.quick)
+    main(2 if args.quick else args.runs, write=not (args.quick or args.no_write))

@@ -486,3 +486,20 @@ def _drift_along(problem: Problem, speed: float, pos: Point3, route: Sequence[in
         here = tuple(float(c) for c in target)
         now += service
     return here  # type: ignore[return-value]
+
+
+def fly(problem: Problem, index: int, route: Sequence[int], paths: PathFn | None = None
+        ) -> list[Cleared | Arrived]:
+    """Fly vehicle ``index`` of ``problem`` (its water: current and land) along ``route``
+    (task indices, as planned, whatever water the plan assumed) from its start at mission time
+    0 to the rendezvous, without replanning: the events, the `Arrived` one last. The battery
+    does not stop it; compare ``Arrived.t_s`` with the battery to see how late it ends."""
+    vehicle = Vehicle(problem, index, paths)
+    vehicle.set_route(route)
+    events: list[Cleared | Arrived] = []
+    while not vehicle.done:
+        due = vehicle.next_event_s()
+        if due is None or not math.isfinite(due):
+            break  # a leg the current makes impossible: it never gets there
+        events += vehicle.advance(due)
+    return events

@@ -22,6 +22,7 @@ order of ``cleared`` and ``held`` does not matter): agents on different machines
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Collection, Mapping, Sequence
 
@@ -31,9 +32,11 @@ from scipy.spatial.distance import cdist
 from hfc_core.best.construct import construct, screen
 from hfc_core.best.engine import SearchParams, local_search, search, shorten
 from hfc_core.best.insert import fill
-from hfc_core.best.instance import Instance
+from hfc_core.best.instance import Instance, clocked
 from hfc_core.best.state import State
+from hfc_core.current import TidalCurrent
 from hfc_core.problem import Problem, ScenarioError
+from hfc_core.tide_clock import TideClock
 from hfc_core.solve import Stop
 
 DEFAULT_ITERATIONS = 60
@@ -60,6 +63,7 @@ def replan(
     time_limit_s: float | None = None,
     seed: int = 0,
     stability: float = DEFAULT_STABILITY,
+    now_s: float | None = None,
 ) -> dict[str, list[int]]:
     """Vehicle id -> new route (scenario task ids; the rendezvous follows) for ``vehicles``.
 
@@ -69,12 +73,17 @@ def replan(
     held by another live vehicle are dropped. If even the locked spots and the way to the
     rendezvous do not fit the battery, that vehicle gets its locked spots only (it cannot do
     better). Without a budget, ``DEFAULT_ITERATIONS`` iterations are run.
+
+    ``now_s``: the mission time the vehicles are at; it matters only in a tidal current, where
+    routes are then timed as flown from now (`hfc_core.tide_clock`). Without it a tide is
+    planned with the longest leg times over the whole mission: safe, but it leaves battery
+    unused.
     """
     if not stability >= 0:
         raise ValueError(f"stability must be >= 0, got {stability}")
     if max_iterations is None and time_limit_s is None:
         max_iterations = DEFAULT_ITERATIONS
-    setup = _Setup(problem, vehicles, cleared, held, stability)
+    setup = _Setup(problem, vehicles, cleared, held, stability, now_s)
     inst = setup.instance()
     rng = np.random.default_rng(seed)
     stop = Stop(time_limit_s=time_limit_s, max_iterations=max_iterations)
@@ -104,8 +113,14 @@ class _Setup:
         cleared: Collection[int],
         held: Mapping[int, str],
         stability: float,
+        now_s: float | None = None,
     ) -> None:
         self.problem = problem
+        if now_s is not None and not (math.isfinite(now_s) and now_s >= 0):
+            raise ValueError(f"now_s must be a mission time >= 0, got {now_s}")
+        # A tide is timed as flown only when we know when "now" is (and the problem is small
+        # enough to clock); else its legs are planned with their longest times (a bound).
+        self.now_s = now_s if now_s is not None and clocked(problem) else None
         self.vehicles = list(vehicles)
         ids = [v.id for v in self.vehicles]
         for vid in ids:
@@ -172,8 +187,13 @@ class _Setup:
                 by_speed[float(s)] = self._times(dist, from_pos, pos, ends, float(s))
         travel = tuple(by_speed[float(s)] for s in speed)
         start = np.array([self.locked[i][-1] if self.locked[i] else n + 2 * i for i in range(k)])
-        self.budget_s = np.array([v.battery_s - self._locked_time(travel[i], i)
+        clock = self._clock(pos, ends, speed)
+        self.budget_s = np.array([v.battery_s - self._locked_time(travel[i], i, clock)
                                   for i, v in enumerate(self.vehicles)], dtype=float)
+        if clock is not None:  # each leaves its last locked spot when the chain is done
+            assert self.now_s is not None
+            clock.start_s = [self.now_s + float(v.battery_s - b)
+                             for v, b in zip(self.vehicles, self.budget_s)]
         free = ~(self.cleared | self.locked_mask)
         allowed = np.repeat(free[None, :], k, axis=0)
         held_by = np.flatnonzero(self.holder >= 0)
@@ -187,6 +207,7 @@ class _Setup:
         return Instance(
             dist_m=dist,
             travel_s=travel,
+            clock=clock,
             service_s=np.asarray(p.service_s, dtype=float),
             budget_s=np.maximum(self.budget_s, 0.0),
             start=start,
@@ -207,12 +228,19 @@ class _Setup:
         full = next((t for t, v in zip(p.travel_s, p.vehicles) if v.speed_mps == speed), None)
         if full is None:  # a live speed no scenario vehicle has
             full = p.travel.matrix(p.xyz, p.dist_m, speed)
+        kind = "bound"
+        if self.now_s is not None:  # clocked: mean times, an estimate the clock re-checks
+            kind = "mean"
+            cache = p.__dict__.setdefault("_mean_travel", {})
+            if speed not in cache:
+                cache[speed] = p.travel.matrix(p.xyz, p.dist_m, speed, kind="mean")
+            full = cache[speed]
         targets = np.vstack([p.xyz[:n], p.xyz[ends]])
         out = dist / speed  # entries no route uses (into a position) keep the still-water value
         out[:n, :n] = full[:n, :n]
         for i in range(k):
             s, e = n + 2 * i, n + 2 * i + 1
-            row = p.travel.times_from(pos[i], targets, speed, from_pos[i])
+            row = p.travel.times_from(pos[i], targets, speed, from_pos[i], kind)
             out[s, :n] = row[:n]
             out[e, :n], out[:n, e] = full[ends[i], :n], full[:n, ends[i]]
             for j in range(k):
@@ -225,9 +253,26 @@ class _Setup:
             return self.problem.land.distances_from(pos, targets)
         return np.linalg.norm(targets - pos[None, :], axis=1)
 
-    def _locked_time(self, travel: np.ndarray, i: int) -> float:
+    def _clock(self, pos: np.ndarray, ends: list[int], speed: np.ndarray) -> TideClock | None:
+        """A clock over the instance's nodes (tasks, then each vehicle's position and
+        rendezvous), everyone leaving at ``now_s`` (moved on by the locked chains later)."""
+        p = self.problem
+        if self.now_s is None:
+            return None
+        assert p.travel is not None and isinstance(p.current, TidalCurrent)
+        k = len(self.vehicles)
+        xyz = np.empty((p.n_tasks + 2 * k, 3))
+        xyz[: p.n_tasks] = p.xyz[: p.n_tasks]
+        xyz[p.n_tasks :: 2] = pos
+        xyz[p.n_tasks + 1 :: 2] = p.xyz[ends]
+        return TideClock(p.current, xyz, speed, [self.now_s] * k, np.asarray(p.service_s),
+                         p.travel.window_s[1], p.land)
+
+    def _locked_time(self, travel: np.ndarray, i: int, clock: TideClock | None = None) -> float:
         n = self.problem.n_tasks
         nodes = [n + 2 * i, *self.locked[i]]
+        if clock is not None:
+            return clock.route_time_s(i, nodes)
         time = sum(float(travel[a, b]) for a, b in zip(nodes[:-1], nodes[1:]))
         service = sum(float(self.problem.service_s[u]) for u in self.locked[i])
         return time + service

@@ -170,18 +170,20 @@ def tide_range(current: TidalCurrent, window_s: tuple[float, float]) -> tuple[fl
 
 
 def segment_times(current: CurrentField | None, p: np.ndarray, q: np.ndarray, speed: float,
-                  window_s: tuple[float, float]) -> np.ndarray:
+                  window_s: tuple[float, float], kind: str = "bound") -> np.ndarray:
     """Planning time of each straight segment ``p[i] -> q[i]`` ((N, 3) each): exact for a steady
-    current, the longest over the window for a tidal one; `IMPOSSIBLE_S` where impossible."""
+    current; for a tidal one the longest over the window (``kind="bound"``) or the mean over
+    the window's steps (``"mean"``: an estimate for a planner that times routes as flown,
+    `hfc_core.tide_clock`); `IMPOSSIBLE_S` where impossible."""
     out = np.empty(len(p))
     for lo in range(0, len(p), CHUNK):
         out[lo : lo + CHUNK] = _segment_block(current, p[lo : lo + CHUNK], q[lo : lo + CHUNK],
-                                              speed, window_s)
+                                              speed, window_s, kind)
     return out
 
 
 def _segment_block(current: CurrentField | None, p: np.ndarray, q: np.ndarray, speed: float,
-                   window_s: tuple[float, float]) -> np.ndarray:
+                   window_s: tuple[float, float], kind: str = "bound") -> np.ndarray:
     delta = q - p
     length = np.sqrt((delta * delta).sum(axis=1))
     safe = np.where(length > 0.0, length, 1.0)
@@ -190,17 +192,32 @@ def _segment_block(current: CurrentField | None, p: np.ndarray, q: np.ndarray, s
         return length / speed
     if isinstance(current, UniformCurrent):
         g = ground_speed(speed, *current.velocity_mps, dx, dy)
+    elif isinstance(current, TidalCurrent) and kind == "mean":
+        return np.where(length > 0.0, _mean_tidal(current, length, dx, dy, speed, window_s), 0.0)
     elif isinstance(current, TidalCurrent):
         (a_lo, a_hi), (vu, vv) = tide_range(current, window_s), current.velocity_mps
-        g = np.fmin(ground_speed(speed, vu * a_lo, vv * a_lo, dx, dy),
-                    ground_speed(speed, vu * a_hi, vv * a_hi, dx, dy))
-        g = np.where(np.isnan(ground_speed(speed, vu * a_lo, vv * a_lo, dx, dy))
-                     | np.isnan(ground_speed(speed, vu * a_hi, vv * a_hi, dx, dy)), np.nan, g)
+        g_lo = ground_speed(speed, vu * a_lo, vv * a_lo, dx, dy)
+        g_hi = ground_speed(speed, vu * a_hi, vv * a_hi, dx, dy)
+        g = np.where(np.isnan(g_lo) | np.isnan(g_hi), np.nan, np.fmin(g_lo, g_hi))
     else:
         return np.where(length > 0.0, _grid_times(current, p, q, length, dx, dy, speed), 0.0)
     with np.errstate(invalid="ignore"):
         times = length / g
     return np.where(length > 0.0, np.where(np.isnan(times), IMPOSSIBLE_S, times), 0.0)
+
+
+def _mean_tidal(current: TidalCurrent, length: np.ndarray, dx: np.ndarray, dy: np.ndarray,
+                speed: float, window_s: tuple[float, float]) -> np.ndarray:
+    """Mean over the window's tide steps of length / ground speed (impossible at any step:
+    `IMPOSSIBLE_S`, as `hfc_core.tide_clock` counts it)."""
+    steps = range(current.step(window_s[0]), current.step(window_s[1]) + 1)
+    total = np.zeros(len(length))
+    for k in steps:
+        a = current.factor(k)
+        g = ground_speed(speed, current.velocity_mps[0] * a, current.velocity_mps[1] * a, dx, dy)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            total += np.where(np.isnan(g), IMPOSSIBLE_S, length / g)
+    return np.minimum(total / len(steps), IMPOSSIBLE_S)
 
 
 def _grid_times(current: GridCurrent, p: np.ndarray, q: np.ndarray, length: np.ndarray,
@@ -230,34 +247,37 @@ class Travel:
     window_s: tuple[float, float]  # mission times the planner's tidal bound covers
     land: "LandMap | None" = None
 
-    def matrix(self, xyz: np.ndarray, dist_m: np.ndarray, speed: float) -> np.ndarray:
+    def matrix(self, xyz: np.ndarray, dist_m: np.ndarray, speed: float, kind: str = "bound"
+               ) -> np.ndarray:
         """(m, m) planning times between the rows of ``xyz`` at water speed ``speed``;
-        ``dist_m`` is the scenario's metric (its straight or around-land lengths)."""
+        ``dist_m`` is the scenario's metric (its straight or around-land lengths); ``kind``:
+        see `segment_times`."""
         if self.current is None:
             return dist_m / speed
         m = len(xyz)
         i, j = np.divmod(np.arange(m * m), m)
-        times = segment_times(self.current, xyz[i], xyz[j], speed, self.window_s).reshape(m, m)
+        times = segment_times(self.current, xyz[i], xyz[j], speed, self.window_s,
+                              kind).reshape(m, m)
         if self.land is not None:
-            self._around_land(times, xyz, xyz, speed)
+            self._around_land(times, xyz, xyz, speed, kind)
         np.fill_diagonal(times, 0.0)
         return times
 
     def times_from(self, pos: Sequence[float], targets: np.ndarray, speed: float,
-                   dist_m: np.ndarray) -> np.ndarray:
+                   dist_m: np.ndarray, kind: str = "bound") -> np.ndarray:
         """(t,) planning times from ``pos`` to each target (``dist_m``: their metric lengths)."""
         if self.current is None:
             return dist_m / speed
         p = np.broadcast_to(np.asarray(pos, dtype=float), targets.shape)
-        times = segment_times(self.current, p, targets, speed, self.window_s)
+        times = segment_times(self.current, p, targets, speed, self.window_s, kind)
         if self.land is not None:
             row = times[None, :]
-            self._around_land(row, np.asarray([pos], dtype=float), targets, speed)
+            self._around_land(row, np.asarray([pos], dtype=float), targets, speed, kind)
             times = row[0]
         return times
 
     def _around_land(self, times: np.ndarray, sources: np.ndarray, targets: np.ndarray,
-                     speed: float) -> None:
+                     speed: float, kind: str = "bound") -> None:
         """Replace the straight times of pairs that cross land by the time along their
         waypoint path (each straight piece as in `segment_times`)."""
         assert self.land is not None
@@ -267,7 +287,7 @@ class Travel:
             _, path = self.land.shortest_path(sources[s], targets[t])
             pts = np.asarray(path, dtype=float)
             times[s, t] = min(IMPOSSIBLE_S, float(segment_times(
-                self.current, pts[:-1], pts[1:], speed, self.window_s).sum()))
+                self.current, pts[:-1], pts[1:], speed, self.window_s, kind).sum()))
 
     def straight_or_land_path(self, p: Sequence[float], q: Sequence[float]) -> list[Point3]:
         """The points a leg p -> q passes through (its ends included)."""

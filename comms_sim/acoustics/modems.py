@@ -107,11 +107,11 @@ MICROMODEM_RATE5_TABLE = ErrorTable(
 MODEMS: dict[str, Modem] = {
     # The project's default: coherent BPSK in the Micro-Modem's PSK band (25 kHz centre [F05],
     # 5 kHz [WHOI]) at the class's 185 dB [RA]. Implementation loss CALIBRATED (not measured):
-    # 21.4 dB puts 50 % delivery of a 64-byte frame at 2 km on a shrimp-bed reef with Rayleigh
-    # fading (the channel's default water), the working range of the project's earlier
-    # empirical curve (96 % at 1 km, 80 % at 1.5 km). It stands for shallow-water multipath
-    # and Doppler a small AUV's PSK receiver does not undo, and a source level below 185 dB.
-    "psk_1k": Modem("psk_1k", 25.0, 5.0, 185.0, "bpsk", implementation_loss_db=21.4),
+    # 22.6 dB puts 50 % delivery of a 64-byte frame at 2 km on a shrimp-bed reef with Rician
+    # fading K = 5 (the channel's default water), the working range of the project's earlier
+    # empirical curve (d50 = 2 km). It stands for shallow-water multipath and Doppler a small
+    # AUV's PSK receiver does not undo, and a source level below 185 dB.
+    "psk_1k": Modem("psk_1k", 25.0, 5.0, 185.0, "bpsk", implementation_loss_db=22.6),
     # WHOI Micro-Modem rate 0: FH-FSK at 80 bps in a 4 kHz band [WHOI], binary FSK detected
     # non-coherently; its convolutional code is not modelled (coding gain 0: conservative).
     "micromodem_rate0": Modem("micromodem_rate0", 25.0, 4.0, 185.0, "bfsk"),
@@ -123,9 +123,9 @@ MODEMS: dict[str, Modem] = {
                              error_table=MICROMODEM_RATE5_TABLE),
     # EvoLogics S2C R 18/34 [Evo]: 26 kHz centre, 16 kHz band. Its sweep-spread-carrier
     # waveform is not modelled: QPSK at the full 13.9 kbit/s stands in. Source level ASSUMED
-    # 185 dB (none published); implementation loss CALIBRATED to 20.7 dB so that delivery of
+    # 185 dB (none published); implementation loss CALIBRATED to 21.9 dB so that delivery of
     # a 64-byte instant message is 50 % at the published 3500 m in open water (no shrimp,
-    # Rayleigh fading).
+    # Rician K = 5 as the channel's default).
     "evologics_s2c_18_34": Modem("evologics_s2c_18_34", 26.0, 16.0, 185.0, "qpsk",
-                                 implementation_loss_db=20.7),
+                                 implementation_loss_db=21.9),
 }

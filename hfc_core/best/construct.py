@@ -105,7 +105,10 @@ def construct(inst: Instance, rng: np.random.Generator, labels: np.ndarray | Non
         ]
         route = screen(inst, v, order(inst, v, members))
         nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)
-        routes.append([int(u) for u in improve_route(inst.travel_s[v], nodes,
-                                                     inst.symmetric)[1:-1]])
+        better = [int(u) for u in improve_route(inst.travel_s[v], nodes, inst.symmetric)[1:-1]]
+        if inst.clock is not None and not inst.route_time_s(v, better) < inst.route_time_s(
+                v, route):
+            better = route  # shorter by the estimate only, not as flown through the tide
+        routes.append(better)
     state = State(inst, routes)
     return fill(state)

@@ -63,7 +63,11 @@ def shorten(state: State, vehicles: list[int]) -> bool:
         nodes = improve_route(state.inst.travel_s[v], state.nodes(v), state.inst.symmetric)
         route = [int(u) for u in nodes[1:-1]]
         if route != state.routes[v]:
+            before, time = state.routes[v], state.time_s(v)
             state.set_route(v, route)
+            if state.inst.clock is not None and not state.time_s(v) < time:
+                state.set_route(v, before)  # shorter by the estimate only, not as flown
+                continue
             shorter = True
     return shorter
 

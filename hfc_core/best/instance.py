@@ -7,6 +7,12 @@ vehicle ``v`` earns by treating task ``u``) carries the stability penalty of the
 
 Times are in seconds from ``travel_s[v]`` (the vehicle's speed, and the current if any: then
 asymmetric); ``dist_m`` only says which spots are near which (ruin, clustering).
+
+In a tidal stream a leg's time depends on when it starts. Then ``clock`` (a
+`hfc_core.tide_clock.TideClock`) times every route as flown, and that is what feasibility and
+the objective use; ``travel_s`` holds each leg's mean time over the mission, an estimate for
+choosing moves, which are then re-checked by the clock. Without a clock (still water, a steady
+current, or a tide on a problem too large to clock) ``travel_s`` is exact or a bound.
 """
 
 from __future__ import annotations
@@ -16,6 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from hfc_core.problem import Problem
+from hfc_core.tide_clock import TideClock
+
+# A tide is clocked when its problem has at most this many (leg x tide step) entries; larger
+# ones plan with the longest leg times over the mission (`hfc_core.travel`), a safe bound.
+CLOCK_LIMIT = 50_000_000
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,6 +41,7 @@ class Instance:
     end: np.ndarray  # (k,) node index
     value: np.ndarray  # (k, n) gain of vehicle v treating task u
     allowed: np.ndarray  # (k, n) bool: may vehicle v treat task u
+    clock: TideClock | None = None  # routes timed as flown through a tide (see above)
 
     def __post_init__(self) -> None:
         n, k = len(self.service_s), len(self.budget_s)
@@ -82,6 +94,8 @@ class Instance:
         """Travel start -> route -> end at ``v``'s speed plus service, summed as `State` sums
         it (so both judge a route alike)."""
         nodes = [int(self.start[v]), *route, int(self.end[v])]
+        if self.clock is not None:
+            return self.clock.route_time_s(v, nodes)
         travel = float(self.travel_s[v][nodes[:-1], nodes[1:]].sum())
         service = float(self.service_s[route].sum()) if route else 0.0
         return travel + service
@@ -110,13 +124,34 @@ class Instance:
         return 1e-3 * smallest / max(float(self.budget_s.sum()), 1e-9)
 
 
+def clocked(problem: Problem) -> bool:
+    """Is ``problem``'s current a tide small enough to time routes as flown?"""
+    if problem.current is None or problem.current.steady or problem.travel is None:
+        return False
+    steps = problem.travel.window_s[1] / 60.0 + 2
+    return problem.dist_m.size * steps <= CLOCK_LIMIT
+
+
 def instance_from_problem(problem: Problem) -> Instance:
     """The whole scenario: every vehicle at its start station with a full battery."""
     k = problem.n_vehicles
     priority = np.asarray(problem.priority, dtype=float)
+    travel_s, clock = problem.travel_s, None
+    if clocked(problem):
+        assert problem.travel is not None and problem.current is not None
+        cache = problem.__dict__.setdefault("_mean_travel", {})
+        for v in problem.vehicles:
+            if v.speed_mps not in cache:
+                cache[v.speed_mps] = problem.travel.matrix(problem.xyz, problem.dist_m,
+                                                           v.speed_mps, kind="mean")
+        travel_s = tuple(cache[v.speed_mps] for v in problem.vehicles)
+        clock = TideClock(problem.current, problem.xyz,  # type: ignore[arg-type]
+                          [v.speed_mps for v in problem.vehicles], [0.0] * k,
+                          np.asarray(problem.service_s), problem.travel.window_s[1], problem.land)
     return Instance(
         dist_m=problem.dist_m,
-        travel_s=problem.travel_s,
+        travel_s=travel_s,
+        clock=clock,
         service_s=np.asarray(problem.service_s, dtype=float),
         budget_s=np.array([v.battery_s for v in problem.vehicles]),
         start=np.array([problem.start_node(v) for v in range(k)]),

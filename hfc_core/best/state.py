@@ -31,8 +31,8 @@ class State:
         for v, route in enumerate(self.routes):
             self.owner[route] = v
         self._nodes = [self._terminals(v) for v in range(k)]
-        self.travel_s = [self._travel(v) for v in range(k)]
         self.service_s = [self._service(v) for v in range(k)]
+        self.travel_s = [self._travel(v) for v in range(k)]
         self.ins_s = np.zeros((k, n))
         self.ins_pos = np.zeros((k, n), dtype=np.int64)
         self.stale = np.ones(k, dtype=bool)
@@ -61,6 +61,8 @@ class State:
 
     def _travel(self, v: int) -> float:
         nodes = self.nodes(v)
+        if self.inst.clock is not None:  # as flown through the tide, less the injections
+            return self.inst.clock.route_time_s(v, nodes) - self.service_s[v]
         return float(self.inst.travel_s[v][nodes[:-1], nodes[1:]].sum())
 
     def _service(self, v: int) -> float:
@@ -69,8 +71,8 @@ class State:
 
     def _changed(self, v: int) -> None:
         self._nodes[v] = self._terminals(v)
-        self.travel_s[v] = self._travel(v)
         self.service_s[v] = self._service(v)
+        self.travel_s[v] = self._travel(v)
         self.stale[v] = True
 
     def time_s(self, v: int) -> float:
