@@ -19,6 +19,7 @@ BENCHMARKS: list[tuple[str, list[str]]] = [
     ("benchmarks.top_bench", ["--jobs", "2"]),
     ("benchmarks.paper_best", ["--jobs", "2"]),
     ("benchmarks.planner_speed", []),
+    ("benchmarks.channel_physics", []),
     ("benchmarks.relay_bench", []),
     ("benchmarks.fleet_mission", []),
     ("benchmarks.fleet_loss", []),

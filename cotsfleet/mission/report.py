@@ -135,7 +135,7 @@ def format_report(report: Mapping[str, Any]) -> str:
         delays = ", ".join(f"{vid} {'-' if d is None else f'{d:.0f} s'}" for vid, d in row.items())
         lines.append(f"detection of {gone}: {delays}")
     link = m["link"]
-    drops = {k: link.get(k, 0) for k in ("partition", "range", "half_duplex", "collision",
+    drops = {k: link.get(k, 0) for k in ("partition", "range", "sinr", "half_duplex", "collision",
                                           "random", "superseded", "oversize") if link.get(k)}
     lines.append(f"radio: {m['frames_sent']} frames, {m['bytes_sent']} bytes "
                  f"({m['bytes_per_vehicle_minute']:.0f} B/vehicle/min), largest "

@@ -23,7 +23,7 @@ from fleet_bus.telemetry import Truth
 pytestmark = pytest.mark.integration
 
 WARP = 20.0
-POSITIONS = {"a": (0.0, 0.0, 0.0), "b": (1500.0, 0.0, 0.0), "c": (0.0, 3500.0, 0.0)}
+POSITIONS = {"a": (0.0, 0.0, 0.0), "b": (1500.0, 0.0, 0.0), "c": (0.0, 6000.0, 0.0)}
 
 
 class Inbox:

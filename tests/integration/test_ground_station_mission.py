@@ -59,7 +59,8 @@ def test_acoustic_traffic_matches_the_relay_counters(mission):
     link = report["messages"]["link"]
     assert last(ents, "/series/fleet/messages/delivered") == link["delivered"]
     assert last(ents, "/series/fleet/bytes/delivered") == link["bytes"]
-    for reason in ("range", "random", "collision", "half_duplex", "oversize", "partition"):
+    for reason in ("range", "sinr", "random", "collision", "half_duplex", "oversize",
+                   "partition"):
         path = f"/series/fleet/drops/{reason}"
         assert (last(ents, path) if path in ents else 0) == link[reason]
     assert any(p.startswith("/map/links/") for p in ents)
