@@ -38,6 +38,7 @@ class SearchParams:
     segment: int = 50  # iterations between weight updates
     restart: int = 300  # iterations without a better plan before a run ends
     explore: float = 0.7  # share of the budget in which a run ending starts a fresh one
+    relocate: bool = False  # replace moves may move the task they take out to another route
 
     def __post_init__(self) -> None:
         if self.ruin_max < 1:
@@ -72,15 +73,17 @@ def shorten(state: State, vehicles: list[int]) -> bool:
     return shorter
 
 
-def recreate(state: State, before: State, rng: np.random.Generator, noise: float) -> State:
+def recreate(state: State, before: State, rng: np.random.Generator, noise: float,
+             relocate: bool = False) -> State:
     """Greedy insertion (random criterion, noisy values), then `local_search`."""
     exponent = EXPONENTS[int(rng.integers(len(EXPONENTS)))]
     fill(state, rng, exponent=exponent, noise=noise)
-    return local_search(state, before, rng, exponent)
+    return local_search(state, before, rng, exponent, relocate=relocate)
 
 
 def local_search(
-    state: State, before: State, rng: np.random.Generator, exponent: float = 1.0, rounds: int = 3
+    state: State, before: State, rng: np.random.Generator, exponent: float = 1.0, rounds: int = 3,
+    relocate: bool = False,
 ) -> State:
     """Shorten the routes that differ from ``before``, swap in richer tasks, insert into the
     time that frees; repeat on what changed while anything changes."""
@@ -89,7 +92,7 @@ def local_search(
     for _ in range(rounds):
         shorter = shorten(state, changed)
         snapshot = [list(r) for r in state.routes]
-        if not (replace_improve(state) or shorter):
+        if not (replace_improve(state, relocate=relocate) or shorter):
             break
         fill(state, rng, exponent=exponent)
         changed = [v for v in range(k) if state.routes[v] != snapshot[v]]
@@ -158,7 +161,7 @@ def search(
         routed = int((current.owner >= 0).sum())
         size = int(rng.integers(1, max(1, min(params.ruin_max, params.ruin_share * routed)) + 1))
         destroyed = RUIN_OPERATORS[op](current.copy(), rng, size)
-        candidate = recreate(destroyed, current, rng, params.noise_levels[level])
+        candidate = recreate(destroyed, current, rng, params.noise_levels[level], params.relocate)
         cand_obj = candidate.objective(tie)
         spent = progress(stop, iteration)
         iteration, stale = iteration + 1, stale + 1

@@ -4,6 +4,11 @@ For every routed task and every unrouted task the new mission time is the route'
 without the routed task plus the unrouted task's insertion, either into the gap the removed
 task leaves or at its cached cheapest position when that position is not next to the removed
 task (then the cost is exact). All routes are evaluated in one numpy shot.
+
+With ``relocate``, the task taken out need not be lost: if it fits (at its cached cheapest
+position) into another route with time to spare, it moves there, and the move gains the
+unrouted task's whole value (an ejection chain of length two: room is made in a full route by
+moving one of its tasks to a route with slack).
 """
 
 from __future__ import annotations
@@ -29,9 +34,13 @@ def _pairs(state: State, cur: np.ndarray, free: np.ndarray) -> tuple[np.ndarray,
     return rows, near[rows, cols]
 
 
-def best_replaces(state: State) -> list[tuple[float, int, int, int, int]]:
+Move = tuple[float, int, int, int, int, int, int]
+
+
+def best_replaces(state: State, relocate: bool = False) -> list[Move]:
     """Each route's best move as (gain, vehicle, route index, task, insert index after the
-    removal), richest gain first; empty if no route has one."""
+    removal, route the removed task moves to or -1, its position there), richest gain first;
+    empty if no route has one."""
     inst = state.inst
     free = np.flatnonzero(state.owner < 0)
     if not len(free) or not any(state.routes):
@@ -61,6 +70,18 @@ def best_replaces(state: State) -> list[tuple[float, int, int, int, int]]:
     times = np.array([state.time_s(v) for v in range(inst.k)])
     new_time = times[veh] - saving_s + np.minimum(gap_s, elsewhere_s) + inst.service_s[w]
     gain = inst.value[veh, w] - inst.value[veh, u]
+    dest = np.full(len(u), -1, dtype=np.int64)
+    if relocate and inst.k > 1:
+        room = np.array([state.slack_s(v) for v in range(inst.k)])
+        owner = np.repeat(np.arange(inst.k), lengths)
+        fit_into = (state.ins_s[:, cur] + inst.service_s[cur] <= room[:, None])
+        fit_into &= inst.allowed[:, cur]
+        fit_into[owner, np.arange(len(cur))] = False  # elsewhere, not its own route
+        kept = np.where(fit_into, inst.value[:, cur], -np.inf)
+        where, worth = kept.argmax(axis=0), kept.max(axis=0)
+        moves_on = worth[row] > 0
+        gain = np.where(moves_on, gain + worth[row], gain)
+        dest = np.where(moves_on, where[row], -1)
     ok = (gain > 0) & fits(new_time, inst.budget_s[veh]) & inst.allowed[veh, w]
     if not ok.any():
         return []
@@ -72,23 +93,28 @@ def best_replaces(state: State) -> list[tuple[float, int, int, int, int]]:
     for p in firsts:
         i = int(idx[p])
         at = i if use_gap[p] else int(pos[p]) - (1 if pos[p] > i else 0)
-        moves.append((float(gain[p]), int(veh[p]), i, int(w[p]), at))
+        d = int(dest[p])
+        moves.append((float(gain[p]), int(veh[p]), i, int(w[p]), at, d,
+                      int(state.ins_pos[d, u[p]]) if d >= 0 else -1))
     return sorted(moves, key=lambda m: (-m[0], m[1]))
 
 
-def replace_improve(state: State, max_rounds: int = 1000) -> bool:
+def replace_improve(state: State, max_rounds: int = 1000, relocate: bool = False) -> bool:
     """Apply replace moves until none improves; True if any was applied. Each round applies
-    the best move of every route whose incoming task no richer move has taken (moves in
-    different routes are independent)."""
+    the best move of every route whose incoming task no richer move has taken and whose
+    routes no earlier move of the round has changed (moves in different routes are
+    independent)."""
     applied_any = False
     for _ in range(max_rounds):
         applied = False
         taken: set[int] = set()
-        for _, v, i, task, at in best_replaces(state):
-            if task in taken:
+        touched: set[int] = set()
+        for _, v, i, task, at, dest, dest_at in best_replaces(state, relocate):
+            if task in taken or v in touched or dest in touched:
                 continue
             taken.add(task)
             before = state.routes[v]
+            out = before[i]
             route = list(before)
             route.pop(i)
             route.insert(at, task)
@@ -96,6 +122,14 @@ def replace_improve(state: State, max_rounds: int = 1000) -> bool:
             if not state.fits(v):  # the estimate fitted, the route's own sum does not: undo
                 state.set_route(v, before)
                 continue
+            touched.add(v)
+            if dest >= 0:
+                state.insert(dest, out, dest_at)
+                touched.add(dest)
+                if not state.fits(dest):
+                    state.remove([out])
+                    state.set_route(v, before)
+                    continue
             applied = True
         if not applied:
             break
