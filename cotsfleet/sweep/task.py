@@ -1,0 +1,31 @@
+"""One run of a sweep, the function every executor calls (in this process, in a worker
+process, on a Dask worker): a pure function of (spec, seed) but for its wall time."""
+
+from __future__ import annotations
+
+import traceback
+from typing import Any
+
+from cotsfleet.sweep.spec import SweepSpec
+
+TRACEBACK_CHARS = 4000  # enough for the innermost frames; a sweep's JSON must stay readable
+
+# Fields of a run's result that depend on the machine, not on the seed: kept in the JSON,
+# left out of anything compared or summarised (`cotsfleet.sweep.aggregate.comparable`).
+MACHINE_FIELDS = ("wall_s", "traceback")
+
+
+def run_seed(spec: SweepSpec, seed: int) -> dict[str, Any]:
+    """The report of ``seed``'s mission with its ``wall_s``, or, if anything in the run
+    raised, ``{"seed": seed, "error": repr(exc), "traceback": ...}``: one failed run is a row
+    of the sweep, never its end."""
+    try:
+        from cotsfleet.mission.inprocess import simulate
+        from cotsfleet.sweep.spec import build_mission
+
+        m = build_mission(spec, seed)
+        result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults)
+    except Exception as exc:  # noqa: BLE001 - whatever a run raises is that run's result
+        text = "".join(traceback.format_exception(exc))
+        return {"seed": seed, "error": repr(exc), "traceback": text[-TRACEBACK_CHARS:]}
+    return {**result.report, "wall_s": round(result.wall_s, 3)}

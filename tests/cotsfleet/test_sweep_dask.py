@@ -1,0 +1,113 @@
+"""Sweeps through Dask (`--scheduler`): a local cluster gives the aggregate of `--jobs 1`, a
+named cluster is used and left running, Ctrl-C leaves no process behind."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+from cotsfleet.cli import main
+from cotsfleet.sweep.aggregate import comparable
+
+pytest.importorskip("distributed")
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as fh:
+            return fh.read().replace(b"\0", b" ").decode(errors="replace")
+    except OSError:
+        return ""
+
+
+def descendants(pid: int) -> set[int]:
+    """Running processes below ``pid`` (zombies have ended), but multiprocessing's resource
+    tracker: one per interpreter, started on first use of a spawn context (here by Dask),
+    ending with the interpreter; it runs no work."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open(f"/proc/{entry}/stat") as fh:
+                    fields = fh.read().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if fields[0] != "Z" and "resource_tracker" not in _cmdline(int(entry)):
+                children.setdefault(int(fields[1]), []).append(int(entry))
+    out, todo = set(), [pid]
+    while todo:
+        for child in children.get(todo.pop(), []):
+            out.add(child)
+            todo.append(child)
+    return out
+
+
+@pytest.fixture(scope="module")
+def scenario(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("dask") / "small.json"
+    assert main(["scenario", "--tasks", "12", "--vehicles", "2", "--size", "400",
+                 "--battery-s", "900", "-o", str(path)]) == 0
+    return path
+
+
+def sweep(scenario: Path, out: Path, *extra: str) -> int:
+    return main(["sim", "--scenario", str(scenario), "--runs", "4", "--seed", "2", "--kill",
+                 "auv2@300", "--loss", "0.1", "--out", str(out), *extra])
+
+
+def test_a_local_cluster_gives_the_aggregate_of_one_process(scenario: Path, tmp_path: Path,
+                                                           capsys: pytest.CaptureFixture) -> None:
+    before = descendants(os.getpid())
+    assert sweep(scenario, tmp_path / "dask", "--scheduler", "--jobs", "2") == 0
+    assert descendants(os.getpid()) - before == set()  # the cluster went with the sweep
+    assert sweep(scenario, tmp_path / "one") == 0
+    out = capsys.readouterr().out
+    assert "on a local Dask cluster (2 workers)" in out and "on this process" in out
+    for name in ("sweep.md", "sweep.csv"):
+        assert (tmp_path / "dask" / name).read_text() == (tmp_path / "one" / name).read_text()
+    dask = json.loads((tmp_path / "dask" / "runs.json").read_text())
+    one = json.loads((tmp_path / "one" / "runs.json").read_text())
+    assert [r["seed"] for r in dask] == [2, 3, 4, 5]
+    assert [comparable(r) for r in dask] == [comparable(r) for r in one]
+    assert all("error" not in r and r["oracle"]["vid"] == "auv2" for r in dask)
+
+
+def test_a_named_cluster_runs_the_sweep_and_stays(scenario: Path, tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture) -> None:
+    from distributed import Client, LocalCluster
+
+    # A cluster of its own (threads: quick to start); the sweep only knows its address.
+    with LocalCluster(n_workers=1, processes=False, threads_per_worker=1,
+                      dashboard_address=None) as cluster:
+        assert sweep(scenario, tmp_path / "named", "--scheduler", cluster.scheduler_address,
+                     "--jobs", "3") == 0
+        with Client(cluster) as client:
+            assert len(client.scheduler_info()["workers"]) == 1  # still there, still ours
+            assert client.who_has() == {}  # the sweep took its results and left nothing
+    captured = capsys.readouterr()
+    assert f"on Dask at {cluster.scheduler_address} (1 worker)" in captured.out
+    assert "--jobs sizes a local pool" in captured.err
+    runs = json.loads((tmp_path / "named" / "runs.json").read_text())
+    assert [r["seed"] for r in runs] == [2, 3, 4, 5] and not any("error" in r for r in runs)
+
+
+def test_an_unreachable_scheduler_is_one_line(monkeypatch: pytest.MonkeyPatch,
+                                              capsys: pytest.CaptureFixture) -> None:
+    import cotsfleet.sweep.cluster as cluster
+
+    monkeypatch.setattr(cluster, "CONNECT_TIMEOUT_S", 1.0)
+    assert main(["sim", "--runs", "2", "--scheduler", "tcp://127.0.0.1:9"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1].startswith("cotsfleet sim: error: cannot reach the Dask scheduler at "
+                              "tcp://127.0.0.1:9")
+
+
+def test_ctrl_c_stops_the_local_cluster(scenario: Path, tmp_path: Path) -> None:
+    from tests.cotsfleet.test_sweep_processes import run_and_stop
+
+    run_and_stop(scenario, tmp_path / "out", "ctrl-c", "--scheduler")
