@@ -14,7 +14,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cotsfleet.cli import UsageError
-from hfc_core.generate import PAPER_PRESET, GeneratorParams, generate_doc
+from hfc_core.generate import (PAPER_PRESET, AreaParams, GeneratorParams, generate_area_doc,
+                                generate_doc, out_of_reach)
 from hfc_core.problem import ScenarioError
 from hfc_core.scenario import problem_from_dict
 
@@ -24,7 +25,9 @@ if TYPE_CHECKING:
 HELP = ("make a COTS scenario: drawn from the eq. 1 probability map, or from your own reef "
         "in GeoJSON (--from-geojson)")
 # Flags of the generator that mean nothing for a reef read from a file.
-GENERATOR_ONLY = ("paper", "tasks", "size", "centres", "land_forbidden")
+GENERATOR_ONLY = ("paper", "tasks", "size", "area_m", "centres", "land_forbidden")
+# Flags of the eq. 1 field generator that mean nothing for a large area (--area-m).
+FIELD_ONLY = ("paper", "size", "land_forbidden")
 GEOJSON_ONLY = ("detect_radius_m", "p_detect", "inspect_s", "simplify_m")
 
 
@@ -32,12 +35,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--paper", action="store_true",
                         help="the paper's preset: 90 spots, 1 km x 1 km, 3 AUVs, 3600 s, 1 m/s, "
                              "90 s injections, one small cluster (flags below override it)")
-    parser.add_argument("--tasks", type=int, help="number of COTS spots (default 90)")
+    parser.add_argument("--tasks", "--spots", dest="tasks", type=int,
+                        help="number of COTS spots (default 90)")
     parser.add_argument("--vehicles", type=int,
                         help="number of AUVs (default 3; from a reef with several start "
                              "points, one per start point)")
     parser.add_argument("--size", type=float, metavar="M",
-                        help="side of the square field in metres")
+                        help="side of the square field in metres, with one eq. 1 map over "
+                             "the whole field (default 1000; for a few centres: many centres "
+                             "over kilometres blur into one blob, use --area-m)")
+    parser.add_argument("--area-m", type=float, metavar="M",
+                        help="a large square area of this side (a few km): compact COTS "
+                             "aggregations (--centres, default one per AUV) spread over it, "
+                             "each as dense as the paper's, and one station (start and "
+                             "rendezvous) at its centre")
     parser.add_argument("--battery-s", "--battery", dest="battery", type=float, metavar="S",
                         help="battery time budget per AUV, s (default 3600)")
     parser.add_argument("--speed-mps", "--speed", dest="speed", type=float, metavar="MPS",
@@ -47,8 +58,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "with --seed, eq. 2; with --from-geojson only for spots whose "
                              "feature has no service_s)")
     parser.add_argument("--centres", type=int, metavar="N",
-                        help="number of random COTS centres (default: one per AUV; "
-                             "not with --paper)")
+                        help="number of random COTS centres, or aggregations with --area-m "
+                             "(default: one per AUV; not with --paper)")
     parser.add_argument("--land-forbidden", action="store_true",
                         help="also write land polygons as the scenario's 'forbidden' areas")
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
@@ -93,6 +104,50 @@ def params_from_args(args: argparse.Namespace) -> GeneratorParams:
         return replace(base, **changes)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+
+
+def area_params_from_args(args: argparse.Namespace) -> AreaParams:
+    """The large-area generator's parameters (``--area-m``; raises `UsageError`)."""
+    given = [f"--{k.replace('_', '-')}" for k in FIELD_ONLY if getattr(args, k)]
+    if given:
+        raise UsageError(f"{', '.join(given)}: not with --area-m (a large area has its own "
+                         "layout; --size is the eq. 1 field's side)")
+    changes: dict[str, object] = {}
+    for flag, name in (("tasks", "n_tasks"), ("vehicles", "n_vehicles"), ("area_m", "area_m"),
+                       ("battery", "battery_s"), ("speed", "speed_mps"), ("service", "service_s"),
+                       ("centres", "n_clusters"), ("name", "name")):
+        value = getattr(args, flag)
+        if value is None:
+            continue
+        if isinstance(value, float) and not math.isfinite(value):
+            raise UsageError(f"--{flag.replace('_', '-')} must be finite, got {value}")
+        changes[name] = value
+    try:
+        return AreaParams(**changes)  # type: ignore[arg-type]
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def area_scenario(args: argparse.Namespace) -> tuple[dict, str]:
+    """The document of ``--area-m`` and the line that says what was written."""
+    params = area_params_from_args(args)
+    try:
+        doc = generate_area_doc(params, np.random.default_rng(args.seed))
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if not args.name:
+        doc["name"] = (f"area{params.area_m:g}m-{params.n_vehicles}auv-{params.n_tasks}spots-"
+                       f"seed{args.seed}")
+    problem_from_dict(doc)  # a generated document must load: fail here, not in `plan`
+    x, y, _ = params.station_point
+    line = (f"{len(doc['tasks'])} spots in {params.n_clusters or params.n_vehicles} "
+            f"aggregations, {params.n_vehicles} AUVs, {params.area_m:g} m area, station at "
+            f"({x:g}, {y:g}), battery {params.battery_s:g} s, seed {args.seed}")
+    far = out_of_reach(doc)
+    if far:
+        line += (f"\nnote: {far} spot(s) lie beyond a round trip of the battery from the "
+                 "station: no vehicle can treat them (a longer --battery-s, or a smaller area)")
+    return doc, line
 
 
 def reef_options(args: argparse.Namespace) -> "ReefOptions":
@@ -178,6 +233,11 @@ def run(args: argparse.Namespace) -> int:
     given = [f"--{k.replace('_', '-')}" for k in GEOJSON_ONLY if getattr(args, k) is not None]
     if given:
         raise UsageError(f"{', '.join(given)}: only with --from-geojson")
+    if args.area_m is not None:
+        doc, line = area_scenario(args)
+        if write_doc(doc, args.output):
+            print(f"wrote {args.output}: {line}")
+        return 0
     params = params_from_args(args)
     try:
         doc = generate_doc(params, np.random.default_rng(args.seed))

@@ -62,3 +62,123 @@ def test_written_scenarios_fit_the_schema(tmp_path):
     out = tmp_path / "s.json"
     assert main(["scenario", "--tasks", "30", "--land-forbidden", "-o", str(out)]) == 0
     validate(json.loads(out.read_text()), "scenario")
+
+
+# -- large areas (--area-m): compact aggregations over kilometres -------------------------------
+
+
+def _xy(doc):
+    import numpy as np
+
+    return np.array([t["pos"][:2] for t in doc["tasks"]], dtype=float)
+
+
+def _groups(xy, link_m=50.0):
+    """Sizes of the groups of spots chained by gaps of at most ``link_m``."""
+    import numpy as np
+    from scipy.cluster.hierarchy import fcluster, linkage
+
+    return np.bincount(fcluster(linkage(xy, "single"), link_m, "distance"))[1:]
+
+
+def _median_5nn_m(xy):
+    import numpy as np
+    from scipy.spatial import cKDTree
+
+    return float(np.median(cKDTree(xy).query(xy, 6)[0][:, 5]))
+
+
+def test_large_area_scenario_of_the_issue(tmp_path, capsys):
+    from cotsfleet.schemas import validate
+
+    out = tmp_path / "area.json"
+    assert main(["scenario", "--vehicles", "24", "--spots", "600", "--area-m", "3000",
+                 "--battery-s", "7200", "--seed", "1", "-o", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert "600 spots in 24 aggregations" in said and "note:" not in said  # all reachable
+    doc = json.loads(out.read_text())
+    validate(doc, "scenario")
+    p = problem_from_dict(doc)
+    assert p.n_tasks == 600 and p.n_vehicles == 24
+    assert {(v.start, v.rendezvous, v.battery_s) for v in p.vehicles} == {
+        ((1500.0, 1500.0, 0.0), (1500.0, 1500.0, 0.0), 7200.0)}  # one station, the centre
+    xy = _xy(doc)
+    assert xy.min() >= 0 and xy.max() <= 3000
+    assert xy.min(axis=0).max() < 600 and xy.max(axis=0).min() > 2400  # spread over the area
+    groups = _groups(xy)
+    assert 20 <= (groups >= 10).sum() <= 24  # separate aggregations, not one blob
+    assert groups[groups >= 10].sum() >= 0.9 * 600
+    assert _median_5nn_m(xy) < 50  # as dense as the paper's (30 spots within r = 32-40 m)
+
+
+def test_large_area_keeps_clusters_where_the_field_generator_blurs_them(tmp_path):
+    """The reason for a second generator: eq. 1's 1/d tails of 24 centres over 3 km add up to
+    one broad blob (`--size`), the mixture of aggregations does not (`--area-m`)."""
+    a, f = tmp_path / "a.json", tmp_path / "f.json"
+    common = ["--vehicles", "24", "--spots", "600", "--seed", "0"]
+    assert main(["scenario", *common, "--area-m", "3000", "-o", str(a)]) == 0
+    assert main(["scenario", *common, "--size", "3000", "-o", str(f)]) == 0
+    area, field = _xy(json.loads(a.read_text())), _xy(json.loads(f.read_text()))
+    assert _median_5nn_m(area) < 0.6 * _median_5nn_m(field)
+    in_aggregations = [g[g >= 10].sum() / 600 for g in (_groups(area), _groups(field))]
+    assert in_aggregations[0] > 0.9 and in_aggregations[1] < 0.5
+
+
+def test_spots_and_tasks_are_the_same_flag(tmp_path):
+    for extra in ([], ["--area-m", "2500"]):
+        a, b = tmp_path / "a.json", tmp_path / "b.json"
+        assert main(["scenario", "--tasks", "40", *extra, "-o", str(a)]) == 0
+        assert main(["scenario", "--spots", "40", *extra, "-o", str(b)]) == 0
+        assert a.read_text() == b.read_text() and len(json.loads(a.read_text())["tasks"]) == 40
+
+
+def test_large_area_is_seeded(tmp_path):
+    files = [tmp_path / f"{i}.json" for i in range(3)]
+    for path, seed in zip(files, ("4", "4", "5")):
+        assert main(["scenario", "--area-m", "4000", "--spots", "120", "--vehicles", "6",
+                     "--centres", "9", "--service-s", "70", "--speed-mps", "1.5",
+                     "--seed", seed, "-o", str(path)]) == 0
+    assert files[0].read_text() == files[1].read_text() != files[2].read_text()
+    doc = json.loads(files[0].read_text())
+    assert (_groups(_xy(doc)) >= 5).sum() <= 9 and doc["speed_mps"] == 1.5
+    assert {t["service_s"] for t in doc["tasks"]} == {70.0}
+    assert doc["name"] == "area4000m-6auv-120spots-seed4"
+
+
+def test_out_of_reach_spots_are_counted_as_the_planner_sees_them(tmp_path, capsys):
+    out = tmp_path / "far.json"
+    assert main(["scenario", "--area-m", "6000", "--spots", "200", "--vehicles", "4",
+                 "--battery-s", "3600", "-o", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    p = problem_from_dict(doc)
+    alone = [p.route_time_s(0, [i]) for i in range(p.n_tasks)]  # station, spot, station
+    far = sum(t > p.vehicles[0].battery_s for t in alone)
+    assert 0 < far < 200
+    assert f"note: {far} spot(s) lie beyond a round trip" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv", [
+    ["--area-m", "3000", "--paper"], ["--area-m", "3000", "--size", "900"],
+    ["--area-m", "3000", "--land-forbidden"], ["--area-m", "0"], ["--area-m", "nan"],
+    ["--area-m", "3000", "--centres", "0"], ["--area-m", "3000", "--spots", "-1"],
+    ["--area-m", "3000", "--battery-s", "-1"], ["--area-m", "3000", "--service-s", "-5"],
+    ["--area-m", "3000", "--from-geojson", "reef.geojson"],
+])
+def test_bad_large_area_flags_exit_2_with_one_line(argv, capsys):
+    assert main(["scenario", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cotsfleet scenario: error:") and "\n" not in err
+
+
+def test_a_large_area_mission_plans_and_flies(tmp_path, assert_feasible):
+    from cotsfleet.mission.inprocess import simulate
+    from hfc_core.solve import solve
+
+    out = tmp_path / "area.json"
+    assert main(["scenario", "--vehicles", "5", "--spots", "60", "--area-m", "2000",
+                 "--battery-s", "3600", "--seed", "3", "-o", str(out)]) == 0
+    p = problem_from_dict(json.loads(out.read_text()))
+    solve(p, "best", max_iterations=30, seed=0)  # checked feasible by the autouse fixture
+    report = simulate(p, seed=3).report
+    assert report["fleet"]["spots_cleared"] > 0 and report["fleet"]["duplicate_treatments"] == 0
+    assert report["fleet"]["vehicles_home"] == 5
