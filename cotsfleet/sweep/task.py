@@ -3,6 +3,7 @@ process, on a Dask worker): a pure function of (spec, seed) but for its wall tim
 
 from __future__ import annotations
 
+import time
 import traceback
 from typing import Any
 
@@ -12,13 +13,15 @@ TRACEBACK_CHARS = 4000  # enough for the innermost frames; a sweep's JSON must s
 
 # Fields of a run's result that depend on the machine, not on the seed: kept in the JSON,
 # left out of anything compared or summarised (`cotsfleet.sweep.aggregate.comparable`).
-MACHINE_FIELDS = ("wall_s", "traceback")
+MACHINE_FIELDS = ("wall_s", "run_s", "traceback")
 
 
 def run_seed(spec: SweepSpec, seed: int) -> dict[str, Any]:
-    """The report of ``seed``'s mission with its ``wall_s``, or, if anything in the run
-    raised, ``{"seed": seed, "error": repr(exc), "traceback": ...}``: one failed run is a row
-    of the sweep, never its end."""
+    """The report of ``seed``'s mission with its ``wall_s`` (the mission, as a single `sim`
+    reports it) and ``run_s`` (the whole run: scenario, every agent's initial plan, mission),
+    or, if anything in the run raised, ``{"seed": seed, "error": repr(exc), "traceback": ...,
+    "run_s": ...}``: one failed run is a row of the sweep, never its end."""
+    t0 = time.perf_counter()
     try:
         from cotsfleet.mission.inprocess import simulate
         from cotsfleet.sweep.spec import build_mission
@@ -27,5 +30,7 @@ def run_seed(spec: SweepSpec, seed: int) -> dict[str, Any]:
         result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults)
     except Exception as exc:  # noqa: BLE001 - whatever a run raises is that run's result
         text = "".join(traceback.format_exception(exc))
-        return {"seed": seed, "error": repr(exc), "traceback": text[-TRACEBACK_CHARS:]}
-    return {**result.report, "wall_s": round(result.wall_s, 3)}
+        return {"seed": seed, "error": repr(exc), "traceback": text[-TRACEBACK_CHARS:],
+                "run_s": round(time.perf_counter() - t0, 3)}
+    return {**result.report, "wall_s": round(result.wall_s, 3),
+            "run_s": round(time.perf_counter() - t0, 3)}
