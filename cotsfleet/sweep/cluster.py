@@ -62,10 +62,16 @@ class DaskPool:
             raise UsageError(f"--scheduler needs Dask's distributed: {INSTALL_HINT}") from None
         try:
             if self.address is None:
-                self._cluster = LocalCluster(
-                    n_workers=self.jobs or os.cpu_count() or 1, threads_per_worker=1,
-                    processes=True, dashboard_address=None, silence_logs=logging.ERROR,
-                    preload=["cotsfleet.sweep.dask_worker"])
+                import dask
+
+                # One task per worker at a time (no second one queued on it): runs take
+                # seconds, so nothing is lost, and a worker that dies takes down only the
+                # seed it was running, as in `LocalPool`.
+                with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+                    self._cluster = LocalCluster(
+                        n_workers=self.jobs or os.cpu_count() or 1, threads_per_worker=1,
+                        processes=True, dashboard_address=None, silence_logs=logging.ERROR,
+                        preload=["cotsfleet.sweep.dask_worker"])
                 self._client = Client(self._cluster)
             else:
                 self._client = self._connect(Client)
@@ -107,8 +113,11 @@ class DaskPool:
         client = self._client
         shared = client.scatter(spec, broadcast=True, hash=False)
         token = uuid.uuid4().hex[:8]  # keys unique to this sweep on a shared scheduler
-        seed_of = {client.submit(run_seed, shared, seed, key=f"cotsfleet-sim-{token}-{seed}",
-                                 pure=False): seed for seed in seeds}
+        # One graph for every seed: the scheduler then sees the whole group at once and queues
+        # it, handing a worker a seed when it has a thread free (see `__enter__`).
+        futures = client.map(run_seed, [shared] * len(seeds), list(seeds),
+                             key=[f"cotsfleet-sim-{token}-{seed}" for seed in seeds], pure=False)
+        seed_of = dict(zip(futures, seeds))
         self._futures = [*seed_of, shared]
         for future in as_completed(list(seed_of)):
             seed = seed_of[future]

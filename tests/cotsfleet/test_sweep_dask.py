@@ -56,6 +56,7 @@ def scenario(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def sweep(scenario: Path, out: Path, *extra: str) -> int:
+    """Seeds 2-5 of the small scenario (``extra`` may ask for more runs: the last wins)."""
     return main(["sim", "--scenario", str(scenario), "--runs", "4", "--seed", "2", "--kill",
                  "auv2@300", "--loss", "0.1", "--out", str(out), *extra])
 
@@ -111,3 +112,39 @@ def test_ctrl_c_stops_the_local_cluster(scenario: Path, tmp_path: Path) -> None:
     from tests.cotsfleet.test_sweep_processes import run_and_stop
 
     run_and_stop(scenario, tmp_path / "out", "ctrl-c", "--scheduler")
+
+
+def run_or_die(spec, seed):
+    """A run whose seed 3 kills its Dask worker (as the OOM killer would). Workers import
+    this from here by name: it must live at module level."""
+    import signal
+
+    from cotsfleet.sweep.task import run_seed
+
+    if seed == 3:
+        os.kill(os.getpid(), signal.SIGKILL)
+    return run_seed(spec, seed)
+
+
+def test_a_seed_that_kills_its_worker_is_a_row_and_the_sweep_goes_on(
+        scenario: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture) -> None:
+    import dask
+
+    import cotsfleet.sweep.cluster as cluster
+
+    monkeypatch.setattr(cluster, "run_seed", run_or_die)
+    before = descendants(os.getpid())
+    # Dask reschedules a task whose worker died; after this many deaths it gives up on it
+    # (default 3: a seed that kills every worker it meets costs 4 worker restarts). With
+    # more seeds than twice the workers, Dask queues them and hands each worker one at a time
+    # (worker-saturation 1.0, set by the sweep), so the death is charged to seed 3 alone.
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        assert sweep(scenario, tmp_path / "out", "--scheduler", "--jobs", "2",
+                     "--runs", "8") == 1
+    assert descendants(os.getpid()) - before == set()
+    runs = json.loads((tmp_path / "out" / "runs.json").read_text())
+    assert [r["seed"] for r in runs] == list(range(2, 10))
+    assert "KilledWorker" in runs[1]["error"] and "fleet" not in runs[1]
+    assert all("error" not in r for r in (runs[0], *runs[2:]))
+    assert "failed: 1 of 8 run(s): seed 3" in capsys.readouterr().out
