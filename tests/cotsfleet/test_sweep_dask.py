@@ -148,3 +148,19 @@ def test_a_seed_that_kills_its_worker_is_a_row_and_the_sweep_goes_on(
     assert "KilledWorker" in runs[1]["error"] and "fleet" not in runs[1]
     assert all("error" not in r for r in (runs[0], *runs[2:]))
     assert "failed: 1 of 8 run(s): seed 3" in capsys.readouterr().out
+
+
+def test_a_killed_sweep_leaves_no_local_cluster_behind(scenario: Path, tmp_path: Path) -> None:
+    """SIGKILL: the sweep cannot close its cluster; the workers must end on their own."""
+    from tests.cotsfleet.test_sweep_processes import start_sweep, wait_for_runs, wait_gone
+
+    proc = start_sweep(scenario, tmp_path / "out", "--scheduler")
+    try:
+        wait_for_runs(proc, 1)
+        proc.kill()
+        proc.wait()
+    finally:
+        left = wait_gone(proc.pid, timeout_s=30.0)
+        for line in left:
+            os.kill(int(line.split()[0]), 9)
+    assert left == []
