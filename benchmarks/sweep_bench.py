@@ -120,7 +120,7 @@ def thousand_runs(tmp: Path, runs: int) -> str:
             f"no fault, on {r['where']}. Cluster efficiency: the runs' own wall times summed, "
             "over 2 workers x the sweep's wall time (1.00: no time lost to start-up, "
             "scheduling or transfers); a run's time (`run_s` in runs.json) is the whole run in "
-            "its worker: scenario, every agent's initial plan, the mission."\n\n{table}\n")
+            f"its worker: scenario, every agent's initial plan, the mission.\n\n{table}\n")
 
 
 def probe(scenario: str) -> None:

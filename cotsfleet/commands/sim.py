@@ -45,6 +45,9 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--runs must be >= 1")
     out = _out_dir(args)
     if args.runs == 1:
+        if args.jobs is not None or args.scheduler is not None:
+            print("note: one run is simulated here; --jobs and --scheduler are for sweeps "
+                  "(--runs N)", file=sys.stderr)
         m = mission_args(args)
         result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults)
         report = {**result.report, "wall_s": round(result.wall_s, 3)}
