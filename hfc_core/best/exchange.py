@@ -74,11 +74,13 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
     if relocate and inst.k > 1:
         room = np.array([state.slack_s(v) for v in range(inst.k)])
         owner = np.repeat(np.arange(inst.k), lengths)
-        fit_into = (state.ins_s[:, cur] + inst.service_s[cur] <= room[:, None])
-        fit_into &= inst.allowed[:, cur]
+        extra = state.ins_s[:, cur] + inst.service_s[cur]
+        fit_into = (extra <= room[:, None]) & inst.allowed[:, cur]
         fit_into[owner, np.arange(len(cur))] = False  # elsewhere, not its own route
         kept = np.where(fit_into, inst.value[:, cur], -np.inf)
-        where, worth = kept.argmax(axis=0), kept.max(axis=0)
+        worth = kept.max(axis=0)
+        # the richest route it fits, and of those the one it lengthens least
+        where = np.where(kept == worth[None, :], extra, np.inf).argmin(axis=0)
         moves_on = worth[row] > 0
         gain = np.where(moves_on, gain + worth[row], gain)
         dest = np.where(moves_on, where[row], -1)

@@ -149,6 +149,24 @@ def test_replace_swaps_in_a_richer_task_that_fits():
     assert state.routes == [[1]] and state.feasible()
 
 
+def test_replace_can_move_the_task_it_takes_out_to_a_route_with_slack():
+    """a holds the rich task 1 and has no room for task 3 beside it; b has room for task 1
+    but not for task 3. Plain replace would lose 50 for 10 (no move); with relocation task 1
+    moves to b and task 3 takes its place in a (an ejection chain: +10)."""
+    vehicles = [Vehicle("a", (0, 0, 0), (10, 0, 0), 15.0, 1.0),
+                Vehicle("b", (0, 10, 0), (10, 10, 0), 21.0, 1.0)]
+    tasks = [Task(1, (5, 3, 0), 50.0, 0.0), Task(2, (5, 10, 0), 1.0, 0.0),
+             Task(3, (5, -3, 0), 10.0, 0.0)]
+    problem = Problem.build("chain", vehicles, tasks)
+    inst = instance_from_problem(problem)
+    plain = State(inst, [[0], [1]])
+    assert not replace_improve(plain) and plain.routes == [[0], [1]]
+    chained = State(inst, [[0], [1]])
+    assert replace_improve(chained, relocate=True)
+    assert chained.routes[0] == [2] and sorted(chained.routes[1]) == [0, 1]
+    assert chained.feasible() and chained.value() == 61.0
+
+
 @pytest.mark.parametrize("op", RUIN_OPERATORS, ids=lambda f: f.__name__)
 def test_ruin_operators_only_unassign(op):
     problem = random_problem(60, 3, 2)
