@@ -1,0 +1,123 @@
+"""What a web viewer page is showing: its time cursor, for measuring how far behind the mission
+the dashboard is (the browser test and ``benchmarks/dashboard_bench.py``).
+
+The page served by rerun-sdk keeps its viewer handle in ``window._handle``; the handle's
+``viewer_state()`` returns the Viewer Control API's ``GetViewerStateResponse`` (protobuf,
+``rerun/v1alpha1/viewer_control.proto``): every open recording with its timelines, their time
+ranges, and its time cursor. The API is marked alpha upstream, so this reads only the few
+fields it needs, by number, and returns None for anything it does not recognise.
+"""
+
+from __future__ import annotations
+
+from typing import Iterator
+
+# Run in the page (Playwright's page.evaluate): the state as a list of byte values, or null
+# while the viewer is still loading.
+READ_STATE_JS = "() => window._handle ? Array.from(window._handle.viewer_state()) : null"
+
+# Field numbers in rerun.viewer_control.v1alpha1 (GetViewerStateResponse and what it holds).
+_RECORDINGS = 3  # GetViewerStateResponse.recordings: ViewerRecording
+_STORE_ID = 1  # ViewerRecording.store_id: "Recording:<app id>:<recording id>"
+_TIMELINES = 2  # ViewerRecording.timelines: ViewerTimeline
+_CURSOR = 3  # ViewerRecording.current_time: TimeCursor
+_TIMELINE = 1  # ViewerTimeline.timeline / TimeCursor.timeline: Timeline {name = 1}
+_RANGE = 3  # ViewerTimeline.time_range: TimeRange {min = 1, max = 2}
+_TIME = 3  # TimeCursor.time {value = 1}
+_NS = 1e-9  # duration timelines count nanoseconds
+
+
+def _varint(buf: bytes, i: int) -> tuple[int, int]:
+    value = shift = 0
+    while True:
+        byte = buf[i]
+        i += 1
+        value |= (byte & 0x7F) << shift
+        shift += 7
+        if not byte & 0x80:
+            return value, i
+
+
+def _fields(buf: bytes) -> Iterator[tuple[int, int | bytes]]:
+    """``(field number, varint or bytes)`` of one protobuf message; fixed-width fields skipped."""
+    i = 0
+    while i < len(buf):
+        key, i = _varint(buf, i)
+        number, wire = key >> 3, key & 7
+        if wire == 0:
+            value, i = _varint(buf, i)
+            yield number, value
+        elif wire == 2:
+            size, i = _varint(buf, i)
+            if i + size > len(buf):
+                raise ValueError("protobuf field runs past the end: cut short")
+            yield number, buf[i:i + size]
+            i += size
+        elif wire in (1, 5):
+            i += 8 if wire == 1 else 4
+        else:
+            raise ValueError(f"unsupported protobuf wire type {wire}")
+
+
+def _signed(value: int) -> int:
+    return value - (1 << 64) if value >= 1 << 63 else value
+
+
+def _submessage(buf: bytes, number: int) -> bytes | None:
+    for n, value in _fields(buf):
+        if n == number and isinstance(value, bytes):
+            return value
+    return None
+
+
+def _name(timeline: bytes | None) -> str | None:
+    raw = _submessage(timeline, 1) if timeline is not None else None
+    return raw.decode(errors="replace") if raw is not None else None
+
+
+def _int(buf: bytes | None, number: int) -> int | None:
+    if buf is None:
+        return None
+    for n, value in _fields(buf):
+        if n == number and isinstance(value, int):
+            return _signed(value)
+    return None
+
+
+def recording_times(state: bytes, timeline: str, application_id: str
+                    ) -> list[tuple[str, float | None, float | None]]:
+    """For each open recording of ``application_id``: ``(store id, time cursor, latest time
+    logged)`` on ``timeline``, in seconds (None where the viewer has none yet)."""
+    out = []
+    try:
+        for number, rec in _fields(bytes(state)):
+            if number != _RECORDINGS or not isinstance(rec, bytes):
+                continue
+            store = (_submessage(rec, _STORE_ID) or b"").decode(errors="replace")
+            if store.split(":")[:2] != ["Recording", application_id]:
+                continue
+            cursor = latest = None
+            for n, value in _fields(rec):
+                if n == _TIMELINES and isinstance(value, bytes) and \
+                        _name(_submessage(value, _TIMELINE)) == timeline:
+                    # an absent max is protobuf's default, 0
+                    latest = (_int(_submessage(value, _RANGE), 2) or 0) * _NS
+                if n == _CURSOR and isinstance(value, bytes) and \
+                        _name(_submessage(value, _TIMELINE)) == timeline:
+                    cursor_ns = _int(_submessage(value, _TIME), 1)
+                    cursor = None if cursor_ns is None else cursor_ns * _NS
+            out.append((store, cursor, latest))
+    except (IndexError, ValueError):
+        return []
+    return out
+
+
+def cursor_s(state: bytes | list[int] | None, timeline: str = "sim_time",
+             application_id: str = "cotsfleet") -> float | None:
+    """The time the page shows (its time cursor on ``timeline``), in seconds; None while it
+    shows no recording of ``application_id`` or the state cannot be read."""
+    if not state:
+        return None
+    cursors = [c for _, c, _ in recording_times(bytes(state), timeline, application_id)
+               if c is not None]
+    return max(cursors) if cursors else None
