@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 import threading
+from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
 
@@ -17,9 +18,10 @@ from fleet_bus.mission import fetch_mission
 from fleet_bus.process import STATION_READY, process_stop, ready
 from fleet_bus.session import DEFAULT_ENDPOINT, client_config, open_session
 from ground_station.blueprint import live_blueprint
+from ground_station.rerun_log import legend_bounds
 from ground_station.station import APPLICATION_ID, GroundStation, mission_layers
 from ground_station.subscriber import Inbox, subscribed
-from ground_station.viewer import VIEWERS, ViewerOptions, close_recording, default_viewer, \
+from ground_station.viewer import VIEWERS, SinkError, ViewerOptions, default_viewer, \
     open_recording, rrd_for_run
 
 PREFIX = "ground_station:"
@@ -27,7 +29,8 @@ PREFIX = "ground_station:"
 
 def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
          mission_timeout_s: float = 120.0) -> int:
-    """Run until ``stop``; 0 on a clean stop, 3 if no mission record ever came."""
+    """Run until ``stop``; 0 on a clean stop, 2 if a viewer or file cannot be opened (said in
+    one line), 3 if no mission record ever came."""
     with open_session(conf) as session:
         inbox = Inbox()
         # subscribe before asking for the mission, so nothing published meanwhile is lost
@@ -40,23 +43,33 @@ def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
                 return 3
             layers = mission_layers(mission)
             if opts.rrd is not None:
-                opts = ViewerOptions(opts.viewer, rrd_for_run(opts.rrd, mission.run_id),
-                                     opts.host, opts.web_port, opts.grpc_port)
-            rec, url = open_recording(APPLICATION_ID, mission.run_id, opts,
-                                      live_blueprint(layers[0].bounds))
+                opts = replace(opts, rrd=rrd_for_run(opts.rrd, mission.run_id))
+            try:
+                sinks = open_recording(APPLICATION_ID, mission.run_id, opts, live_blueprint(
+                    layers[0].bounds, legend_bounds(layers[0])))
+            except (SinkError, OSError) as exc:
+                print(f"{PREFIX} {exc}", file=sys.stderr, flush=True)
+                return 2
+            rec = sinks.rec
             station = GroundStation(mission, rec, layers)
             ready(STATION_READY, f"{mission.run_id} joined")
+            for note in sinks.notes:
+                print(f"{PREFIX} {note}", flush=True)
             if opts.rrd is not None:
                 print(f"{PREFIX} recording to {opts.rrd}", flush=True)
-            if url is not None:
-                print(f"{PREFIX} web viewer at {url}", flush=True)
+            if sinks.url is not None:
+                print(f"{PREFIX} web viewer at {sinks.url}", flush=True)
             try:
                 while not stop.is_set():
                     sample = inbox.get(timeout_s=0.2)
                     if sample is not None:
                         station.handle(*sample)
             finally:
-                close_recording(rec)
+                station.close()
+                before = len(sinks.notes)
+                sinks.close()
+                for note in sinks.notes[before:]:
+                    print(f"{PREFIX} {note}", file=sys.stderr, flush=True)
                 dropped = dict(station.dropped) | ({"overflow": inbox.overflow}
                                                    if inbox.overflow else {})
                 print(f"{PREFIX} {station.handled} samples logged, dropped {dropped}",
@@ -72,10 +85,14 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                    help="native desktop viewer, locally served web viewer, or none "
                         "(default: native with a display, else web)")
     p.add_argument("--rrd", type=Path, help="also record to this .rrd file for replay")
-    p.add_argument("--web-port", type=int, default=9090, help="web viewer HTTP port (0: any)")
+    p.add_argument("--web-host", "--host", dest="web_host", default="127.0.0.1",
+                   help="address the web viewer and its data server listen on (default "
+                        "127.0.0.1: this machine only; 0.0.0.0: every interface)")
+    p.add_argument("--web-port", type=int, default=9090,
+                   help="web viewer HTTP port (0: any; a busy one is replaced by a free one, "
+                        "and the printed URL says which)")
     p.add_argument("--grpc-port", type=int, default=0,
                    help="port of the Rerun gRPC server the viewer reads (0: any free port)")
-    p.add_argument("--host", default="127.0.0.1", help="address the web viewer is served on")
     p.add_argument("--mission-timeout", type=float, default=120.0,
                    help="seconds to wait for the fleet/mission record")
     return p.parse_args(argv)
@@ -84,6 +101,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
 if __name__ == "__main__":
     args = parse_args()
     options = ViewerOptions(viewer=args.viewer or default_viewer(), rrd=args.rrd,
-                            host=args.host, web_port=args.web_port, grpc_port=args.grpc_port)
+                            web_host=args.web_host, web_port=args.web_port,
+                            grpc_port=args.grpc_port)
     raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT]), options,
                           process_stop(), args.mission_timeout))

@@ -18,7 +18,9 @@ def map_view(bounds: Bounds, name: str = "Map") -> rrb.Spatial2DView:
         visual_bounds=rrb.VisualBounds2D(x_range=[xmin, xmax], y_range=[-ymax, -ymin]))
 
 
-# the whole mission so far, not the viewer's default trailing window
+# The whole mission so far, not the viewer's default window around the cursor. A browser
+# redraws every point its plots show on every frame, so the series are thinned before they are
+# logged (`state.SERIES_POLICIES`): an hour's plot holds a few hundred points, not thousands.
 WHOLE_MISSION = rrb.TimeAxis(view_range=rrb.TimeRange(
     start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative()))
 
@@ -29,30 +31,42 @@ def _series(name: str, *contents: str) -> rrb.TimeSeriesView:
         plot_legend=rrb.PlotLegend(corner="LeftTop"), axis_x=WHOLE_MISSION)
 
 
-def live_blueprint(bounds: Bounds) -> rrb.Blueprint:
+def legend_view(bounds: Bounds) -> rrb.Spatial2DView:
+    """The swatches of `rerun_log.log_legend`: the map's colours with their names."""
+    xmin, xmax, ymin, ymax = bounds
+    return rrb.Spatial2DView(
+        name="Legend", origin="/legend", contents=["+ /legend/**"], background=[8, 12, 20],
+        visual_bounds=rrb.VisualBounds2D(x_range=[xmin, xmax], y_range=[ymin, ymax]))
+
+
+DEFAULT_LEGEND: Bounds = (-2.8, 14.8, -0.8, 4.9)
+
+
+def live_blueprint(bounds: Bounds, legend: Bounds = DEFAULT_LEGEND) -> rrb.Blueprint:
     vehicles = rrb.Vertical(
-        _series("Battery left (s)", "battery_s/**"),
-        _series("T_diff (s)", "t_diff_s/**"),
-        _series("Spots treated", "spots_treated/**"),
+        _series("Battery left (s)", "battery_s"),
+        _series("T_diff (s)", "t_diff_s"),
+        _series("Spots treated", "spots_treated"),
     )
     fleet = rrb.Vertical(
-        _series("Fleet: spots cleared, duplicates", "fleet/spots_cleared", "fleet/duplicates"),
-        _series("Fleet: priority collected", "fleet/priority_collected"),
-        _series("Acoustic messages", "fleet/messages/**", "fleet/drops/**"),
-        _series("Acoustic bytes delivered", "fleet/bytes/**"),
+        _series("Fleet: spots cleared, duplicates", "fleet/spots"),
+        _series("Fleet: priority collected", "fleet/priority"),
+        _series("Acoustic messages", "fleet/messages"),
+        _series("Acoustic bytes delivered", "fleet/bytes"),
     )
     below = rrb.Horizontal(
         rrb.TextLogView(name="Events", origin="/events", columns=rrb.TextLogColumns(
             text_log_columns=[TextLogColumn("LogLevel"), TextLogColumn("Body"),
                               TextLogColumn("EntityPath", visible=False)])),
+        legend_view(legend),
         rrb.TextDocumentView(name="Mission", origin="/mission"),
-        column_shares=[3, 1],
+        column_shares=[4, 4.5, 1.3],
     )
     return rrb.Blueprint(
         rrb.Vertical(
             rrb.Horizontal(map_view(bounds), vehicles, fleet, column_shares=[5, 2, 2]),
             below,
-            row_shares=[3, 1],
+            row_shares=[3, 1.1],
         ),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),

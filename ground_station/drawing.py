@@ -2,6 +2,10 @@
 
 `ground_station.state` emits these; `ground_station.rerun_log` renders them. Keeping them plain
 lets the fold be tested without Rerun and the renderer be tested without telemetry.
+
+Layers that change often hold the whole fleet (every vehicle's pose in one `Vehicles`, every
+live link in one `Links`): the viewer ingests one row per change of the layer instead of one
+per vehicle or per frame, which is what lets a browser keep up with a warped mission.
 """
 
 from __future__ import annotations
@@ -24,32 +28,47 @@ class Spots:
 
 
 @dataclass(frozen=True)
-class Pose:
+class Vehicles:
+    """Every located vehicle's position, heading and label (empty where the label is drawn
+    elsewhere: on a cluster's first vehicle, or on the station it is at)."""
+
     t_s: float
-    vid: str
-    xy: tuple[float, float]
-    yaw_deg: float
-    state: str
-    color: Rgb
+    vids: tuple[str, ...]
+    xy: np.ndarray  # (n, 2)
+    yaw_deg: np.ndarray  # (n,)
+    labels: tuple[str, ...]
+    colors: np.ndarray  # (n, 3) uint8
 
 
 @dataclass(frozen=True)
-class Trail:
+class Stations:
+    """The start and rendezvous labels, naming the vehicles that are at each station."""
+
     t_s: float
-    vid: str
-    points: np.ndarray  # (m, 2) where the vehicle has been
-    color: Rgb
+    labels: tuple[str, ...]  # in `MapLayers.stations` order
 
 
 @dataclass(frozen=True)
-class Route:
-    """The remaining planned route from the vehicle's position to its rendezvous; empty when
-    the vehicle has nothing left to do (drawn as a clear)."""
+class Trails:
+    """Where the vehicles have been. ``part`` ``"recent"``: each vehicle's latest stretch,
+    redrawn as it grows; ``"earlier"``: the finished stretches, redrawn only when one more
+    finishes (so a long trail is never logged again point by point)."""
 
     t_s: float
-    vid: str
-    points: np.ndarray  # (m, 2)
-    color: Rgb
+    part: str
+    strips: tuple[np.ndarray, ...]  # (m, 2) each
+    colors: tuple[Rgb, ...]
+
+
+@dataclass(frozen=True)
+class Routes:
+    """Each active vehicle's remaining planned route, from where it was when the route last
+    changed, through its spots, to its rendezvous."""
+
+    t_s: float
+    vids: tuple[str, ...]
+    strips: tuple[np.ndarray, ...]  # (m, 2) each
+    colors: tuple[Rgb, ...]
 
 
 @dataclass(frozen=True)
@@ -65,6 +84,8 @@ class Mark:
 
 @dataclass(frozen=True)
 class LinkLine:
+    """One frame's fate, drawn from the sender to the receiver as they were when it settled."""
+
     t_s: float
     src: str
     dst: str
@@ -73,22 +94,62 @@ class LinkLine:
     delivered: bool
     reason: str  # "" when delivered
     nbytes: int
+    snr_db: float | None = None
+    sinr_db: float | None = None
+
+    def label(self) -> str:
+        """Dropped frames say why and how strong they were; delivered ones show it by colour."""
+        if self.delivered:
+            return ""
+        figures = [f"{name} {value:.0f} dB" for name, value in
+                   (("SNR", self.snr_db), ("SINR", self.sinr_db)) if value is not None]
+        return " ".join([self.reason, *figures])
 
 
 @dataclass(frozen=True)
-class LinkClear:
+class Links:
+    """The latest frame of every link that settled within the link time-to-live."""
+
     t_s: float
-    src: str
-    dst: str
+    lines: tuple[LinkLine, ...]
+
+
+@dataclass(frozen=True)
+class Current:
+    """The water current on a grid of the map at ``t_s``; ``steady`` ones are drawn once."""
+
+    t_s: float
+    xy: np.ndarray  # (n, 2) arrow origins
+    uv_mps: np.ndarray  # (n, 2) velocity
+    scale_s: float  # arrow length = velocity x scale
+    steady: bool
 
 
 @dataclass(frozen=True)
 class Scalar:
-    """One time-series sample; ``path`` is relative to the ``series`` root."""
+    """One time-series sample worth drawing; ``path`` names the line (``battery_s/auv1``,
+    ``fleet/messages/delivered``). The picture draws it as part of a `SeriesRow`."""
 
     t_s: float
     path: str
     value: float
+
+
+@dataclass(frozen=True)
+class SeriesRow:
+    """One row of a plot (``entity``, relative to the ``series`` root): every line's newest
+    value at ``t_s`` (NaN for a line with none yet). One entity per plot, not per line: the
+    viewer's cost is per entity that changes, and a plot's lines change together."""
+
+    t_s: float
+    entity: str
+    names: tuple[str, ...]
+    paths: tuple[str, ...]  # each line's series path, as in `Scalar`
+    values: tuple[float, ...]
+    drawn: tuple[str, ...]  # the lines that asked for this row (a change, a heartbeat)
+
+    def value(self, path: str) -> float:
+        return self.values[self.paths.index(path)]
 
 
 @dataclass(frozen=True)
@@ -98,4 +159,5 @@ class LogLine:
     level: str  # Rerun TextLog levels: "INFO", "WARN", "ERROR"
 
 
-Drawing = Spots | Pose | Trail | Route | Mark | LinkLine | LinkClear | Scalar | LogLine
+Drawing = (Spots | Vehicles | Stations | Trails | Routes | Mark | Links | Current | SeriesRow
+           | LogLine)

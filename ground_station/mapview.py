@@ -17,10 +17,14 @@ import numpy as np
 
 from ground_station import palette
 from hfc_core.cotsmap import ProbabilityMap, cots_map_of, points_in_polygon
+from hfc_core.current import CurrentField, current_from_dict, peak_speed_mps
+from hfc_core.current import sample as sample_current
 from hfc_core.problem import ScenarioError
 
 FIELD_CELLS = 200  # cells along the longer side of the field image
 SPOT_RADIUS_M = (4.0, 14.0)  # radius of the lowest and highest priority spot
+CURRENT_ARROWS = 12  # current arrows along each side of the map
+CURRENT_ARROW_SHARE = 0.8  # the fastest water's arrow spans this share of the arrow spacing
 
 
 @dataclass(frozen=True)
@@ -42,6 +46,24 @@ class FieldImage:
 
 
 @dataclass(frozen=True)
+class CurrentLayer:
+    """Where the current's arrows stand (a grid over the map, none on land) and how long
+    they are: ``velocity x scale_s`` metres, so the fastest water fills most of a cell."""
+
+    field: CurrentField
+    bounds: tuple[float, float, float, float]
+    n: int
+    sea: np.ndarray  # (n * n,) bool: grid points off land, in `hfc_core.current.sample` order
+    scale_s: float
+    peak_mps: float
+
+    def sample(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Arrow origins and velocities at mission time ``t_s``."""
+        xy, uv = sample_current(self.field, self.bounds, self.n, t_s)
+        return xy[self.sea], uv[self.sea]
+
+
+@dataclass(frozen=True)
 class MapLayers:
     vehicle_ids: tuple[str, ...]
     spot_ids: np.ndarray  # (n,) scenario task ids
@@ -54,6 +76,7 @@ class MapLayers:
     bounds: tuple[float, float, float, float] = (0.0, 1.0, 0.0, 1.0)
     spot_index: dict[int, int] = dc_field(default_factory=dict)  # task id -> row
     rendezvous: dict[str, tuple[float, float]] = dc_field(default_factory=dict)  # per vehicle
+    current: CurrentLayer | None = None
 
     def spot_radius_m(self) -> np.ndarray:
         """Priority as size: linear from the smallest to the largest radius."""
@@ -132,6 +155,28 @@ def _bounds(*xy_sets: np.ndarray, field: FieldImage | None) -> tuple[float, floa
     return float(xmin - pad), float(xmax + pad), float(ymin - pad), float(ymax + pad)
 
 
+def _current_layer(raw: Any, bounds: tuple[float, float, float, float],
+                   land: tuple[np.ndarray, ...]) -> CurrentLayer | None:
+    """The scenario's ``current`` section as arrows over the map; None for still water."""
+    if raw is None:
+        return None
+    current = current_from_dict(raw)
+    peak = peak_speed_mps(current)
+    if not peak > 0.0:
+        return None
+    xmin, xmax, ymin, ymax = bounds
+    n = CURRENT_ARROWS
+    # arrows at the centres of an n x n tiling, so none sits on the map's edge
+    inner = (xmin + (xmax - xmin) / (2 * n), xmax - (xmax - xmin) / (2 * n),
+             ymin + (ymax - ymin) / (2 * n), ymax - (ymax - ymin) / (2 * n))
+    xy, _ = sample_current(current, inner, n, 0.0)
+    sea = np.ones(len(xy), bool)
+    for poly in land:
+        sea &= ~points_in_polygon(xy[:, 0], xy[:, 1], poly)
+    spacing = min(xmax - xmin, ymax - ymin) / n
+    return CurrentLayer(current, inner, n, sea, CURRENT_ARROW_SHARE * spacing / peak, peak)
+
+
 def map_layers(doc: Mapping[str, Any]) -> MapLayers:
     """Everything static about a scenario document; raises `ScenarioError` if malformed."""
     if not isinstance(doc, Mapping):
@@ -154,6 +199,7 @@ def map_layers(doc: Mapping[str, Any]) -> MapLayers:
     land = pmap.land if pmap is not None else ()
     stations = _stations(vehicles)
     station_xy = np.array([s.xy for s in stations], float).reshape(-1, 2)
+    bounds = _bounds(xy, station_xy, *land, *forbidden, field=field_img)
     return MapLayers(
         vehicle_ids=vehicle_ids,
         spot_ids=ids,
@@ -163,7 +209,9 @@ def map_layers(doc: Mapping[str, Any]) -> MapLayers:
         land=tuple(land),
         forbidden=forbidden,
         field=field_img,
-        bounds=_bounds(xy, station_xy, *land, *forbidden, field=field_img),
+        bounds=bounds,
         spot_index={int(t): i for i, t in enumerate(ids)},
         rendezvous=rendezvous,
+        current=_current_layer(doc.get("current"), field_img.extent if field_img else bounds,
+                               tuple(land)),
     )

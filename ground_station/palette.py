@@ -26,8 +26,12 @@ SPOT_CLAIMED: Rgb = (255, 215, 0)
 SPOT_CLEARED: Rgb = (40, 200, 70)
 SPOT_ABANDONED: Rgb = (230, 40, 40)
 
-LINK_DELIVERED: Rgb = (60, 230, 90)
+LINK_DELIVERED: Rgb = (60, 230, 90)  # a strong frame (SNR at or above LINK_SNR_STRONG_DB)
+LINK_WEAK: Rgb = (255, 235, 90)  # a frame delivered at or below LINK_SNR_WEAK_DB
 LINK_DROPPED: Rgb = (255, 60, 60)
+LINK_SNR_WEAK_DB = 10.0  # delivered frames are coloured from weak (yellow) to strong (green)
+LINK_SNR_STRONG_DB = 40.0
+CURRENT: tuple[int, int, int, int] = (215, 235, 255, 170)  # water current arrows, translucent
 MARK_ABORTED: Rgb = (255, 40, 40)
 MARK_LOST: Rgb = (255, 160, 0)
 LAND: Rgb = (12, 10, 8)
@@ -44,10 +48,17 @@ FLEET_SERIES: dict[str, Rgb] = {
     "bytes/delivered": LINK_DELIVERED,
     "drops/range": (255, 150, 120),
     "drops/random": (200, 120, 255),
-    "drops/collision": (255, 120, 200),
-    "drops/half_duplex": (255, 200, 80),
+    "drops/sinr": (250, 240, 110),  # too weak to decode even alone
+    "drops/collision": (255, 120, 200),  # would have decoded alone, not among the overlaps
+    "drops/half_duplex": (255, 165, 60),
     "drops/oversize": (160, 160, 160),
     "drops/partition": (120, 200, 255),
+}
+
+# The ground station's own counts: samples it refused or failed on.
+GROUND_STATION_SERIES: dict[str, Rgb] = {
+    "dropped/malformed": (200, 120, 255),
+    "dropped/error": LINK_DROPPED,
 }
 
 # Deep water -> shallow turquoise -> pale sand: low to high COTS probability (paper Fig. 6 uses
@@ -57,6 +68,19 @@ _SEA_STOPS = np.array([[8, 24, 58], [18, 84, 120], [40, 150, 150], [200, 210, 15
 
 def vehicle_color(index: int) -> Rgb:
     return VEHICLE_COLORS[index % len(VEHICLE_COLORS)]
+
+
+def link_color(delivered: bool, snr_db: float | None) -> Rgb:
+    """Dropped frames red; delivered ones from yellow (weak) to green (strong) by their SNR
+    (green when the channel gives none)."""
+    if not delivered:
+        return LINK_DROPPED
+    if snr_db is None:
+        return LINK_DELIVERED
+    span = LINK_SNR_STRONG_DB - LINK_SNR_WEAK_DB
+    a = min(max((snr_db - LINK_SNR_WEAK_DB) / span, 0.0), 1.0)
+    r, g, b = (round(w + a * (s - w)) for w, s in zip(LINK_WEAK, LINK_DELIVERED))
+    return r, g, b
 
 
 def sea_colormap(prob: np.ndarray) -> np.ndarray:

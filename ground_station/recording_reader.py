@@ -30,6 +30,20 @@ class EntityRows:
         return [(t, row[component]) for t, row in self.sorted_rows()
                 if row.get(component) is not None]
 
+    def line(self, name: str) -> list[tuple[float, float]]:
+        """``(t_s, value)`` of one line of a plot entity (a line per name in its static
+        ``SeriesLines:names``), in time order; rows before the line existed, or where it had
+        no value yet (NaN), are skipped."""
+        names = self.static.get("SeriesLines:names") or []
+        if name not in names:
+            raise KeyError(f"no line {name!r} among {names}")
+        i = names.index(name)
+        out = []
+        for t, values in self.series("Scalars:scalars"):
+            if i < len(values) and values[i] == values[i]:  # NaN != NaN
+                out.append((t, values[i]))
+        return out
+
     def latest(self, component: str) -> Any:
         """The value at the end of the recording (static wins, as in the viewer); a Clear
         logged after the last value makes it None."""

@@ -5,24 +5,32 @@ Entity layout (timeline ``sim_time``, seconds of simulation time)::
     map                          static y-flip so north is up on screen; data stays in metres
     map/field                    static Image of eq. (1) + its placement transform
     map/land, map/forbidden      static LineStrips2D
-    map/stations                 static Points2D: start and rendezvous
+    map/current                  Arrows2D: the water current (static unless tidal)
+    map/stations                 Points2D: start and rendezvous, labels naming who is there
     map/spots                    static positions, radii (priority) and labels; colours by state
-    map/vehicles/<id>            Points2D pose (label: id and state)
-    map/vehicles/<id>/heading    Arrows2D
-    map/vehicles/<id>/trail      LineStrips2D where it has been
-    map/vehicles/<id>/route      LineStrips2D remaining planned route to the rendezvous
+    map/vehicles                 Points2D + Arrows2D: every vehicle's position, label, heading
     map/vehicles/<id>/mark       red/orange cross when aborted, lost, silent or dead
-    map/links/<src>/<dst>        LineStrips2D: green delivered, red dropped (label: reason)
-    series/<metric>/<id>         Scalars per vehicle: battery_s, t_diff_s, spots_treated
-    series/fleet/...             Scalars: spots_cleared, priority_collected, duplicates,
-                                 messages/{delivered,dropped}, bytes/delivered, drops/<reason>
+    map/trails                   LineStrips2D: each vehicle's recent stretch of trail
+    map/trails/earlier           LineStrips2D: the finished stretches
+    map/routes                   LineStrips2D: remaining planned routes to the rendezvous
+    map/links                    LineStrips2D: the latest frame of each link (colour: SNR;
+                                 dropped: red, labelled with the reason and SNR)
+    series/<metric>              Scalars, a line per vehicle: battery_s, t_diff_s, spots_treated
+    series/fleet/spots           Scalars: spots_cleared, duplicates
+    series/fleet/priority        Scalars: priority_collected
+    series/fleet/messages        Scalars: delivered, dropped, drops/<reason>
+    series/fleet/bytes           Scalars: bytes/delivered
+    series/ground_station/dropped  Scalars: samples refused (malformed) or failed on (error)
     events                       TextLog: claims, aborts, detections, takeovers, state changes
-    mission                      static TextDocument: run, scenario, legend
+    mission                      static TextDocument: run, scenario
+    legend/...                   static swatches: vehicles, spot states, links, marks, current
+
+What never changes on an entity (radii, draw order, label visibility) is logged once, static;
+the rows carry only what changes.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Callable, Iterable
 
 import numpy as np
@@ -30,33 +38,41 @@ import rerun as rr
 
 from ground_station import palette
 from ground_station.drawing import (
-    Drawing, LinkClear, LinkLine, LogLine, Mark, Pose, Route, Scalar, Spots, Trail,
+    Current, Drawing, Links, LogLine, Mark, Routes, SeriesRow, Spots, Stations, Trails, Vehicles,
 )
 from ground_station.mapview import MapLayers
 
 TIMELINE = "sim_time"
 SERIES = "series"
-PER_VEHICLE_SERIES = ("battery_s", "t_diff_s", "spots_treated")
-COUNT_SERIES = ("spots_treated",)  # counts are logged when they change: draw them as steps
+LINEAR_PLOTS = ("battery_s", "t_diff_s")  # the rest are counts: drawn as steps
 STEP = rr.components.InterpolationMode.StepAfter
 UI = rr.components.Radius.ui_points  # radii that stay readable at any zoom
 
+VEHICLES = "map/vehicles"
+TRAILS = "map/trails"
+ROUTES = "map/routes"
+LINKS = "map/links"
+CURRENT = "map/current"
+STATIONS = "map/stations"
+
 
 def vehicle_path(vid: str) -> str:
-    return f"map/vehicles/{rr.escape_entity_path_part(vid)}"
-
-
-def link_path(src: str, dst: str) -> str:
-    esc = rr.escape_entity_path_part
-    return f"map/links/{esc(src)}/{esc(dst)}"
+    return f"{VEHICLES}/{rr.escape_entity_path_part(vid)}"
 
 
 def _closed(poly: np.ndarray) -> np.ndarray:
     return np.vstack([poly, poly[:1]])
 
 
-def log_map(rec: rr.RecordingStream, layers: MapLayers) -> None:
-    """Everything that never changes during a mission, logged static."""
+def arrow_length_m(layers: MapLayers) -> float:
+    """Heading arrows and marks scale with the map, so they read the same on any reef."""
+    xmin, xmax, ymin, ymax = layers.bounds
+    return 0.04 * max(xmax - xmin, ymax - ymin)
+
+
+def log_map(rec: rr.RecordingStream, layers: MapLayers, live: bool = False) -> None:
+    """Everything that never changes during a mission, logged static. ``live``: the station
+    labels are left to `Stations` (they name the vehicles at each station)."""
     rec.log("map", rr.Transform3D(scale=[1.0, -1.0, 1.0]), static=True)
     if layers.field is not None:
         xmin, _, ymin, _ = layers.field.extent
@@ -71,10 +87,10 @@ def log_map(rec: rr.RecordingStream, layers: MapLayers) -> None:
             [_closed(p) for p in layers.forbidden], colors=palette.FORBIDDEN, radii=UI(1.5),
             labels=["forbidden"] * len(layers.forbidden), draw_order=-80.0), static=True)
     if layers.stations:
-        rec.log("map/stations", rr.Points2D(
-            [s.xy for s in layers.stations], colors=palette.STATION, radii=UI(6.0),
-            labels=[s.label for s in layers.stations], show_labels=True, draw_order=35.0),
-            static=True)
+        rec.log(STATIONS, rr.Points2D.from_fields(
+            positions=[s.xy for s in layers.stations], colors=palette.STATION, radii=UI(6.0),
+            labels=None if live else [s.label for s in layers.stations], show_labels=True,
+            draw_order=35.0), static=True)
     labels = [f"spot {t} (priority {p:.0f})"
               for t, p in zip(layers.spot_ids.tolist(), layers.spot_priority.tolist())]
     rec.log("map/spots", rr.Points2D(layers.spot_xy, radii=layers.spot_radius_m(), labels=labels,
@@ -83,6 +99,59 @@ def log_map(rec: rr.RecordingStream, layers: MapLayers) -> None:
 
 def log_text(rec: rr.RecordingStream, markdown: str) -> None:
     rec.log("mission", rr.TextDocument(markdown, media_type="text/markdown"), static=True)
+
+
+# -- legend ------------------------------------------------------------------------------------
+# Swatches in a small view of their own: a point, line, cross or arrow in the colour drawn on
+# the map, its name written under it. Columns of rows, one unit apart (y grows downwards).
+# The view keeps the aspect ratio, so columns are spaced for their longest label.
+LEGEND_COLUMN_W = 6.0
+
+
+def legend_rows(layers: MapLayers) -> int:
+    return max(len(layers.vehicle_ids), 5, 5 + (layers.current is not None))
+
+
+def legend_bounds(layers: MapLayers) -> tuple[float, float, float, float]:
+    """xmin, xmax, ymin, ymax of the legend, for its view."""
+    return (-2.8, 2 * LEGEND_COLUMN_W + 2.8, -0.8, legend_rows(layers) - 0.1)
+
+
+def log_legend(rec: rr.RecordingStream, layers: MapLayers) -> None:
+    vids = list(layers.vehicle_ids)
+    rec.log("legend/vehicles", rr.Points2D(
+        [[0.0, float(i)] for i in range(len(vids))],
+        colors=[palette.vehicle_color(i) for i in range(len(vids))], radii=UI(6.0),
+        labels=[f"{vid}, its planned spots" for vid in vids], show_labels=True),
+        static=True)
+    spots = [(palette.SPOT_PENDING, "spot (size: priority)"),
+             (palette.SPOT_CLAIMED, "claimed spot"), (palette.SPOT_CLEARED, "cleared spot"),
+             (palette.SPOT_ABANDONED, "abandoned spot"), (palette.STATION, "start, rendezvous")]
+    rec.log("legend/spots", rr.Points2D(
+        [[LEGEND_COLUMN_W, float(i)] for i in range(len(spots))], colors=[c for c, _ in spots],
+        radii=UI(6.0), labels=[n for _, n in spots], show_labels=True), static=True)
+    x = 2 * LEGEND_COLUMN_W
+    links = [(palette.LINK_DELIVERED, f"frame, SNR {palette.LINK_SNR_STRONG_DB:.0f}+ dB"),
+             (palette.LINK_WEAK, f"frame, SNR {palette.LINK_SNR_WEAK_DB:.0f} dB"),
+             (palette.LINK_DROPPED, "dropped (why, SNR)")]
+    rec.log("legend/links", rr.LineStrips2D(
+        [[[x - 0.7, float(i)], [x + 0.7, float(i)]] for i in range(len(links))],
+        colors=[c for c, _ in links], radii=UI(2.0), labels=[n for _, n in links],
+        show_labels=True), static=True)
+    marks = [(palette.MARK_ABORTED, "aborted, dead, silent"), (palette.MARK_LOST, "declared lost")]
+    rec.log("legend/marks", rr.LineStrips2D(
+        [s for i in range(len(marks)) for s in _cross(x, 3.0 + i, 0.25)],
+        colors=[c for c, _ in marks for _ in range(2)], radii=UI(2.0),
+        labels=[n for _, n in marks for n in (n, "")], show_labels=True), static=True)
+    if layers.current is not None:
+        rec.log("legend/current", rr.Arrows2D(
+            origins=[[x - 0.7, 5.0]], vectors=[[1.4, 0.0]], colors=[palette.CURRENT],
+            radii=UI(1.5), labels=[f"current, up to {layers.current.peak_mps:.2f} m/s"],
+            show_labels=True), static=True)
+
+
+def _cross(x: float, y: float, s: float) -> list[list[tuple[float, float]]]:
+    return [[(x - s, y - s), (x + s, y + s)], [(x - s, y + s), (x + s, y - s)]]
 
 
 class RerunDashboard:
@@ -95,54 +164,79 @@ class RerunDashboard:
         self.color_of = color_of
         self.arrow_m = arrow_m
         self._styled: set[str] = set()
+        self._lines: dict[str, tuple[str, ...]] = {}  # plot entity -> its lines, as styled
 
     def draw(self, drawings: Iterable[Drawing]) -> None:
         for d in drawings:
             self.rec.set_time(TIMELINE, duration=d.t_s)
             self._draw(d)
 
+    def _style(self, path: str, *archetypes: object) -> None:
+        """What never changes on ``path``, logged once, static."""
+        if path not in self._styled:
+            self.rec.log(path, *archetypes, static=True)  # type: ignore[arg-type]
+            self._styled.add(path)
+
     def _draw(self, d: Drawing) -> None:
         log = self.rec.log
         match d:
             case Spots():
                 log("map/spots", rr.Points2D.from_fields(colors=d.colors))
-            case Pose():
-                path = vehicle_path(d.vid)
-                log(path, rr.Points2D([d.xy], colors=d.color, radii=UI(7.0),
-                                      labels=[f"{d.vid} {d.state}"], show_labels=True,
-                                      draw_order=40.0))
-                yaw = math.radians(d.yaw_deg)
-                log(f"{path}/heading", rr.Arrows2D(
-                    origins=[d.xy], vectors=[[self.arrow_m * math.cos(yaw),
-                                              self.arrow_m * math.sin(yaw)]],
-                    colors=d.color, radii=UI(2.0), draw_order=41.0))
-            case Trail():
-                log(f"{vehicle_path(d.vid)}/trail",
-                    rr.LineStrips2D([d.points], colors=d.color, radii=UI(1.5), draw_order=20.0))
-            case Route():
-                path = f"{vehicle_path(d.vid)}/route"
-                if len(d.points) < 2:
-                    log(path, rr.Clear(recursive=False))
-                else:
-                    faded = tuple(int(0.6 * c + 0.4 * 255) for c in d.color)
-                    log(path, rr.LineStrips2D([d.points], colors=faded, radii=UI(0.75),
-                                              draw_order=10.0))
+            case Vehicles():
+                self._style(VEHICLES, rr.Points2D.from_fields(radii=UI(7.0), show_labels=True,
+                                                              draw_order=40.0),
+                            rr.Arrows2D.from_fields(radii=UI(2.0), draw_order=41.0))
+                yaw = np.radians(d.yaw_deg)
+                log(VEHICLES, rr.Points2D.from_fields(positions=d.xy, colors=d.colors,
+                                                      labels=list(d.labels)),
+                    rr.Arrows2D.from_fields(
+                        origins=d.xy, colors=d.colors,
+                        vectors=self.arrow_m * np.column_stack([np.cos(yaw), np.sin(yaw)])))
+            case Stations():
+                log(STATIONS, rr.Points2D.from_fields(labels=list(d.labels)))
+            case Trails():
+                path = TRAILS if d.part == "recent" else f"{TRAILS}/{d.part}"
+                self._style(path, rr.LineStrips2D.from_fields(radii=UI(1.5), draw_order=20.0))
+                self._strips(path, d.strips, [c for c in d.colors])
+            case Routes():
+                self._style(ROUTES, rr.LineStrips2D.from_fields(radii=UI(0.75), draw_order=10.0))
+                faded = [tuple(int(0.6 * c + 0.4 * 255) for c in color) for color in d.colors]
+                self._strips(ROUTES, d.strips, faded)
             case Mark():
                 self._mark(d)
-            case LinkLine():
-                color = palette.LINK_DELIVERED if d.delivered else palette.LINK_DROPPED
-                log(link_path(d.src, d.dst), rr.LineStrips2D(
-                    [[d.a, d.b]], colors=color, radii=UI(1.0 if d.delivered else 1.5),
-                    labels=[d.reason] if d.reason else None, show_labels=bool(d.reason),
-                    draw_order=5.0))
-            case LinkClear():
-                log(link_path(d.src, d.dst), rr.Clear(recursive=False))
-            case Scalar():
-                self._scalar(d)
+            case Links():
+                self._links(d)
+            case Current():
+                self._current(d)
+            case SeriesRow():
+                self._series(d)
             case LogLine():
                 log("events", rr.TextLog(d.text, level=d.level))
             case _:
                 raise TypeError(f"cannot draw {type(d).__name__}")
+
+    def _strips(self, path: str, strips: tuple[np.ndarray, ...], colors: list) -> None:
+        if not strips:
+            self.rec.log(path, rr.Clear(recursive=False))
+        else:
+            self.rec.log(path, rr.LineStrips2D.from_fields(strips=list(strips), colors=colors))
+
+    def _links(self, d: Links) -> None:
+        self._style(LINKS, rr.LineStrips2D.from_fields(show_labels=True, draw_order=5.0))
+        if not d.lines:
+            self.rec.log(LINKS, rr.Clear(recursive=False))
+            return
+        self.rec.log(LINKS, rr.LineStrips2D.from_fields(
+            strips=[[line.a, line.b] for line in d.lines],
+            colors=[palette.link_color(line.delivered, line.snr_db) for line in d.lines],
+            radii=[UI(1.0 if line.delivered else 1.5) for line in d.lines],
+            labels=[line.label() for line in d.lines]))
+
+    def _current(self, d: Current) -> None:
+        self._style(CURRENT, rr.Arrows2D.from_fields(colors=palette.CURRENT, radii=UI(1.0),
+                                                     draw_order=-85.0))
+        self.rec.log(CURRENT, rr.Arrows2D.from_fields(origins=d.xy, vectors=d.uv_mps * d.scale_s),
+                     static=d.steady)
 
     def _mark(self, d: Mark) -> None:
         path = f"{vehicle_path(d.vid)}/mark"
@@ -150,25 +244,28 @@ class RerunDashboard:
             self.rec.log(path, rr.Clear(recursive=False))
             return
         x, y = d.xy
-        s = self.arrow_m * 0.6
         color = palette.MARK_LOST if d.kind == "lost" else palette.MARK_ABORTED
         self.rec.log(path, rr.LineStrips2D(
-            [[(x - s, y - s), (x + s, y + s)], [(x - s, y + s), (x + s, y - s)]],
-            colors=color, radii=UI(3.0), labels=[f"{d.vid} {d.kind.upper()}", ""],
-            show_labels=True, draw_order=50.0))
+            _cross(x, y, self.arrow_m * 0.6), colors=color, radii=UI(3.0),
+            labels=[f"{d.vid} {d.kind.upper()}", ""], show_labels=True, draw_order=50.0))
 
-    def _scalar(self, d: Scalar) -> None:
-        path = f"{SERIES}/{d.path}"
-        if path not in self._styled:
-            # name and colour each line once, static: legends match the map's colours
-            metric, _, rest = d.path.partition("/")
-            if metric in PER_VEHICLE_SERIES:
-                self.rec.log(path, rr.SeriesLines(
-                    names=rest, widths=2.0, colors=self.color_of(rest),
-                    interpolation_mode=STEP if metric in COUNT_SERIES else None), static=True)
-            elif metric == "fleet":
-                self.rec.log(path, rr.SeriesLines(
-                    names=rest, widths=2.0, colors=palette.FLEET_SERIES.get(rest),
-                    interpolation_mode=STEP), static=True)
-            self._styled.add(path)
-        self.rec.log(path, rr.Scalars(d.value))
+    def _series(self, d: SeriesRow) -> None:
+        path = f"{SERIES}/{d.entity}"
+        if self._lines.get(path) != d.paths:
+            # name and colour the lines (again when one appears), static: the plot legends
+            # match the map's colours
+            self._lines[path] = d.paths
+            colors = [self._line_color(p) for p in d.paths]
+            self.rec.log(path, rr.SeriesLines(
+                names=list(d.names), widths=2.0,
+                colors=colors if all(c is not None for c in colors) else None,
+                interpolation_mode=None if d.entity in LINEAR_PLOTS else STEP), static=True)
+        self.rec.log(path, rr.Scalars(np.asarray(d.values, float)))
+
+    def _line_color(self, path: str) -> palette.Rgb | None:
+        head, _, rest = path.partition("/")
+        if head == "fleet":
+            return palette.FLEET_SERIES.get(rest)
+        return self.color_of(rest) if head in ("battery_s", "t_diff_s", "spots_treated") \
+            else palette.GROUND_STATION_SERIES.get(rest)
+

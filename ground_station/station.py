@@ -13,8 +13,7 @@ import numpy as np
 import rerun as rr
 
 from fleet_bus.mission import Mission
-from ground_station import inputs, palette, rerun_log
-from ground_station.drawing import Scalar
+from ground_station import inputs, rerun_log
 from ground_station.mapview import MapLayers, map_layers
 from ground_station.state import FleetPicture, Tuning
 from hfc_core.problem import ScenarioError
@@ -35,17 +34,15 @@ def mission_layers(mission: Mission) -> tuple[MapLayers, str]:
 
 
 def mission_markdown(mission: Mission, layers: MapLayers) -> str:
+    """A short card: what the legend view beside it does not say (colours are there)."""
     name = mission.scenario.get("name", "?") if isinstance(mission.scenario, dict) else "?"
-    rows = "\n".join(f"- **{vid}**: rgb{palette.vehicle_color(i)}"
-                     for i, vid in enumerate(layers.vehicle_ids))
+    current = layers.current.field.kind if layers.current is not None else "still water"
     return (
-        f"### Mission {mission.run_id}\n"
-        f"scenario **{name}**, {len(layers.spot_ids)} spots, seed {mission.seed}\n\n"
-        f"{rows}\n\n"
-        "**Spots**: grey pending, vehicle colour planned, gold claimed, green cleared, "
-        "red abandoned; size = priority.\n\n"
-        "**Links**: green delivered, red dropped (label: reason). "
-        "**Cross**: red aborted/dead/silent, orange declared lost.\n"
+        f"**{name}**\n\n"
+        f"{len(layers.vehicle_ids)} vehicles, {len(layers.spot_ids)} spots\n\n"
+        f"current: {current}\n\n"
+        f"seed {mission.seed}\n\n"
+        f"run {mission.run_id}\n"
     )
 
 
@@ -60,10 +57,12 @@ class GroundStation:
         self.picture = FleetPicture(layers, tuning)
         self.dashboard = rerun_log.RerunDashboard(
             rec, color_of=lambda vid: self.picture.vehicles[vid].color
-            if vid in self.picture.vehicles else None)
+            if vid in self.picture.vehicles else None,
+            arrow_m=rerun_log.arrow_length_m(layers))
         self.dropped: Counter[str] = Counter()  # kind of input -> samples dropped
         self.handled = 0
-        rerun_log.log_map(rec, layers)
+        rerun_log.log_map(rec, layers, live=True)
+        rerun_log.log_legend(rec, layers)
         rerun_log.log_text(rec, mission_markdown(mission, layers))
         self.dashboard.draw(self.picture.initial())
         if problem:
@@ -84,10 +83,15 @@ class GroundStation:
         self.handled += 1
         return True
 
+    def close(self) -> None:
+        """The mission is over (or the station stops): draw what was held back, so the
+        recording ends on the newest values."""
+        self.dashboard.draw(self.picture.flush())
+
     def _drop(self, key: str, why: str) -> bool:
         kind = key.split("/")[1] if key.count("/") >= 2 else "unknown"
         self.dropped[why] += 1
         self.dropped[f"{why}:{kind}"] += 1
-        self.dashboard.draw([Scalar(self.picture.now_s, f"ground_station/dropped/{why}",
-                                    float(self.dropped[why]))])
+        self.dashboard.draw(self.picture.offer(f"ground_station/dropped/{why}",
+                                               self.picture.now_s, float(self.dropped[why])))
         return False

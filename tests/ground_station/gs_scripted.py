@@ -8,7 +8,6 @@ time; one vehicle aborts, a peer declares it lost and takes its remaining spots 
 from __future__ import annotations
 
 import math
-import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -84,8 +83,8 @@ def scripted_mission(doc: dict, routes: dict[str, list[int]], end_s: float,
                     n_msgs += 1
                     ok = n_msgs % drop_every != 0
                     out.append((bus.link_event_key(a.vid, b.vid), LinkRecord(
-                        a.vid, b.vid, t, t + 0.5, 24, ok, None if ok else "collision"
-                    ).encode()))
+                        a.vid, b.vid, t, t + 0.5, 24, ok, None if ok else "collision",
+                        snr_db=25.0 + 10.0 * (n_msgs % 3)).encode()))
         t += dt_s
     return out
 

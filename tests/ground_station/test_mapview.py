@@ -60,3 +60,20 @@ def test_malformed_scenarios_raise_scenario_error(small_doc, breakage):
     breakage(small_doc)
     with pytest.raises(ScenarioError):
         map_layers(small_doc)
+
+
+def test_a_current_is_a_grid_of_arrows_off_land_scaled_to_the_cells(paper_doc):
+    paper_doc = dict(paper_doc, current={"kind": "tidal", "velocity_mps": [0.3, 0.4]})
+    layers = map_layers(paper_doc)
+    current = layers.current
+    assert current is not None and current.peak_mps == pytest.approx(0.5)
+    xy, uv = current.sample(0.0)
+    assert 0 < len(xy) < current.n ** 2  # the island's cells have none
+    pmap = cots_map_of(paper_doc)
+    assert not pmap.on_land(xy[:, 0], xy[:, 1]).any()
+    xmin, xmax, _, _ = layers.field.extent
+    longest = np.hypot(*(uv * current.scale_s).T).max()
+    assert longest == pytest.approx(0.8 * (xmax - xmin) / current.n, rel=0.01)
+    assert map_layers(dict(paper_doc, current=None)).current is None
+    with pytest.raises(ScenarioError):
+        map_layers(dict(paper_doc, current={"kind": "tidal"}))

@@ -11,8 +11,9 @@ from gs_scripted import mission_of, scripted_mission, small_scenario
 from ground_station import palette
 from ground_station.blueprint import live_blueprint
 from ground_station.recording_reader import read_recording
+from ground_station.rerun_log import legend_bounds
 from ground_station.station import APPLICATION_ID, GroundStation, mission_layers
-from ground_station.viewer import ViewerOptions, close_recording, open_recording
+from ground_station.viewer import ViewerOptions, open_recording
 
 ROUTES = {"auv1": [10, 11], "auv2": [13, 14], "auv3": [15]}
 
@@ -20,15 +21,16 @@ ROUTES = {"auv1": [10, 11], "auv2": [13, 14], "auv3": [15]}
 def run_station(doc, samples, rrd, run_id="test-run", after=None):
     mission = mission_of(doc, run_id)
     layers = mission_layers(mission)
-    rec, url = open_recording(APPLICATION_ID, run_id, ViewerOptions("none", rrd),
-                              live_blueprint(layers[0].bounds))
-    assert url is None
-    station = GroundStation(mission, rec, layers)
+    sinks = open_recording(APPLICATION_ID, run_id, ViewerOptions("none", rrd),
+                           live_blueprint(layers[0].bounds, legend_bounds(layers[0])))
+    assert sinks.url is None
+    station = GroundStation(mission, sinks.rec, layers)
     for key, payload in samples:
         station.handle(key, payload)
     if after is not None:
         after(station)
-    close_recording(rec)
+    station.close()
+    sinks.close()
     return station
 
 
@@ -53,42 +55,65 @@ def test_garbage_is_dropped_counted_and_survived(recorded):
     _, station, _, ents, _ = recorded
     assert station.dropped["malformed"] == 3
     assert station.dropped["malformed:status"] == 1 and station.dropped["malformed:link"] == 1
-    assert ents["/series/ground_station/dropped/malformed"].series("Scalars:scalars")[-1][1] == [3]
+    assert ents["/series/ground_station/dropped"].line("malformed")[-1][1] == 3
     assert station.dropped["error"] == 0
 
 
-def test_static_map_and_mission_text(recorded):
+def test_static_map_mission_card_and_legend(recorded):
     doc, _, rrd, ents, _ = recorded
     spots = ents["/map/spots"]
     np.testing.assert_allclose(spots.static["Points2D:positions"],
                                [t["pos"][:2] for t in doc["tasks"]])
     assert ents["/map"].static["Transform3D:scale"] == [[1.0, -1.0, 1.0]]
-    assert "test-run" in ents["/mission"].static["TextDocument:text"][0]
-    assert ents["/map/stations"].static["Points2D:labels"] == ["start", "rendezvous"]
+    card = ents["/mission"].static["TextDocument:text"][0]
+    assert "test-run" in card and "rgb" not in card  # colours are swatches in the legend
+    legend = ents["/legend/vehicles"].static
+    assert legend["Points2D:labels"][0].startswith("auv1")
+    assert legend["Points2D:colors"][0] == rgba(palette.vehicle_color(0))
+    assert ents["/legend/links"].static["LineStrips2D:colors"][2] == rgba(palette.LINK_DROPPED)
     assert RrdReader(rrd).blueprints(), "the layout travels with the recording"
+
+
+def test_vehicles_start_together_without_piling_their_labels(recorded):
+    _, _, _, ents, _ = recorded
+    at_start = [row["Points2D:labels"] for t, row in ents["/map/vehicles"].sorted_rows()
+                if t == 0.0]
+    assert at_start[-1] == ["", "", ""]  # the station's label names them instead
+    stations = [row["Points2D:labels"] for t, row in ents["/map/stations"].sorted_rows()
+                if t == 0.0]
+    assert stations[0] == ["start", "rendezvous"]
+    assert stations[-1] == ["start: auv1 auv2 auv3 transit", "rendezvous"]
+    rows = [row["Points2D:labels"] for _, row in ents["/map/vehicles"].sorted_rows()]
+    assert any(sum(bool(label) for label in labels) >= 2 for labels in rows)  # apart
+    for labels in rows:  # a label only on its own vehicle (or the first of a group)
+        assert all(not label or label.startswith(f"auv{i + 1}")
+                   for i, label in enumerate(labels))
 
 
 def test_series_end_where_the_last_statuses_do(recorded):
     _, station, _, ents, last = recorded
+    assert ents["/series/battery_s"].static["SeriesLines:names"] == ["auv1", "auv2", "auv3"]
     for vid, s in last.items():
-        treated = ents[f"/series/spots_treated/{vid}"].series("Scalars:scalars")
-        assert treated[-1][1] == [float(len(s.treated))]
-        assert ents[f"/series/battery_s/{vid}"].series("Scalars:scalars")[-1][1] == [s.battery_s]
-        assert ents[f"/series/battery_s/{vid}"].static["SeriesLines:names"] == [vid]
+        assert ents["/series/spots_treated"].line(vid)[-1][1] == float(len(s.treated))
+        assert ents["/series/battery_s"].line(vid)[-1][1] == s.battery_s
     cleared = set().union(*(s.treated for s in last.values()))
     assert cleared == {10, 11, 13, 14, 15}  # auv1 took over auv2's spot 14
-    fleet = {name: ents[f"/series/fleet/{name}"].series("Scalars:scalars")[-1][1][0]
-             for name in ("spots_cleared", "priority_collected", "duplicates")}
+    fleet = {name: ents[f"/series/fleet/{plot}"].line(name)[-1][1]
+             for plot, name in (("spots", "spots_cleared"), ("priority", "priority_collected"),
+                                ("spots", "duplicates"))}
     assert fleet == {"spots_cleared": 5.0, "priority_collected": 10 + 50 + 30 + 70 + 90,
                      "duplicates": 0.0}
+
+
+def rgba(c) -> int:
+    return (c[0] << 24) | (c[1] << 16) | (c[2] << 8) | 0xFF
 
 
 def test_spot_colours_vehicle_marks_and_event_log(recorded):
     _, _, _, ents, _ = recorded
     colors = ents["/map/spots"].latest("Points2D:colors")
-    cleared_rgba = (palette.SPOT_CLEARED[0] << 24) | (palette.SPOT_CLEARED[1] << 16) | \
-        (palette.SPOT_CLEARED[2] << 8) | 0xFF
-    assert [c == cleared_rgba for c in colors] == [True, True, False, True, True, True]
+    assert [c == rgba(palette.SPOT_CLEARED) for c in colors] == [True, True, False, True, True,
+                                                                 True]
     assert ents["/map/vehicles/auv2/mark"].latest("LineStrips2D:labels")[0] == "auv2 ABORTED"
     assert "/map/vehicles/auv1/mark" not in ents
     texts = [row["TextLog:text"][0] for _, row in ents["/events"].sorted_rows()]
@@ -98,16 +123,22 @@ def test_spot_colours_vehicle_marks_and_event_log(recorded):
     assert "auv2 is aborted" in texts and "auv1 is home" in texts
 
 
-def test_link_lines_are_drawn_then_cleared(recorded):
+def test_links_are_one_layer_drawn_then_cleared(recorded):
     _, _, _, ents, _ = recorded
-    rows = ents["/map/links/auv1/auv3"].sorted_rows()
-    drawn = [t for t, r in rows if r.get("LineStrips2D:strips")]
+    assert not [p for p in ents if p.startswith("/map/links/")], "one entity for every link"
+    rows = ents["/map/links"].sorted_rows()
+    drawn = [(t, r) for t, r in rows if r.get("LineStrips2D:strips")]
     cleared = [t for t, r in rows if r.get("Clear:is_recursive") is not None]
-    assert drawn and cleared
-    assert all(any(0 < c - d <= 20.0 + 1e-9 for c in cleared) for d in drawn[:-1])
-    delivered = ents["/series/fleet/messages/delivered"].series("Scalars:scalars")[-1][1][0]
-    dropped = ents["/series/fleet/messages/dropped"].series("Scalars:scalars")[-1][1][0]
-    assert dropped == ents["/series/fleet/drops/collision"].series("Scalars:scalars")[-1][1][0]
+    assert drawn and cleared  # frames every 30 s, each shown for 20 s
+    assert max(len(r["LineStrips2D:strips"]) for _, r in drawn) <= 6  # the latest per link
+    labels = {label for _, r in drawn for label in r["LineStrips2D:labels"]}
+    assert "" in labels and any(label.startswith("collision SNR ") for label in labels)
+    colors = {c for _, r in drawn for c in r["LineStrips2D:colors"]}
+    assert rgba(palette.LINK_DROPPED) in colors and len(colors) >= 3  # SNR as colour
+    assert all(b - a <= 5.0 + 30.0 for a, b in zip([t for t, _ in rows], [t for t, _ in rows][1:]))
+    messages = ents["/series/fleet/messages"]
+    delivered, dropped = messages.line("delivered")[-1][1], messages.line("dropped")[-1][1]
+    assert dropped == messages.line("drops/collision")[-1][1]
     assert delivered > dropped > 0
 
 
@@ -118,4 +149,12 @@ def test_an_undrawable_scenario_still_gives_a_dashboard(tmp_path):
                 after=lambda station: station.handle("fleet/truth/auv9", truth))
     ents = read_recording(rrd)
     assert "scenario cannot be drawn" in ents["/events"].sorted_rows()[0][1]["TextLog:text"][0]
-    assert ents["/map/vehicles/auv9"].latest("Points2D:positions") == [[1.0, 2.0]]
+    assert ents["/map/vehicles"].latest("Points2D:positions") == [[1.0, 2.0]]
+
+
+def test_the_recording_is_compacted_at_close(recorded):
+    _, _, rrd, ents, _ = recorded
+    chunks = list(RrdReader(rrd).stream())
+    rows = sum(len(e.rows) for e in ents.values())
+    assert len(chunks) < rows / 5, (len(chunks), rows)  # merged, not a chunk per row or tick
+    assert not list(rrd.parent.glob(".*compacting*"))

@@ -3,10 +3,16 @@ loopback, the ground station's `main` in a thread, its .rrd read back afterwards
 
 from __future__ import annotations
 
+import re
+import signal
+import socket
+import subprocess
+import sys
 import threading
 import time
 from contextlib import ExitStack
 from pathlib import Path
+from urllib.parse import urlparse
 
 import pytest
 import zenoh
@@ -19,6 +25,7 @@ from ground_station.recording_reader import read_recording
 from ground_station.viewer import ViewerOptions
 
 ROUTES = {"auv1": [10, 11], "auv2": [13], "auv3": [15]}
+REPO = Path(__file__).resolve().parents[2]
 
 
 class Launcher:
@@ -54,9 +61,8 @@ def publish(session: zenoh.Session, samples: list[tuple[str, bytes]]) -> None:
             time.sleep(0.01)  # the fleet never bursts thousands of samples at once
 
 
-def last_status_time(rrd: Path, vid: str) -> float:
-    ents = read_recording(rrd)
-    return ents[f"/series/battery_s/{vid}"].series("Scalars:scalars")[-1][0]
+def last_battery(rrd: Path, vid: str) -> float:
+    return read_recording(rrd)["/series/battery_s"].line(vid)[-1][1]
 
 
 @pytest.fixture
@@ -84,10 +90,11 @@ def test_station_joins_before_the_mission_exists_and_survives_a_garbled_answer(b
         stop.set()
         thread.join(30)
     assert result == [0] and launcher.queries >= 2
-    last = max(Status.decode(p).t_s for k, p in samples if k == "fleet/status/auv1")
-    assert last_status_time(rrd, "auv1") == last
+    last = max((Status.decode(p) for k, p in samples if k == "fleet/status/auv1"),
+               key=lambda s: s.t_s)
+    assert last_battery(rrd, "auv1") == last.battery_s  # every sample made it
     ents = read_recording(rrd)
-    assert ents["/series/ground_station/dropped/malformed"].series("Scalars:scalars")[-1][1] == [1]
+    assert ents["/series/ground_station/dropped"].line("malformed")[-1][1] == 1
 
 
 def test_a_restarted_station_picks_up_from_current_statuses(bus, tmp_path):
@@ -119,9 +126,57 @@ def test_a_restarted_station_picks_up_from_current_statuses(bus, tmp_path):
     spots = second["/map/spots"].series("Points2D:colors")
     assert spots[0][0] == 0.0 and spots[1][0] >= first_t  # initial picture, then rebuilt
     for vid, s in final.items():
-        got = second[f"/series/battery_s/{vid}"].series("Scalars:scalars")[-1]
-        assert got == (s.t_s, [s.battery_s])
-        got = second[f"/series/spots_treated/{vid}"].series("Scalars:scalars")[-1]
-        assert got[1] == [float(len(s.treated))]
-    assert read_recording(tmp_path / "mission.rrd")["/series/battery_s/auv1"].rows, \
+        t, battery = second["/series/battery_s"].line(vid)[-1]
+        assert battery == s.battery_s and t >= s.t_s
+        assert second["/series/spots_treated"].line(vid)[-1][1] == float(len(s.treated))
+    assert read_recording(tmp_path / "mission.rrd")["/series/battery_s"].line("auv1"), \
         "the first part survives the restart"
+
+
+def run_cli(endpoint: str, *args: str, until: str | None = None,
+            timeout_s: float = 60.0) -> tuple[int, str, str]:
+    """``python -m ground_station`` on the bus; stopped with SIGTERM once ``until`` is printed."""
+    proc = subprocess.Popen([sys.executable, "-m", "ground_station", "--connect", endpoint,
+                             "--mission-timeout", "30", *args], cwd=REPO, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out = []
+    try:
+        if until is not None:
+            deadline = time.monotonic() + timeout_s
+            for line in proc.stdout:
+                out.append(line)
+                if until in line or time.monotonic() > deadline:
+                    break
+            proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=timeout_s)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(10)
+    return proc.returncode, "".join(out) + stdout, stderr
+
+
+def test_a_busy_web_port_gets_a_free_one_named_in_the_url(bus):
+    endpoint, session = bus
+    Launcher(session, mission_of(small_scenario(), "busy-run").encode())
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        code, out, err = run_cli(endpoint, "--viewer", "web", "--web-port", str(port),
+                                 until="web viewer at")
+    assert code == 0, err
+    assert f"web viewer port {port} on 127.0.0.1 is busy" in out
+    url = urlparse(re.search(r"web viewer at (\S+)", out).group(1))
+    assert url.hostname == "127.0.0.1" and url.port != port
+    with pytest.raises(OSError):  # the station stopped its web server on the way out
+        socket.create_connection(("127.0.0.1", url.port), timeout=1).close()
+
+
+def test_a_web_host_that_is_not_ours_is_one_line_and_exit_code_2(bus):
+    endpoint, session = bus
+    Launcher(session, mission_of(small_scenario(), "bad-host-run").encode())
+    code, out, err = run_cli(endpoint, "--viewer", "web", "--web-host", "192.0.2.1")
+    assert code == 2
+    assert "Traceback" not in err and "cannot listen on 192.0.2.1" in err, err
+    assert len([line for line in err.splitlines() if line.startswith("ground_station:")]) == 1

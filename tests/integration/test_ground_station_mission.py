@@ -32,38 +32,41 @@ def mission(tmp_path_factory):
     return json.loads(report.read_text()), read_recording(rrd), gs_log
 
 
-def last(ents, path):
-    return ents[path].series("Scalars:scalars")[-1][1][0]
+def last(ents, plot, line):
+    """The last value of one line of a plot entity (`EntityRows.line`)."""
+    return ents[plot].line(line)[-1][1]
 
 
 def test_fleet_figures_match_the_report(mission):
     report, ents, _ = mission
     fleet = report["fleet"]
     assert fleet["spots_cleared"] > 0
-    assert last(ents, "/series/fleet/spots_cleared") == fleet["spots_cleared"]
-    assert last(ents, "/series/fleet/priority_collected") == pytest.approx(fleet["priority"],
-                                                                           abs=0.01)
-    assert last(ents, "/series/fleet/duplicates") == fleet["duplicate_treatments"]
+    assert last(ents, "/series/fleet/spots", "spots_cleared") == fleet["spots_cleared"]
+    assert last(ents, "/series/fleet/priority", "priority_collected") == \
+        pytest.approx(fleet["priority"], abs=0.01)
+    assert last(ents, "/series/fleet/spots", "duplicates") == fleet["duplicate_treatments"]
 
 
 def test_vehicle_series_match_the_report(mission):
     report, ents, _ = mission
     for v in report["vehicles"]:
-        assert last(ents, f"/series/spots_treated/{v['id']}") == v["tasks_treated"]
-        battery = last(ents, f"/series/battery_s/{v['id']}")
+        assert last(ents, "/series/spots_treated", v["id"]) == v["tasks_treated"]
+        battery = last(ents, "/series/battery_s", v["id"])
         assert 3600.0 - battery == pytest.approx(v["battery_used_s"], abs=0.06)
 
 
 def test_acoustic_traffic_matches_the_relay_counters(mission):
     report, ents, _ = mission
     link = report["messages"]["link"]
-    assert last(ents, "/series/fleet/messages/delivered") == link["delivered"]
-    assert last(ents, "/series/fleet/bytes/delivered") == link["bytes"]
+    messages = ents["/series/fleet/messages"]
+    assert last(ents, "/series/fleet/messages", "delivered") == link["delivered"]
+    assert last(ents, "/series/fleet/bytes", "delivered") == link["bytes"]
+    lines = messages.static["SeriesLines:names"]
     for reason in ("range", "sinr", "random", "collision", "half_duplex", "oversize",
                    "partition"):
-        path = f"/series/fleet/drops/{reason}"
-        assert (last(ents, path) if path in ents else 0) == link[reason]
-    assert any(p.startswith("/map/links/") for p in ents)
+        name = f"drops/{reason}"
+        assert (messages.line(name)[-1][1] if name in lines else 0) == link[reason]
+    assert ents["/map/links"].rows
 
 
 def test_a_killed_agent_is_marked_and_the_station_keeps_going(mission):
@@ -71,7 +74,7 @@ def test_a_killed_agent_is_marked_and_the_station_keeps_going(mission):
     assert {v["id"]: v["state"] for v in report["vehicles"]}["auv3"] == "dead"
     # the mission goes on long after the kill, so the station's own silence verdict (120 sim s
     # without telemetry) outranks the peers' "lost"
-    assert ents["/series/battery_s/auv1"].series("Scalars:scalars")[-1][0] > 1600 + 150
+    assert ents["/series/battery_s"].line("auv1")[-1][0] > 1600 + 150
     assert ents["/map/vehicles/auv3/mark"].latest("LineStrips2D:labels")[0] == "auv3 SILENT"
     texts = [row["TextLog:text"][0] for _, row in ents["/events"].sorted_rows()]
     assert any(t.startswith("auv3 silent since") for t in texts)
@@ -84,6 +87,7 @@ def test_map_abort_mark_and_event_log(mission):
     texts = [row["TextLog:text"][0] for _, row in ents["/events"].sorted_rows()]
     assert "auv2 abort" in " ".join(texts)
     assert ents["/map/vehicles/auv2/mark"].latest("LineStrips2D:labels")[0] == "auv2 ABORTED"
-    for v in report["vehicles"]:
-        assert ents[f"/map/vehicles/{v['id']}/trail"].rows, "every vehicle leaves a trail"
+    trails = [len(row["LineStrips2D:strips"]) for _, row in ents["/map/trails"].sorted_rows()
+              if row.get("LineStrips2D:strips")]
+    assert max(trails) == len(report["vehicles"]), "every vehicle leaves a trail"
     assert "dropped {}" in gs_log, gs_log
