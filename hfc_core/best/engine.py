@@ -38,7 +38,7 @@ class SearchParams:
     segment: int = 50  # iterations between weight updates
     restart: int = 300  # iterations without a better plan before a run ends
     explore: float = 0.7  # share of the budget in which a run ending starts a fresh one
-    relocate: bool = False  # replace moves may move the task they take out to another route
+    relocate: bool = True  # replace moves may move the task they take out to another route
 
     def __post_init__(self) -> None:
         if self.ruin_max < 1:
