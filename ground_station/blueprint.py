@@ -51,7 +51,7 @@ def live_blueprint(bounds: Bounds, legend: Bounds = DEFAULT_LEGEND) -> rrb.Bluep
     fleet = rrb.Vertical(
         _series("Fleet: spots cleared, duplicates", "fleet/spots"),
         _series("Fleet: priority collected", "fleet/priority"),
-        _series("Acoustic messages", "fleet/messages"),
+        _series("Acoustic messages", "fleet/messages", "fleet/drops/**"),
         _series("Acoustic bytes delivered", "fleet/bytes"),
     )
     below = rrb.Horizontal(

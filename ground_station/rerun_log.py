@@ -18,9 +18,11 @@ Entity layout (timeline ``sim_time``, seconds of simulation time)::
     series/<metric>              Scalars, a line per vehicle: battery_s, t_diff_s, spots_treated
     series/fleet/spots           Scalars: spots_cleared, duplicates
     series/fleet/priority        Scalars: priority_collected
-    series/fleet/messages        Scalars: delivered, dropped, drops/<reason>
+    series/fleet/messages        Scalars: delivered, dropped
+    series/fleet/drops/<reason>  Scalars: frames dropped for that reason (one entity each: a
+                                 plot's lines are fixed from its first row)
     series/fleet/bytes           Scalars: bytes/delivered
-    series/ground_station/dropped  Scalars: samples refused (malformed) or failed on (error)
+    series/ground_station/dropped/<why>  Scalars: samples refused (malformed), failed on (error)
     events                       TextLog: claims, aborts, detections, takeovers, state changes
     mission                      static TextDocument: run, scenario
     legend/...                   static swatches: vehicles, spot states, links, marks, current

@@ -137,9 +137,17 @@ class FleetPicture:
         self._links_changed = False
         self._links_next_s = -math.inf
         self.series = SeriesThinner(series_policy)
-        self._plots: dict[str, list[str]] = {  # plot entity -> its lines' paths, in order
-            metric: [f"{metric}/{vid}" for vid in layers.vehicle_ids]
-            for metric in PER_VEHICLE_PLOTS}
+        # plot entity -> its lines' paths, fixed from the start: Rerun draws only the lines
+        # every row of a plot has, so a line that appears later (a drop reason, a vehicle not in
+        # the scenario) gets an entity of its own instead
+        self._plots: dict[str, tuple[str, ...]] = {
+            **{metric: tuple(f"{metric}/{vid}" for vid in layers.vehicle_ids)
+               for metric in PER_VEHICLE_PLOTS},
+            "fleet/spots": ("fleet/spots_cleared", "fleet/duplicates"),
+            "fleet/priority": ("fleet/priority_collected",),
+            "fleet/messages": ("fleet/messages/delivered", "fleet/messages/dropped"),
+            "fleet/bytes": ("fleet/bytes/delivered",),
+        }
         self._plot_t: dict[str, float] = {}  # plot entity -> time of its last row
         self._station_labels: tuple[str, ...] = ()
         self._station_names: list[list[_Vehicle]] = [[] for _ in layers.stations]
@@ -188,22 +196,26 @@ class FleetPicture:
         """A series sample: the plot rows it is worth (`ground_station.series`)."""
         return self._rows(self.series.offer(path, t_s, value))
 
+    def _plot_of(self, path: str) -> str:
+        entity, _ = series_line(path)
+        if path not in self._plots.get(entity, ()):
+            entity = path  # not one of the plot's lines from the start: a plot of its own
+            self._plots.setdefault(entity, (path,))
+        return entity
+
     def _rows(self, scalars: list[Scalar]) -> list[Drawing]:
         """Drawn samples -> rows of their plots, every line at its newest value. A plot's rows
         never go back in time (samples of different vehicles arrive out of order): a row is
         stamped no earlier than the plot's last."""
         rows: dict[tuple[str, float], dict[str, float]] = {}
         for s in scalars:
-            entity, _ = series_line(s.path)
-            paths = self._plots.setdefault(entity, [])
-            if s.path not in paths:
-                paths.append(s.path)
+            entity = self._plot_of(s.path)
             t = max(s.t_s, self._plot_t.get(entity, -math.inf))
             self._plot_t[entity] = t
             rows.setdefault((entity, t), {})[s.path] = s.value
         out: list[Drawing] = []
         for (entity, t), drawn in rows.items():
-            paths = tuple(self._plots[entity])
+            paths = self._plots[entity]
             values = tuple(drawn[p] if p in drawn else _or_nan(self.series.last(p))
                            for p in paths)
             out.append(SeriesRow(t, entity, tuple(series_line(p)[1] for p in paths), paths,
@@ -378,6 +390,7 @@ class FleetPicture:
         if kind == v.mark or v.xy is None:
             return []
         v.mark = kind
+        self._dirty.add("vehicles")  # a marked vehicle is named by its mark, not a label
         return [Mark(t, v.vid, kind, v.xy)]
 
     def _check_silence(self, t: float) -> list[Drawing]:
@@ -439,7 +452,8 @@ class FleetPicture:
     def _labels(self, located: list[_Vehicle]) -> tuple[tuple[str, ...], list[list[_Vehicle]]]:
         """One label per group of vehicles whose labels would overlap, on the group's first
         vehicle; vehicles at a station are named in the station's label instead (several
-        vehicles share the start: their labels and the station's would pile up there)."""
+        vehicles share the start: their labels and the station's would pile up there), and a
+        vehicle with a mark by the mark's label (``auv2 ABORTED``)."""
         xmin, xmax, ymin, ymax = self.layers.bounds
         extent = max(xmax - xmin, ymax - ymin)
         w, h = self.tuning.label_box[0] * extent, self.tuning.label_box[1] * extent
@@ -456,6 +470,8 @@ class FleetPicture:
                 xy = v.xy
                 at_station[min(stations, key=lambda i: math.dist(self.layers.stations[i].xy,
                                                                  xy))].append(v)
+                continue
+            if v.mark:
                 continue
             for g in groups:
                 if near(g[0].xy, v.xy):  # type: ignore[arg-type]

@@ -143,6 +143,13 @@ def test_vehicles_whose_labels_would_overlap_share_one(picture):
                                                  "auv3 transit")
 
 
+def test_a_marked_vehicle_is_named_by_its_mark_not_a_second_label(picture):
+    located(picture, {"auv1": (50.0, 50.0), "auv2": (20.0, 80.0)})
+    out = picture.apply("auv2", Event(2.0, "auv2", "abort"))
+    assert of_type(out, Mark)[0].kind == "aborted"
+    assert of_type(out, Vehicles)[-1].labels == ("auv1 transit", "")
+
+
 def test_links_are_one_snapshot_of_the_latest_frame_per_link(picture):
     picture.apply("auv1", Truth(0, (0.0, 0.0, -2.0)))
     picture.apply("auv2", Truth(0, (30.0, 40.0, -2.0)))
@@ -329,3 +336,11 @@ def test_a_tidal_current_follows_the_picture_clock_not_every_sample(small_doc):
     layer = picture.layers.current
     np.testing.assert_allclose(drawn[-1].uv_mps, layer.field.velocity(drawn[-1].xy,
                                                                       drawn[-1].t_s))
+
+
+def test_a_drop_label_gives_the_sinr_too_once_the_bus_carries_it():
+    from ground_station.drawing import LinkLine
+
+    line = LinkLine(1.0, "a", "b", (0, 0), (1, 1), False, "collision", 20, 24.6, 2.2)
+    assert line.label() == "collision SNR 25 dB SINR 2 dB"
+    assert LinkLine(1.0, "a", "b", (0, 0), (1, 1), False, "range", 20).label() == "range"

@@ -55,7 +55,7 @@ def test_garbage_is_dropped_counted_and_survived(recorded):
     _, station, _, ents, _ = recorded
     assert station.dropped["malformed"] == 3
     assert station.dropped["malformed:status"] == 1 and station.dropped["malformed:link"] == 1
-    assert ents["/series/ground_station/dropped"].line("malformed")[-1][1] == 3
+    assert ents["/series/ground_station/dropped/malformed"].line("malformed")[-1][1] == 3
     assert station.dropped["error"] == 0
 
 
@@ -138,7 +138,7 @@ def test_links_are_one_layer_drawn_then_cleared(recorded):
     assert all(b - a <= 5.0 + 30.0 for a, b in zip([t for t, _ in rows], [t for t, _ in rows][1:]))
     messages = ents["/series/fleet/messages"]
     delivered, dropped = messages.line("delivered")[-1][1], messages.line("dropped")[-1][1]
-    assert dropped == messages.line("drops/collision")[-1][1]
+    assert dropped == ents["/series/fleet/drops/collision"].line("drops/collision")[-1][1]
     assert delivered > dropped > 0
 
 
@@ -158,3 +158,13 @@ def test_the_recording_is_compacted_at_close(recorded):
     rows = sum(len(e.rows) for e in ents.values())
     assert len(chunks) < rows / 5, (len(chunks), rows)  # merged, not a chunk per row or tick
     assert not list(rrd.parent.glob(".*compacting*"))
+
+
+def test_every_row_of_a_plot_has_all_its_lines(recorded):
+    """Rerun draws only the lines every row of a plot has: a line appearing later (a drop
+    reason) must not change a plot's row length, or it silently disappears."""
+    _, _, _, ents, _ = recorded
+    for path, entity in ents.items():
+        if path.startswith("/series/"):
+            names = entity.static["SeriesLines:names"]
+            assert {len(v) for _, v in entity.series("Scalars:scalars")} == {len(names)}, path

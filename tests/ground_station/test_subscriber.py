@@ -94,7 +94,7 @@ def test_station_joins_before_the_mission_exists_and_survives_a_garbled_answer(b
                key=lambda s: s.t_s)
     assert last_battery(rrd, "auv1") == last.battery_s  # every sample made it
     ents = read_recording(rrd)
-    assert ents["/series/ground_station/dropped"].line("malformed")[-1][1] == 1
+    assert ents["/series/ground_station/dropped/malformed"].line("malformed")[-1][1] == 1
 
 
 def test_a_restarted_station_picks_up_from_current_statuses(bus, tmp_path):

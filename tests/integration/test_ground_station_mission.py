@@ -58,14 +58,12 @@ def test_vehicle_series_match_the_report(mission):
 def test_acoustic_traffic_matches_the_relay_counters(mission):
     report, ents, _ = mission
     link = report["messages"]["link"]
-    messages = ents["/series/fleet/messages"]
     assert last(ents, "/series/fleet/messages", "delivered") == link["delivered"]
     assert last(ents, "/series/fleet/bytes", "delivered") == link["bytes"]
-    lines = messages.static["SeriesLines:names"]
     for reason in ("range", "sinr", "random", "collision", "half_duplex", "oversize",
                    "partition"):
-        name = f"drops/{reason}"
-        assert (messages.line(name)[-1][1] if name in lines else 0) == link[reason]
+        plot = f"/series/fleet/drops/{reason}"
+        assert (last(ents, plot, f"drops/{reason}") if plot in ents else 0) == link[reason]
     assert ents["/map/links"].rows
 
 
