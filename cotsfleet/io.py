@@ -17,6 +17,7 @@ from cotsfleet.schemas import SchemaViolation, validate
 from hfc_core.problem import Problem, ScenarioError
 from hfc_core.scenario import problem_from_dict
 from hfc_core.top import parse_top
+from hfc_core.truth import reef_from_doc
 
 if TYPE_CHECKING:
     from comms_sim.config import ChannelConfig
@@ -73,7 +74,9 @@ def read_scenario(path: str | Path) -> tuple[Problem, dict | None]:
         raise ScenarioError(f"{path}: not valid JSON: {exc}") from None
     check_schema(doc, "scenario", path, ScenarioError)
     try:
-        return problem_from_dict(doc), doc
+        problem = problem_from_dict(doc)
+        reef_from_doc(doc, problem)  # the hidden reef (simulation only): refuse a bad one here
+        return problem, doc
     except ScenarioError as exc:
         raise ScenarioError(f"{path}: {exc}") from None
 

@@ -1,5 +1,6 @@
-"""`cotsfleet scenario`: a scenario JSON drawn from the paper's model (eq. 1-2), or made from a
-reef in GeoJSON (longitude/latitude, see `cotsfleet.geo.reef`)."""
+"""`cotsfleet scenario`: a scenario JSON drawn from the paper's model (eq. 1-2), optionally with
+a hidden reef the map predicts imperfectly (``--dynamic``), or made from a reef in GeoJSON
+(longitude/latitude, see `cotsfleet.geo.reef`)."""
 
 from __future__ import annotations
 
@@ -14,10 +15,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cotsfleet.cli import UsageError
-from hfc_core.generate import (PAPER_PRESET, AreaParams, GeneratorParams, generate_area_doc,
-                                generate_doc, out_of_reach)
-from hfc_core.problem import ScenarioError
+from hfc_core.generate import (PAPER_PRESET, AreaParams, DynamicParams, GeneratorParams,
+                                generate_area_doc, generate_doc, generate_dynamic_doc,
+                                out_of_reach)
+from hfc_core.problem import Problem, ScenarioError
 from hfc_core.scenario import problem_from_dict
+from hfc_core.truth import reef_from_doc
 
 if TYPE_CHECKING:
     from cotsfleet.geo import ReefOptions
@@ -28,7 +31,12 @@ HELP = ("make a COTS scenario: drawn from the eq. 1 probability map, or from you
 GENERATOR_ONLY = ("paper", "tasks", "size", "area_m", "centres", "land_forbidden")
 # Flags of the eq. 1 field generator that mean nothing for a large area (--area-m).
 FIELD_ONLY = ("paper", "size", "land_forbidden")
-GEOJSON_ONLY = ("detect_radius_m", "p_detect", "inspect_s", "simplify_m")
+# The truth's camera: for a reef file's truth points, or a drawn hidden reef (--dynamic).
+SENSOR = ("detect_radius_m", "p_detect", "inspect_s")
+GEOJSON_ONLY = ("simplify_m",)
+# Flag -> `DynamicParams` field of the hidden reef's knobs (--dynamic).
+DYNAMIC_ONLY = {"empty_share": "empty_share", "priority_error": "priority_error",
+                "unmapped": "n_unmapped", "unmapped_spread_m": "unmapped_spread_m"}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -70,14 +78,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     reef.add_argument("--from-geojson", metavar="REEF.geojson",
                       help="make the scenario from this reef, projected to local metres (UTM)")
     reef.add_argument("--detect-radius-m", type=float, metavar="M",
-                      help="truth: the camera sees a spot within this range (default 25)")
+                      help="truth (also --dynamic): the camera sees a spot within this range "
+                           "(default 25)")
     reef.add_argument("--p-detect", type=float, metavar="P",
-                      help="truth: chance that a pass within range sees it (default 0.9)")
+                      help="truth (also --dynamic): chance that a pass within range sees it "
+                           "(default 0.9)")
     reef.add_argument("--inspect-s", type=float, metavar="S",
-                      help="truth: time to look at a predicted spot (default 20)")
+                      help="truth (also --dynamic): time spent at a predicted spot to see what "
+                           "is there (default 20)")
     reef.add_argument("--simplify-m", type=float, metavar="M",
                       help="simplify land/no-go outlines to this tolerance, never shrinking "
                            "them (detailed outlines slow the planner's routing around land)")
+    dynamic = parser.add_argument_group(
+        "dynamic missions", "a hidden reef (the scenario's 'truth') drawn with the map: some "
+        "predicted spots are empty, the others' priorities are off, and aggregations the map "
+        "missed lie near the predicted ones; the camera flags above apply; see docs/scenario.md")
+    dynamic.add_argument("--dynamic", action="store_true",
+                         help="also draw the hidden reef (with --paper: the demo's scenario)")
+    dynamic.add_argument("--empty-share", type=float, metavar="X",
+                         help="share of the predicted spots that hold nothing (default 0.25)")
+    dynamic.add_argument("--priority-error", type=float, metavar="X",
+                         help="relative spread of a spot's real priority around the predicted "
+                              "one, lognormal and right on average (default 0.3)")
+    dynamic.add_argument("--unmapped", type=int, metavar="N",
+                         help="number of aggregations the map missed (default 12 per 90 "
+                              "predicted spots)")
+    dynamic.add_argument("--unmapped-spread-m", type=float, metavar="M",
+                         help="Gaussian spread (per axis) of the missed aggregations around "
+                              "the predicted spots, m (default 50)")
     parser.add_argument("--name", help="scenario name")
     parser.add_argument("-o", "--output", metavar="OUT.json",
                         help="write here (default: print the JSON on stdout)")
@@ -131,14 +159,11 @@ def area_params_from_args(args: argparse.Namespace) -> AreaParams:
 def area_scenario(args: argparse.Namespace) -> tuple[dict, str]:
     """The document of ``--area-m`` and the line that says what was written."""
     params = area_params_from_args(args)
-    try:
-        doc = generate_area_doc(params, np.random.default_rng(args.seed))
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    doc = draw(params, args)
     if not args.name:
         doc["name"] = (f"area{params.area_m:g}m-{params.n_vehicles}auv-{params.n_tasks}spots-"
-                       f"seed{args.seed}")
-    problem_from_dict(doc)  # a generated document must load: fail here, not in `plan`
+                       f"{'dynamic-' if args.dynamic else ''}seed{args.seed}")
+    problem = problem_from_dict(doc)  # a generated document must load: fail here, not in `plan`
     x, y, _ = params.station_point
     line = (f"{len(doc['tasks'])} spots in {params.n_clusters or params.n_vehicles} "
             f"aggregations, {params.n_vehicles} AUVs, {params.area_m:g} m area, station at "
@@ -147,7 +172,60 @@ def area_scenario(args: argparse.Namespace) -> tuple[dict, str]:
     if far:
         line += (f"\nnote: {far} spot(s) lie beyond a round trip of the battery from the "
                  "station: no vehicle can treat them (a longer --battery-s, or a smaller area)")
+    if args.dynamic:
+        line += "\n" + truth_summary(doc, problem)
     return doc, line
+
+
+def dynamic_params(args: argparse.Namespace, base: GeneratorParams | AreaParams
+                   ) -> DynamicParams:
+    """The hidden reef's knobs the flags ask for (raises `UsageError` naming the flag)."""
+    flags = {**DYNAMIC_ONLY, **{k: k for k in SENSOR}}
+    changes = {field: getattr(args, flag) for flag, field in flags.items()
+               if getattr(args, flag) is not None}
+    try:
+        return DynamicParams(base=base, **changes)  # type: ignore[arg-type]
+    except ValueError as exc:
+        message = str(exc)
+        for flag, field in flags.items():
+            if message.startswith(field + " "):
+                message = f"--{flag.replace('_', '-')}{message[len(field):]}"
+        raise UsageError(message) from None
+
+
+def draw(base: GeneratorParams | AreaParams, args: argparse.Namespace) -> dict:
+    """The document ``base`` describes, seeded by ``--seed``; with ``--dynamic`` the same
+    document plus its hidden reef, checked against the schema and `reef_from_doc`."""
+    params = dynamic_params(args, base) if args.dynamic else None
+    rng = np.random.default_rng(args.seed)
+    try:
+        if params is not None:
+            doc = generate_dynamic_doc(params, rng)
+        elif isinstance(base, AreaParams):
+            doc = generate_area_doc(base, rng)
+        else:
+            doc = generate_doc(base, rng)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    if params is not None:
+        from cotsfleet.io import check_schema
+
+        check_schema(doc, "scenario", "generated scenario", ScenarioError)  # our own contract
+    return doc
+
+
+def truth_summary(doc: dict, problem: Problem) -> str:
+    """What the hidden reef holds against what the map predicts, in one line."""
+    reef = reef_from_doc(doc, problem)  # also checks the generator kept the contract
+    assert reef is not None
+    n = problem.n_tasks
+    empty, unmapped = len(reef.empty(n)), len(reef.unmapped())
+    mapped = reef.total_priority() - sum(reef.spots[i].priority for i in reef.unmapped())
+    predicted = float(problem.priority.sum())
+    share = f" ({reef.total_priority() / predicted:.0%})" if predicted > 0 else ""
+    return (f"truth: {n - empty} of {n} predicted spots hold COTS ({empty} empty), {unmapped} "
+            f"unmapped aggregation(s); real priority {reef.total_priority():.0f} vs the map's "
+            f"{predicted:.0f}{share}, {mapped:.0f} of it at predicted spots")
 
 
 def reef_options(args: argparse.Namespace) -> "ReefOptions":
@@ -161,7 +239,7 @@ def reef_options(args: argparse.Namespace) -> "ReefOptions":
     changes: dict[str, object] = {"seed": args.seed}
     for flag, name in (("name", "name"), ("vehicles", "vehicles"), ("battery", "battery_s"),
                        ("speed", "speed_mps"), ("service", "service_s"),
-                       *((k, k) for k in GEOJSON_ONLY)):
+                       *((k, k) for k in (*SENSOR, *GEOJSON_ONLY))):
         if getattr(args, flag) is not None:
             changes[name] = getattr(args, flag)
     try:
@@ -224,33 +302,48 @@ def write_doc(doc: dict, output: str | None) -> bool:
     return True
 
 
+def _given(args: argparse.Namespace, names) -> list[str]:
+    return [f"--{k.replace('_', '-')}" for k in names if getattr(args, k) is not None]
+
+
+def check_dynamic_flags(args: argparse.Namespace) -> None:
+    """Flags that mean nothing without what they belong to (raises `UsageError`)."""
+    if args.from_geojson is not None and args.dynamic:
+        raise UsageError("--dynamic: not with --from-geojson (the reef's truth points are its "
+                         "hidden reef)")
+    given = _given(args, DYNAMIC_ONLY)
+    if given and not args.dynamic:
+        raise UsageError(f"{', '.join(given)}: only with --dynamic")
+    given = _given(args, GEOJSON_ONLY)
+    if given and args.from_geojson is None:
+        raise UsageError(f"{', '.join(given)}: only with --from-geojson")
+    given = _given(args, SENSOR)
+    if given and args.from_geojson is None and not args.dynamic:
+        raise UsageError(f"{', '.join(given)}: only with --from-geojson or --dynamic")
+
+
 def run(args: argparse.Namespace) -> int:
+    check_dynamic_flags(args)
     if args.from_geojson is not None:
         doc = reef_scenario(args)
         if write_doc(doc, args.output):
             print(reef_summary(doc, args.output))
         return 0
-    given = [f"--{k.replace('_', '-')}" for k in GEOJSON_ONLY if getattr(args, k) is not None]
-    if given:
-        raise UsageError(f"{', '.join(given)}: only with --from-geojson")
     if args.area_m is not None:
         doc, line = area_scenario(args)
         if write_doc(doc, args.output):
             print(f"wrote {args.output}: {line}")
         return 0
     params = params_from_args(args)
-    try:
-        doc = generate_doc(params, np.random.default_rng(args.seed))
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    doc = draw(params, args)
     if not args.name:
-        doc["name"] = f"{'paper' if args.paper else 'generated'}-seed{args.seed}"
-    try:
-        problem_from_dict(doc)  # a generated document must load: fail here, not in `plan`
-    except NotImplementedError:
-        pass  # routing around "forbidden" land needs hfc_core.geometry's land metric
+        doc["name"] = (f"{'paper' if args.paper else 'generated'}-"
+                       f"{'dynamic-' if args.dynamic else ''}seed{args.seed}")
+    problem = problem_from_dict(doc)  # a generated document must load: fail here, not in `plan`
     if not write_doc(doc, args.output):
         return 0
     n, k = len(doc["tasks"]), len(doc["vehicles"])
     print(f"wrote {args.output}: {n} spots, {k} AUVs, {params.size_m:g} m field, seed {args.seed}")
+    if args.dynamic:
+        print(truth_summary(doc, problem))
     return 0

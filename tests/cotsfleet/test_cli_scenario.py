@@ -182,3 +182,127 @@ def test_a_large_area_mission_plans_and_flies(tmp_path, assert_feasible):
     report = simulate(p, seed=3).report
     assert report["fleet"]["spots_cleared"] > 0 and report["fleet"]["duplicate_treatments"] == 0
     assert report["fleet"]["vehicles_home"] == 5
+
+
+# -- dynamic missions (--dynamic): the map and the hidden reef it predicts ----------------------
+
+
+def test_dynamic_paper_preset_is_the_demo_scenario(tmp_path, capsys):
+    from cotsfleet.io import read_scenario
+    from hfc_core.generate import dynamic_preset_doc, paper_preset_doc
+    from hfc_core.truth import reef_from_doc
+
+    out = tmp_path / "dyn.json"
+    assert main(["scenario", "--paper", "--dynamic", "--seed", "2", "-o", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert json.loads(out.read_text()) == dynamic_preset_doc(2)
+    problem, doc = read_scenario(out)  # schema, problem and reef all accept it
+    reef = reef_from_doc(doc, problem)
+    assert doc["tasks"] == paper_preset_doc(2)["tasks"]  # the prior is the static scenario's
+    total = sum(t["priority"] for t in doc["tasks"])
+    assert (f"truth: 67 of 90 predicted spots hold COTS (23 empty), 12 unmapped "
+            f"aggregation(s); real priority {reef.total_priority():.0f} vs the map's "
+            f"{total:.0f}") in said
+
+
+def test_static_scenarios_carry_no_truth(tmp_path, capsys):
+    out = tmp_path / "s.json"
+    assert main(["scenario", "--paper", "--seed", "2", "-o", str(out)]) == 0
+    assert "truth" not in json.loads(out.read_text())
+    assert "truth:" not in capsys.readouterr().out
+
+
+def test_dynamic_knobs_reach_the_truth(tmp_path):
+    from hfc_core.truth import reef_from_doc
+
+    out = tmp_path / "dyn.json"
+    assert main(["scenario", "--dynamic", "--tasks", "40", "--vehicles", "2", "--size", "600",
+                 "--empty-share", "0.5", "--priority-error", "0", "--unmapped", "7",
+                 "--unmapped-spread-m", "20", "--p-detect", "0.6", "--detect-radius-m", "12",
+                 "--inspect-s", "35", "--seed", "9", "-o", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["name"] == "generated-dynamic-seed9" and len(doc["vehicles"]) == 2
+    reef = reef_from_doc(doc, problem_from_dict(doc))
+    assert (reef.p_detect, reef.detect_radius_m, reef.inspect_s) == (0.6, 12.0, 35.0)
+    assert len(reef.empty(40)) == 20 and len(reef.unmapped()) == 7
+    for s in reef.spots:  # no priority error: the map's priorities where it is right
+        if s.task is not None:
+            assert s.priority == doc["tasks"][s.task]["priority"]
+
+
+def test_dynamic_large_area(tmp_path, capsys):
+    from hfc_core.truth import reef_from_doc
+
+    out = tmp_path / "area.json"
+    assert main(["scenario", "--area-m", "3000", "--vehicles", "6", "--spots", "180",
+                 "--dynamic", "--seed", "1", "-o", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["name"] == "area3000m-6auv-180spots-dynamic-seed1"
+    reef = reef_from_doc(doc, problem_from_dict(doc))
+    assert len(reef.unmapped()) == 24 and len(reef.empty(180)) == 45
+    assert "truth: 135 of 180 predicted spots" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--dynamic", "--empty-share", "1.5"], "--empty-share must be in 0..1, got 1.5"),
+    (["--dynamic", "--empty-share", "nan"], "--empty-share must be in 0..1, got nan"),
+    (["--dynamic", "--priority-error", "-0.2"], "--priority-error must be >= 0, got -0.2"),
+    (["--dynamic", "--unmapped", "-1"], "--unmapped must be an integer >= 0, got -1"),
+    (["--dynamic", "--unmapped-spread-m", "0"], "--unmapped-spread-m must be positive"),
+    (["--dynamic", "--p-detect", "1.2"], "--p-detect must be in 0..1, got 1.2"),
+    (["--dynamic", "--detect-radius-m", "-3"], "--detect-radius-m must be >= 0, got -3.0"),
+    (["--dynamic", "--inspect-s", "inf"], "--inspect-s must be >= 0, got inf"),
+    (["--empty-share", "0.3"], "--empty-share: only with --dynamic"),
+    (["--unmapped", "3"], "--unmapped: only with --dynamic"),
+    (["--p-detect", "0.5"], "--p-detect: only with --from-geojson or --dynamic"),
+    (["--simplify-m", "5"], "--simplify-m: only with --from-geojson"),
+    (["--dynamic", "--from-geojson", "reef.geojson"], "--dynamic: not with --from-geojson"),
+])
+def test_bad_dynamic_flags_exit_2_with_one_line(argv, message, capsys):
+    assert main(["scenario", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cotsfleet scenario: error:") and "\n" not in err
+    assert message in err
+
+
+def _with_truth(tmp_path, change):
+    from hfc_core.generate import dynamic_preset_doc
+
+    doc = dynamic_preset_doc(0)
+    change(doc["truth"])
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(doc))  # NaN is written as the NaN literal Python reads back
+    return path
+
+
+MALFORMED_TRUTH = {
+    "priority NaN": (lambda t: t["spots"][3].update(priority=float("nan")),
+                     "truth.spots[3].priority: must be finite"),
+    "pos as text": (lambda t: t["spots"][1].update(pos="here"),
+                    "truth.spots[1].pos: expected array, got string 'here'"),
+    "no such task": (lambda t: t["spots"][5].update(task=999),
+                     "truth.spots[5].task: no task 999 in the scenario"),
+    "two spots, one task": (lambda t: t["spots"][7].update(task=t["spots"][2]["task"]),
+                            "truth.spots[7].task: task 2 is already named by truth.spots[2]"),
+    "p_detect above 1": (lambda t: t.update(p_detect=1.5), "truth.p_detect: must be <= 1"),
+    "p_detect NaN": (lambda t: t.update(p_detect=float("nan")), "truth.p_detect: must be finite"),
+    "negative radius": (lambda t: t.update(detect_radius_m=-1.0),
+                        "truth.detect_radius_m: must be >= 0"),
+    "task as text": (lambda t: t["spots"][0].update(task="12"),
+                     "truth.spots[0].task: expected integer or null"),
+}
+
+
+@pytest.mark.parametrize("how", list(MALFORMED_TRUTH))
+def test_a_malformed_truth_stops_every_command_with_exit_2(how, tmp_path, capsys):
+    change, message = MALFORMED_TRUTH[how]
+    path = _with_truth(tmp_path, change)
+    assert main(["plan", str(path), "--mode", "hfc-cm", "--iterations", "3"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"cotsfleet plan: error: {path}: ") and "\n" not in err
+    assert message in err
+
+
+def test_a_scenario_with_truth_still_plans(tmp_path, capsys):
+    path = _with_truth(tmp_path, lambda t: None)
+    assert main(["plan", str(path), "--mode", "hfc-cm", "--iterations", "3"]) == 0
