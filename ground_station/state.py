@@ -245,8 +245,8 @@ class FleetPicture:
 
     def _heard(self, v: _Vehicle, t: float) -> list[Drawing]:
         v.last_heard_s = max(v.last_heard_s, t)
-        if not v.silent:
-            return []
+        if not v.silent or self.now_s - v.last_heard_s > self.tuning.silent_after_s:
+            return []  # a sample that is itself older than the verdict does not lift it
         v.silent = False
         self._update_route(v)
         return [LogLine(t, f"{v.vid} heard again", "INFO"), *self._update_mark(v, t)]
@@ -379,10 +379,14 @@ class FleetPicture:
         return out + self._update_mark(v, t)
 
     def _update_mark(self, v: _Vehicle, t: float) -> list[Drawing]:
-        if v.state == "dead" or v.silent:
-            kind = "dead" if v.state == "dead" else "silent"
+        # what is known outranks what is guessed: an announced abort explains the silence
+        # that follows it, even when the announcement arrives after the station's verdict
+        if v.state == "dead":
+            kind = "dead"
         elif v.state == "aborted":
             kind = "aborted"
+        elif v.silent:
+            kind = "silent"
         elif v.lost_by:
             kind = "lost"
         else:
@@ -391,7 +395,9 @@ class FleetPicture:
             return []
         v.mark = kind
         self._dirty.add("vehicles")  # a marked vehicle is named by its mark, not a label
-        return [Mark(t, v.vid, kind, v.xy)]
+        # a verdict on the whole picture: stamped with its clock, so a mark decided later is
+        # never drawn under one decided earlier (an abort announced late, after a silence)
+        return [Mark(self.now_s, v.vid, kind, v.xy)]
 
     def _check_silence(self, t: float) -> list[Drawing]:
         out: list[Drawing] = []

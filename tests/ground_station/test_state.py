@@ -108,6 +108,26 @@ def test_a_vehicle_that_falls_silent_is_marked_and_its_spots_abandoned(picture):
     assert of_type(out, Routes)[0].vids == ("auv1", "auv2")  # heard again: its route is back
 
 
+def test_an_abort_announced_late_outranks_the_stations_silence_verdict(picture):
+    picture.apply("auv2", Truth(0, (5.0, 5.0, -2.0)))
+    out = picture.apply("auv1", Truth(130, (6.0, 5.0, -2.0)))  # auv2 quiet for 130 s
+    assert [(m.vid, m.kind) for m in of_type(out, Mark)] == [("auv2", "silent")]
+    out = picture.apply("auv2", Event(10, "auv2", "abort"))  # delayed on a busy machine
+    assert [(m.vid, m.kind, m.t_s) for m in of_type(out, Mark)] == [("auv2", "aborted", 130)]
+
+
+def test_samples_arriving_later_than_the_silence_verdict_do_not_lift_it(picture):
+    """A starved agent's samples may arrive minutes of simulation late: the vehicle is not
+    'heard again' (only to fall silent at the next check) by a sample already stale."""
+    picture.apply("auv2", Truth(0, (5.0, 5.0, -2.0)))
+    picture.apply("auv1", Truth(130, (6.0, 5.0, -2.0)))
+    out = picture.apply("auv2", Truth(5, (5.0, 6.0, -2.0)))  # 125 s old when it arrives
+    assert of_type(out, Mark) == [] and of_type(out, LogLine) == []
+    assert picture.vehicles["auv2"].silent
+    out = picture.apply("auv2", Truth(120, (5.0, 7.0, -2.0)))  # recent: heard again
+    assert [(m.vid, m.kind) for m in of_type(out, Mark)] == [("auv2", "")]
+
+
 def located(picture, positions: dict[str, tuple[float, float]], t=1.0):
     out = []
     for vid, xy in positions.items():
