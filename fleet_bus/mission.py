@@ -20,6 +20,8 @@ import zenoh
 
 from fleet_bus import keys
 from fleet_bus import values as v
+from fleet_bus.auth import BusAuth, unseal
+from fleet_bus.clock import WarpClock
 
 T = TypeVar("T")
 
@@ -53,51 +55,88 @@ class Mission:
 
 @dataclass(frozen=True)
 class ClockRecord:
-    """The shared mission clock: simulation time ``(wall - epoch_unix) * warp``."""
+    """The shared mission clock: simulation time ``(wall - epoch_unix) * warp``.
+
+    The operator may slow the clock down during a mission (a process lagging behind it):
+    it then puts a record with a higher ``seq``, whose epoch is chosen so that mission time
+    runs on without a jump (`WarpClock.slowed`). Every process follows the newest record."""
 
     epoch_unix: float
     warp: float
+    seq: int = 0
 
     def __post_init__(self) -> None:
         v.number(self.epoch_unix, "clock.epoch_unix")
         if not v.number(self.warp, "clock.warp") > 0:
             raise ValueError(f"clock.warp must be positive, got {self.warp}")
+        v.integer(self.seq, "clock.seq", 0)
 
     def encode(self) -> bytes:
-        return msgpack.packb({"epoch_unix": self.epoch_unix, "warp": self.warp})
+        return msgpack.packb({"epoch_unix": self.epoch_unix, "warp": self.warp, "seq": self.seq})
 
     @staticmethod
     def decode(payload: bytes) -> "ClockRecord":
         doc = v.unpack_map(payload, "clock record")
         return ClockRecord(v.number(doc.get("epoch_unix"), "clock.epoch_unix"),
-                           v.number(doc.get("warp"), "clock.warp"))
+                           v.number(doc.get("warp"), "clock.warp"),
+                           v.integer(doc.get("seq", 0), "clock.seq", 0))
 
 
 def fetch(session: zenoh.Session, key: str, decode: Callable[[bytes], T],
           stop: threading.Event, timeout_s: float, query_timeout_s: float = 2.0,
-          retry_s: float = 0.2) -> T | None:
+          retry_s: float = 0.2, auth: BusAuth | None = None) -> T | None:
     """Ask the queryable ``key`` until a well-formed answer comes (the operator may not be up
     yet, or not ready to answer); None if ``stop`` is set or ``timeout_s`` passes first.
-    Malformed answers are skipped."""
+    Malformed answers, and with ``auth`` answers not signed by the operator, are skipped
+    (and counted by ``auth``): the first reply no longer wins, the first genuine one does."""
     deadline = time.monotonic() + timeout_s
     while not stop.is_set() and time.monotonic() < deadline:
         left = deadline - time.monotonic()
         for reply in session.get(key, timeout=max(0.1, min(query_timeout_s, left))):
             if reply.ok is None:
                 continue
+            payload = unseal(auth, key, reply.ok.payload.to_bytes())
+            if payload is None:
+                continue
             try:
-                return decode(reply.ok.payload.to_bytes())
+                return decode(payload)
             except ValueError:
+                if auth is not None:
+                    auth.verifier.refuse("invalid")
                 continue
         stop.wait(retry_s)
     return None
 
 
 def fetch_mission(session: zenoh.Session, stop: threading.Event,
-                  timeout_s: float) -> Mission | None:
-    return fetch(session, keys.MISSION, Mission.decode, stop, timeout_s)
+                  timeout_s: float, auth: BusAuth | None = None) -> Mission | None:
+    """The operator's mission record; with ``auth``, only one of this run (its run id)."""
+    def decode(payload: bytes) -> Mission:
+        mission = Mission.decode(payload)
+        if auth is not None and mission.run_id != auth.run_id:
+            raise ValueError(f"mission record of run {mission.run_id!r}, not {auth.run_id!r}")
+        return mission
+
+    return fetch(session, keys.MISSION, decode, stop, timeout_s, auth=auth)
 
 
 def fetch_clock(session: zenoh.Session, stop: threading.Event,
-                timeout_s: float) -> ClockRecord | None:
-    return fetch(session, keys.CLOCK, ClockRecord.decode, stop, timeout_s)
+                timeout_s: float, auth: BusAuth | None = None) -> ClockRecord | None:
+    return fetch(session, keys.CLOCK, ClockRecord.decode, stop, timeout_s, auth=auth)
+
+
+def follow_clock(session: zenoh.Session, clock: WarpClock,
+                 auth: BusAuth | None = None) -> Any:
+    """Keep ``clock`` on the newest clock record the operator puts (a slowdown); returns the
+    subscriber, to be kept alive. Records not signed by the operator, malformed ones and
+    older ones change nothing."""
+    def on_sample(sample: zenoh.Sample) -> None:
+        payload = unseal(auth, keys.CLOCK, sample.payload.to_bytes())
+        if payload is None:
+            return
+        try:
+            record = ClockRecord.decode(payload)
+            clock.follow(record.epoch_unix, record.warp, record.seq)
+        except ValueError:
+            return
+    return session.declare_subscriber(keys.CLOCK, on_sample)

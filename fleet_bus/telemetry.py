@@ -30,12 +30,32 @@ EVENT_KINDS = (
     "claim",  # claimed spots (cooperation or takeover)
     "claim_lost",  # lost a conflicting claim and dropped the spots
     "abort",  # this vehicle aborted (announced)
-    "lost",  # this vehicle declared a peer lost (missed heartbeats or abort heard)
+    "suspect",  # a peer went silent; nothing is taken until another vehicle confirms it
+    "lost",  # this vehicle declared a peer lost (silence confirmed, or abort heard)
     "revived",  # a peer declared lost was heard again
     "takeover",  # spots of a lost vehicle taken into this vehicle's route
     "replan",  # local route changed
     "restart",  # the agent process restarted from its log
+    # dynamic missions (a hidden reef): what the camera showed
+    "found",  # an aggregation the map missed (tasks: its find id; detail: "x,y,z rho r")
+    "empty",  # a predicted spot inspected and found empty
+    "inspected",  # a predicted spot inspected and found to hold COTS
 )
+
+
+def position_detail(pos: tuple[float, ...]) -> str:
+    """How a find's position opens an event's detail ("x,y,z", decimetres): the simulated
+    world's bookkeeping names the real spot a find's treatment treated by where it is."""
+    return ",".join(f"{c:.1f}" for c in pos)
+
+
+def detail_position(detail: str) -> tuple[float, float, float] | None:
+    """The position `position_detail` put at the start of ``detail`` (None: there is none)."""
+    try:
+        x, y, z = (float(c) for c in detail.split()[0].split(","))
+    except (ValueError, IndexError):
+        return None
+    return (x, y, z) if all(c == c and abs(c) != float("inf") for c in (x, y, z)) else None
 
 
 @dataclass(frozen=True)
@@ -80,9 +100,12 @@ class Status:
     cleared_known: int  # size of the vehicle's grow-only cleared set
     priority_collected: float
     distance_m: float
-    peers: dict[str, str] = field(default_factory=dict)  # id -> "alive" | "lost" | "aborted"
+    peers: dict[str, str] = field(default_factory=dict)  # id -> "alive" | "suspect" | "lost" | "aborted" | "home"
     claims: list[int] = field(default_factory=list)  # task ids this vehicle holds by claim
     counters: dict[str, int] = field(default_factory=dict)  # msgs sent/received/dropped[reason]
+    # How far behind the mission clock the vehicle's process ran since its last status (its
+    # worst late tick, mission seconds): the operator slows the clock down when it grows.
+    lag_s: float = 0.0
 
     def encode(self) -> bytes:
         return msgpack.packb(asdict(self))
@@ -107,6 +130,7 @@ class Status:
                 peers=v.str_map(doc.get("peers", {}), "status.peers", str),
                 claims=v.ids(doc.get("claims", []), "status.claims"),
                 counters=v.str_map(doc.get("counters", {}), "status.counters", int),
+                lag_s=v.number(doc.get("lag_s", 0.0), "status.lag_s"),
             )
         except KeyError as exc:
             raise ValueError(f"status: missing {exc}") from None

@@ -1,0 +1,174 @@
+"""A run's credentials on disk: one directory per process, holding only what it needs.
+
+``write_run_credentials(root, vehicles)`` makes, for a fresh run id::
+
+    root/ring.json                  the public ring: run id, every signer's role and public key
+    root/<id>/ring.json             the same ring, in every process's directory
+    root/<id>/signing.key           its own Ed25519 private key (hex; operator, relay, vehicles)
+    root/<id>/zenoh.login           its own Zenoh user and password ("user:password")
+    root/router/users.txt           the router's dictionary of every Zenoh login
+    root/router/zid                 the Zenoh id of the mission's main router
+
+Directories are mode 0700 and secret files 0600. A process is started with
+``--credentials root/<id>``; a vehicle on another machine gets a copy of its own directory
+and nothing else (`docs/security.md`). The ground station (``station``) has a login and the
+ring but no signing key: it only listens.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+from cryptography.hazmat.primitives import serialization
+from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey, Ed25519PublicKey
+
+from fleet_bus.auth import (OPERATOR, OPERATOR_ID, RELAY, RELAY_ID, ROLES, VEHICLE, BusAuth,
+                            Member, Signer, Verifier)
+
+RING = "ring.json"
+SIGNING_KEY = "signing.key"
+ZENOH_LOGIN = "zenoh.login"
+ROUTER_ID, STATION_ID = "router", "station"
+ROUTER_USERS = "users.txt"
+ROUTER_ZID = "zid"
+
+
+class CredentialsError(ValueError):
+    """Credentials missing, unreadable or inconsistent (said in one line)."""
+
+
+@dataclass(frozen=True)
+class ZenohLogin:
+    user: str
+    password: str
+
+
+def new_run_id() -> str:
+    return time.strftime("%Y%m%d-%H%M%S") + f"-{secrets.token_hex(4)}"
+
+
+def _raw_public(key: Ed25519PrivateKey) -> str:
+    return key.public_key().public_bytes(serialization.Encoding.Raw,
+                                         serialization.PublicFormat.Raw).hex()
+
+
+def _raw_private(key: Ed25519PrivateKey) -> str:
+    return key.private_bytes(serialization.Encoding.Raw, serialization.PrivateFormat.Raw,
+                             serialization.NoEncryption()).hex()
+
+
+def _secret_file(path: Path, text: str) -> None:
+    """Create ``path`` readable by its owner only, before anything is written to it."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        fh.write(text)
+    os.chmod(path, 0o600)
+
+
+def _private_dir(path: Path) -> Path:
+    path.mkdir(parents=True, exist_ok=True, mode=0o700)
+    os.chmod(path, 0o700)
+    return path
+
+
+def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | None = None
+                          ) -> str:
+    """Generate a run's keys and logins under ``root`` (see the module docstring); returns
+    the run id."""
+    run_id = run_id or new_run_id()
+    for vid in vehicles:
+        if vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID) or "/" in vid or not vid:
+            raise CredentialsError(f"vehicle id {vid!r} cannot have credentials of its own")
+    _private_dir(root)
+    signers = {OPERATOR_ID: OPERATOR, RELAY_ID: RELAY, **{v: VEHICLE for v in vehicles}}
+    private = {sid: Ed25519PrivateKey.generate() for sid in signers}
+    ring = {"run_id": run_id, "members": {sid: {"role": role, "public": _raw_public(private[sid])}
+                                          for sid, role in signers.items()}}
+    ring_text = json.dumps(ring, indent=1)
+    (root / RING).write_text(ring_text, encoding="utf-8")
+    logins = {}
+    for pid in (*signers, STATION_ID, ROUTER_ID):
+        d = _private_dir(root / pid)
+        (d / RING).write_text(ring_text, encoding="utf-8")
+        if pid in private:
+            _secret_file(d / SIGNING_KEY, _raw_private(private[pid]) + "\n")
+        logins[pid] = secrets.token_hex(16)
+        _secret_file(d / ZENOH_LOGIN, f"{pid}:{logins[pid]}\n")
+    _secret_file(root / ROUTER_ID / ROUTER_USERS,
+                 "".join(f"{user}:{pw}\n" for user, pw in logins.items()))
+    # The main router's Zenoh id, so that a linked router (which logged in to it, but to
+    # which it did not log in) can still tell it apart from a client.
+    zid = secrets.choice("123456789abcdef") + secrets.token_hex(16)[1:]  # no leading 0: Zenoh
+    (root / ROUTER_ID / ROUTER_ZID).write_text(zid + "\n", encoding="utf-8")
+    return run_id
+
+
+def _read(path: Path) -> str:
+    try:
+        return path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise CredentialsError(f"cannot read {path}: {exc.strerror or exc}") from None
+
+
+def load_ring(directory: Path) -> Verifier:
+    """The verifier of the ring in ``directory``."""
+    try:
+        doc = json.loads(_read(Path(directory) / RING))
+        run_id = str(doc["run_id"])
+        members = {}
+        for sid, m in doc["members"].items():
+            if m["role"] not in ROLES:
+                raise ValueError(f"unknown role {m['role']!r}")
+            members[str(sid)] = Member(m["role"], Ed25519PublicKey.from_public_bytes(
+                bytes.fromhex(m["public"])))
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise CredentialsError(f"{directory}/{RING}: not a key ring ({exc})") from None
+    return Verifier(members, run_id)
+
+
+def load_auth(directory: Path, signer_id: str | None = None) -> BusAuth:
+    """What a process started with ``--credentials directory`` holds. With ``signer_id`` its
+    private key must be there and match the ring's public key for that id."""
+    directory = Path(directory)
+    verifier = load_ring(directory)
+    if signer_id is None:
+        return BusAuth(verifier)
+    if signer_id not in verifier.ring:
+        raise CredentialsError(f"{directory}: {signer_id!r} is not in the key ring")
+    text = _read(directory / SIGNING_KEY).strip()
+    try:
+        private = Ed25519PrivateKey.from_private_bytes(bytes.fromhex(text))
+    except ValueError:
+        raise CredentialsError(f"{directory}/{SIGNING_KEY}: not an Ed25519 key") from None
+    mine = verifier.ring[signer_id].public.public_bytes(serialization.Encoding.Raw,
+                                                        serialization.PublicFormat.Raw)
+    if _raw_public(private) != mine.hex():
+        raise CredentialsError(f"{directory}/{SIGNING_KEY} is not {signer_id}'s key")
+    return BusAuth(verifier, Signer(signer_id, private, verifier.run_id))
+
+
+def load_router_zid(directory: Path) -> str:
+    """The main router's Zenoh id, from a router's credentials directory."""
+    zid = _read(Path(directory) / ROUTER_ZID).strip()
+    try:
+        int(zid, 16)
+    except ValueError:
+        zid = "0"
+    if zid.startswith("0") or not 0 < len(zid) <= 32:  # Zenoh's rule for ids
+        raise CredentialsError(f"{directory}/{ROUTER_ZID}: not a Zenoh id")
+    return zid
+
+
+def load_login(directory: Path) -> ZenohLogin:
+    """The Zenoh user and password in ``directory``."""
+    text = _read(Path(directory) / ZENOH_LOGIN).strip()
+    user, sep, password = text.partition(":")
+    if not sep or not user or not password:
+        raise CredentialsError(f"{directory}/{ZENOH_LOGIN}: expected user:password")
+    return ZenohLogin(user, password)

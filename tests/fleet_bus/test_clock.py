@@ -1,0 +1,62 @@
+"""The warp clock: slowed down mid-mission without a jump, and followed by every process."""
+
+from __future__ import annotations
+
+import pytest
+
+from cotsfleet.commands.run import run_warnings
+from fleet_bus.clock import WarpClock
+from fleet_bus.mission import ClockRecord
+
+
+class Wall:
+    def __init__(self, t: float) -> None:
+        self.t = t
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def test_a_slowdown_continues_mission_time_without_a_jump() -> None:
+    wall = Wall(1000.0)
+    clock = WarpClock(990.0, 60.0, wall)
+    assert clock.now() == pytest.approx(600.0)
+    epoch, warp, seq = clock.slowed(30.0)
+    assert seq == 1
+    assert clock.follow(epoch, warp, seq)
+    assert clock.now() == pytest.approx(600.0)  # the same instant, the same mission time
+    wall.t += 2.0
+    assert clock.now() == pytest.approx(660.0)  # from now on at the new pace
+    assert clock.wall_of(660.0) == pytest.approx(wall.t)
+
+
+def test_only_a_newer_record_is_followed() -> None:
+    wall = Wall(1000.0)
+    a, b = WarpClock(990.0, 60.0, wall), WarpClock(990.0, 60.0, wall)
+    first = a.slowed(40.0)
+    a.follow(*first)
+    second = a.slowed(20.0)
+    assert b.follow(*second) and not b.follow(*first)  # reordered: the older one is ignored
+    assert b.warp == 20.0
+    with pytest.raises(ValueError):
+        b.follow(0.0, float("nan"), 9)
+    assert b.warp == 20.0 and b.seq == second[2]
+
+
+def test_the_clock_record_carries_its_sequence_and_refuses_nonsense() -> None:
+    rec = ClockRecord(12.5, 30.0, 3)
+    assert ClockRecord.decode(rec.encode()) == rec
+    with pytest.raises(ValueError):
+        ClockRecord(12.5, -1.0, 0)
+    with pytest.raises(ValueError):
+        ClockRecord(12.5, 30.0, -2)
+
+
+def test_the_launcher_warns_of_false_alarms_and_a_slowed_clock() -> None:
+    quiet = {"fleet": {"false_alarms": 0}, "clock": {"warp": 60.0, "slowdowns": []}}
+    assert run_warnings(quiet) == []
+    loud = {"fleet": {"false_alarms": 2, "duplicate_treatments": 0},
+            "clock": {"warp": 240.0, "final_warp": 117.6, "effective_warp": 131.2,
+                      "max_lag_s": 9.5, "slowdowns": [{"t_s": 300.0, "warp": 168.0}]}}
+    lines = run_warnings(loud)
+    assert len(lines) == 2 and "2 false alarm" in lines[0] and "117.6" in lines[1]

@@ -1,0 +1,60 @@
+"""A child of a launcher ends when the launcher dies, even if it is stuck and never looks at
+its stop event (fleet_bus.process.die_with_parent): real processes."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+from fleet_bus.process import ORPHAN_GRACE_S, PARENT_ENV
+
+STUCK_CHILD = textwrap.dedent("""
+    import time
+    from fleet_bus.process import process_stop
+    stop = process_stop()
+    print("ready", flush=True)
+    while True:  # stuck: never looks at stop
+        time.sleep(0.05)
+""")
+
+PARENT = textwrap.dedent("""
+    import os, subprocess, sys, time
+    child = subprocess.Popen([sys.executable, "-c", sys.argv[1]], stdout=subprocess.PIPE,
+                             env={**os.environ, %r: str(os.getpid())}, text=True)
+    assert child.stdout.readline() == "ready\\n"
+    print(child.pid, flush=True)
+    time.sleep(60)
+""" % PARENT_ENV)
+
+
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f"/proc/{pid}/stat") as fh:
+        return fh.read().split(")")[-1].split()[0] != "Z"
+
+
+def test_a_stuck_orphan_is_ended_after_the_grace() -> None:
+    parent = subprocess.Popen([sys.executable, "-c", PARENT, STUCK_CHILD],
+                              stdout=subprocess.PIPE, text=True)
+    assert parent.stdout is not None
+    child = int(parent.stdout.readline())
+    try:
+        time.sleep(1.0)
+        assert alive(child)  # a living parent: the child stays
+        parent.send_signal(signal.SIGKILL)
+        parent.wait()
+        t0 = time.monotonic()
+        while alive(child) and time.monotonic() - t0 < ORPHAN_GRACE_S + 5:
+            time.sleep(0.1)
+        assert not alive(child)
+        assert time.monotonic() - t0 >= ORPHAN_GRACE_S - 1  # it was given its grace first
+    finally:
+        if alive(child):
+            os.kill(child, signal.SIGKILL)
