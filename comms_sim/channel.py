@@ -47,7 +47,7 @@ from comms_sim.acoustics.fading import power_gain
 from comms_sim.config import PRESETS, ChannelConfig, Partition, TdmaConfig
 from comms_sim.link_event import BROADCAST, DROP_REASONS, LinkEvent
 from comms_sim.stats import LinkCounts, LinkStats
-from comms_sim.tdma import QueuedFrame, SenderQueue, slot_start
+from comms_sim.tdma import SUPERSEDABLE, QueuedFrame, SenderQueue, slot_start
 
 __all__ = ["Channel", "ChannelConfig", "LinkEvent", "Partition", "TdmaConfig", "PRESETS",
            "DROP_REASONS", "BROADCAST"]
@@ -72,6 +72,9 @@ class _Reception:
     gain: float = 1.0  # this frame's fading power gain on this link
     u_decode: float = 0.0
     interferers: list["_Reception"] | None = None  # audible overlaps at the same receiver
+
+
+MAX_QUEUED_FRAMES = 64  # one sender's frames waiting for its modem (about 3 minutes of slots)
 
 
 @dataclass(eq=False, slots=True)
@@ -190,6 +193,11 @@ class Channel:
             return [event]
         if self.config.tdma is not None and src not in self._slots:
             self._slots[src] = len(self._slots)
+        if len(node.queue) >= MAX_QUEUED_FRAMES and kind != SUPERSEDABLE:
+            # A sender that submits faster than its modem can send loses its own newest
+            # frames; memory stays bounded and no other sender waits longer for it.
+            self._stats.add(src, BROADCAST, "queue_full")
+            return []
         superseded = node.queue.push(QueuedFrame(frame, kind, t_s))
         if superseded:
             self._stats.add(src, BROADCAST, "superseded", superseded)

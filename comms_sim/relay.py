@@ -5,6 +5,13 @@ Subscribes to ``fleet/tx/*`` (frames), ``fleet/truth/*`` (where vehicles really 
 ``fleet/rx/<dst>`` when the model says its reception ends, and every delivery or drop as a
 `LinkEvent` on ``fleet/link/<src>/<dst>``; answers ``fleet/stats/link`` queries.
 
+With the run's credentials (`fleet_bus.auth`) it takes ``fleet/tx/X`` and ``fleet/truth/X``
+only signed by vehicle X and link control only signed by the operator, and signs what it
+publishes; what is refused is counted per reason (``auth_<reason>``) before it reaches the
+channel, so a forged pose can never replace a vehicle's queued heartbeat. Each sender's queue
+is bounded (`comms_sim.channel.MAX_QUEUED_FRAMES`) and so is the number of partitions: a
+flood costs the flooder's own queue, never another sender's.
+
 `Relay` holds the logic and is driven by plain calls (tests drive it without Zenoh); `serve`
 wires it to a session. Zenoh callbacks run on Zenoh's threads, the scheduler on the caller's,
 so the channel is guarded by one lock and nothing is published while holding it.
@@ -25,9 +32,10 @@ from comms_sim.control import apply_control
 from comms_sim.link_event import LinkEvent
 from comms_sim.seeds import channel_rng
 from fleet_bus import keys
+from fleet_bus.auth import BusAuth, Refused, seal
 from fleet_bus.clock import WarpClock
 from fleet_bus.link import INTRUDER, LinkControl, LinkRecord, encode_stats
-from fleet_bus.mission import fetch_clock, fetch_mission
+from fleet_bus.mission import fetch_clock, fetch_mission, follow_clock
 from fleet_bus.process import RELAY_READY, ready
 from fleet_bus.telemetry import Truth
 
@@ -35,7 +43,8 @@ Put = Callable[[str, bytes, "bytes | None"], None]  # key, payload, attachment
 READY = RELAY_READY
 # What the relay drops before the channel: garbage on its keys, or ids it cannot place.
 RELAY_COUNTERS = ("tx", "truth", "ctl", "malformed_tx", "malformed_truth", "malformed_ctl",
-                  "unknown_tx", "unknown_truth", "late_tx")
+                  "unknown_tx", "unknown_truth", "late_tx", "ctl_too_many_partitions")
+MAX_PARTITIONS = 64  # scheduled partitions the channel holds; more link control is refused
 
 
 class SimClock(Protocol):
@@ -58,8 +67,9 @@ class Relay:
     ids do not become phantom receivers."""
 
     def __init__(self, channel: Channel, clock: SimClock, put: Put,
-                 vehicles: frozenset[str] | None = None) -> None:
+                 vehicles: frozenset[str] | None = None, auth: BusAuth | None = None) -> None:
         self.channel = channel
+        self.auth = auth
         self.clock = clock
         self._put = put
         self._vehicles = vehicles
@@ -71,9 +81,25 @@ class Relay:
 
     # -- inputs (any thread) ---------------------------------------------------------------
 
-    def on_tx(self, vid: str, frame: bytes, kind: str = "data") -> None:
+    def _open(self, key: str, payload: bytes) -> bytes | None:
+        """The payload if ``key``'s rightful signer sealed it (always, on an open bus); a
+        refusal is counted as ``auth_<reason>``."""
+        if self.auth is None:
+            return payload
+        try:
+            return self.auth.open(key, payload)[1]
+        except Refused as exc:
+            with self._lock:
+                name = f"auth_{exc.reason}"
+                self.counters[name] = self.counters.get(name, 0) + 1
+            return None
+
+    def on_tx(self, vid: str, envelope: bytes, kind: str = "data") -> None:
+        frame = self._open(keys.tx_key(vid), envelope) if vid else envelope
         with self._lock:
             self.counters["tx"] += 1
+            if frame is None:
+                return
             if not vid or not frame:
                 self.counters["malformed_tx"] += 1
                 return
@@ -89,9 +115,12 @@ class Relay:
             self._wakeup.notify()
         self._publish(refused)
 
-    def on_truth(self, vid: str, payload: bytes) -> None:
+    def on_truth(self, vid: str, envelope: bytes) -> None:
+        payload = self._open(keys.truth_key(vid), envelope) if vid else envelope
         with self._lock:
             self.counters["truth"] += 1
+            if payload is None:
+                return
             if self._vehicles is not None and vid not in self._vehicles:
                 self.counters["unknown_truth"] += 1
                 return
@@ -103,12 +132,19 @@ class Relay:
                 return
             self._located.add(vid)
 
-    def on_ctl(self, payload: bytes) -> None:
+    def on_ctl(self, envelope: bytes) -> None:
+        payload = self._open(keys.LINK_CTL, envelope)
         with self._lock:
             self.counters["ctl"] += 1
+            if payload is None:
+                return
             try:
                 now = self.clock.now()
                 control = LinkControl.decode(payload, now)
+                if control.partition is not None and not control.clear_partitions and \
+                        len(self.channel.partitions) >= MAX_PARTITIONS:
+                    self.counters["ctl_too_many_partitions"] += 1
+                    return
                 apply_control(control, self.channel, now)
                 refused = []
                 if control.inject is not None and control.inject_at is not None:
@@ -125,6 +161,7 @@ class Relay:
         with self._lock:
             return encode_stats(self.channel.stats(), {
                 "relay": dict(self.counters), "t_s": self.clock.now(),
+                "refused": dict(self.auth.verifier.refused) if self.auth else {},
                 "extra_loss": self.channel.extra_loss,
                 "partitions": [p.to_dict() for p in self.channel.partitions]})
 
@@ -175,8 +212,11 @@ def link_record(event: LinkEvent) -> LinkRecord:
 
 def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threading.Event,
           vehicles: frozenset[str] | None = None,
-          on_ready: Callable[[Relay], None] | None = None) -> Relay:
-    """Relay ``channel`` on ``session`` until ``stop`` is set; returns the relay (counters)."""
+          on_ready: Callable[[Relay], None] | None = None,
+          auth: BusAuth | None = None) -> Relay:
+    """Relay ``channel`` on ``session`` until ``stop`` is set; returns the relay (counters).
+    With ``auth`` what it takes must be signed by its rightful sender and what it publishes
+    is signed by the relay."""
 
     publishers: dict[str, zenoh.Publisher] = {}  # declared once: half the cost of session.put
 
@@ -184,9 +224,9 @@ def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threa
         publisher = publishers.get(key)
         if publisher is None:
             publisher = publishers[key] = session.declare_publisher(key)
-        publisher.put(payload, attachment=attachment)
+        publisher.put(seal(auth, key, payload), attachment=attachment)
 
-    relay = Relay(channel, clock, put, vehicles)
+    relay = Relay(channel, clock, put, vehicles, auth)
 
     def on_tx(sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
@@ -202,7 +242,7 @@ def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threa
             relay.on_ctl(sample.payload.to_bytes())
 
     def on_stats(query: zenoh.Query) -> None:
-        query.reply(keys.LINK_STATS, relay.stats_payload())
+        query.reply(keys.LINK_STATS, seal(auth, keys.LINK_STATS, relay.stats_payload()))
 
     try:
         with session.declare_subscriber(keys.TX_ALL, on_tx), \
@@ -233,7 +273,7 @@ def _kind_of(sample: zenoh.Sample) -> str:
 def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
          epoch_unix: float | None = None, warp: float | None = None, seed: int | None = None,
          vehicles: Sequence[str] | None = None, mission_timeout_s: float = 30.0,
-         tdma: bool = False) -> Relay | None:
+         tdma: bool = False, auth: BusAuth | None = None) -> Relay | None:
     """Open a session on ``conf`` and relay until ``stop``. Without ``epoch_unix`` the seed
     and roster come from the ``fleet/mission`` record and the clock from ``fleet/clock``.
     ``tdma`` gives each vehicle of the roster a slot, in roster (scenario) order, as the
@@ -241,26 +281,30 @@ def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
     (the reason is printed)."""
     with zenoh.open(conf) as session:
         if epoch_unix is None:
-            mission = fetch_mission(session, stop, mission_timeout_s)
+            mission = fetch_mission(session, stop, mission_timeout_s, auth)
             if mission is None:
                 return _gave_up(stop, keys.MISSION, mission_timeout_s)
             seed = mission.seed if seed is None else seed
             vehicles = vehicles or mission.roster() or None
-            record = fetch_clock(session, stop, mission_timeout_s)
+            record = fetch_clock(session, stop, mission_timeout_s, auth)
             if record is None:
                 return _gave_up(stop, keys.CLOCK, mission_timeout_s)
-            epoch_unix, warp = record.epoch_unix, record.warp
+            epoch_unix, warp, clock_seq = record.epoch_unix, record.warp, record.seq
+        else:
+            clock_seq = 0
         if tdma:
             if not vehicles:
                 raise ValueError("TDMA needs the roster (--vehicles or the mission's)")
             config = with_tdma(config, list(vehicles))
-        clock = WarpClock(epoch_unix, warp if warp is not None else 1.0)
+        clock = WarpClock(epoch_unix, warp if warp is not None else 1.0, seq=clock_seq)
+        follower = follow_clock(session, clock, auth)  # noqa: F841  (a slowdown, kept alive)
         channel = Channel(config, channel_rng(0 if seed is None else seed))
         roster = frozenset(vehicles) if vehicles else None
         return serve(session, channel, clock, stop, roster, on_ready=lambda _: ready(
             READY, f"epoch_unix={clock.epoch_unix} warp={clock.warp} "
                    f"mac={'tdma' if config.tdma else 'aloha'} "
-                   f"roster={','.join(vehicles) if vehicles else 'open'}"))
+                   f"roster={','.join(vehicles) if vehicles else 'open'} "
+                   f"auth={'signed' if auth else 'open'}"), auth=auth)
 
 
 def _gave_up(stop: threading.Event, key: str, timeout_s: float) -> None:

@@ -3,24 +3,31 @@
 ``python -m comms_sim.router --listen tcp/127.0.0.1:7447`` prints one ready line and routes
 until SIGTERM, SIGINT or SIGHUP. ``--connect tcp/otherhost:7447`` links it to another router,
 which is how a mission spans machines: one router per host, linked, each host's processes on
-its own.
+its own. ``--credentials DIR`` (a router's credentials directory, `fleet_bus.credentials`)
+turns on Zenoh's user/password authentication and the fleet's access control: only the
+run's logins connect, each with its own rights (`fleet_bus.session.access_control`).
+Without it the router is open: experiments only.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import threading
+from pathlib import Path
 from typing import Sequence
 
+from fleet_bus.credentials import CredentialsError
 from fleet_bus.process import ROUTER_READY, process_stop, ready
 from fleet_bus.session import DEFAULT_ENDPOINT, open_session, router_config
 
 READY = ROUTER_READY
 
 
-def main(listen: Sequence[str], stop: threading.Event, connect: Sequence[str] = ()) -> None:
-    with open_session(router_config(listen, connect)):
-        ready(READY, " ".join(listen))
+def main(listen: Sequence[str], stop: threading.Event, connect: Sequence[str] = (),
+         credentials: Path | None = None) -> None:
+    with open_session(router_config(listen, connect, credentials)):
+        ready(READY, " ".join(listen) + (" (authenticated)" if credentials else " (open)"))
         while not stop.wait(1.0):  # a bounded wait keeps signal handling prompt
             pass
 
@@ -31,5 +38,11 @@ if __name__ == "__main__":
                         help=f"endpoint to listen on (repeatable; default {DEFAULT_ENDPOINT})")
     parser.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
                         help="another router to link to (repeatable)")
+    parser.add_argument("--credentials", type=Path, metavar="DIR",
+                        help="the router's credentials directory: logins and access control")
     args = parser.parse_args()
-    main(args.listen or [DEFAULT_ENDPOINT], process_stop(), args.connect)
+    try:
+        main(args.listen or [DEFAULT_ENDPOINT], process_stop(), args.connect, args.credentials)
+    except CredentialsError as exc:
+        print(f"comms_sim router: {exc}", file=sys.stderr)
+        raise SystemExit(2)

@@ -1,7 +1,8 @@
 """Counters per link: frames sent, delivered, bytes delivered, and drops per reason.
 
 Keys are ``(src, dst)``; sender-side outcomes that concern no receiver (an oversize refusal, a
-pose superseded in the queue) are counted under ``(src, "*")``. For every real link,
+pose superseded in the queue, a frame refused by a full queue) are counted under
+``(src, "*")``. For every real link,
 ``sent == delivered + sum of its drop reasons``.
 """
 
@@ -13,7 +14,7 @@ import msgpack
 
 from comms_sim.link_event import BROADCAST, DROP_REASONS, LinkEvent
 
-COUNTERS = ("sent", "delivered", "bytes", *DROP_REASONS, "superseded")
+COUNTERS = ("sent", "delivered", "bytes", *DROP_REASONS, "superseded", "queue_full")
 LinkCounts = dict[tuple[str, str], dict[str, int]]
 
 

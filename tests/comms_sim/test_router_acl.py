@@ -1,0 +1,84 @@
+"""The embedded router with a run's credentials: Zenoh user/password authentication and the
+fleet's access control per key expression (fleet_bus.session.access_control), on a real
+router process on loopback."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+import zenoh
+
+from fleet_bus import keys
+from fleet_bus.credentials import ZenohLogin, write_run_credentials
+from fleet_bus.process import ROUTER_READY
+from fleet_bus.session import client_config, free_tcp_endpoint
+
+pytestmark = pytest.mark.integration
+
+
+@pytest.fixture(scope="module")
+def router(tmp_path_factory):
+    creds = tmp_path_factory.mktemp("acl") / "c"
+    write_run_credentials(creds, ("auv1", "auv2"))
+    endpoint = free_tcp_endpoint()
+    proc = subprocess.Popen([sys.executable, "-m", "comms_sim.router", "--listen", endpoint,
+                             "--credentials", str(creds / "router")],
+                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    assert proc.stdout is not None and proc.stdout.readline().startswith(ROUTER_READY)
+    yield endpoint, creds
+    proc.terminate()
+    proc.wait(10)
+
+
+def heard(endpoint: str, creds: Path, puts: list[tuple[str, str]]) -> set[tuple[str, str]]:
+    """Which (login, key) puts reach a listener (the station's login) through the router."""
+    got: set[tuple[str, str]] = set()
+    lock = threading.Lock()
+
+    def on(sample: zenoh.Sample) -> None:
+        with lock:
+            got.add((sample.payload.to_bytes().decode(), str(sample.key_expr)))
+
+    sessions: dict[str, zenoh.Session] = {}
+    with zenoh.open(client_config([endpoint], credentials=creds / "station")) as listener, \
+            listener.declare_subscriber("fleet/**", on):
+        try:
+            for who in {w for w, _ in puts}:
+                sessions[who] = zenoh.open(client_config([endpoint], credentials=creds / who))
+            time.sleep(0.5)
+            for who, key in puts:
+                sessions[who].put(key, who.encode())
+            time.sleep(1.0)
+        finally:
+            for s in sessions.values():
+                s.close()
+    return got
+
+
+def test_each_login_speaks_only_on_its_keys(router) -> None:
+    endpoint, creds = router
+    allowed = [("operator", keys.ctl_key("auv1")), ("operator", keys.LINK_CTL),
+               ("auv1", keys.status_key("auv1")), ("auv1", keys.tx_key("auv1")),
+               ("relay", keys.rx_key("auv2")), ("relay", keys.link_event_key("auv1", "auv2"))]
+    denied = [("station", keys.ctl_key("auv1")), ("station", keys.status_key("auv1")),
+              ("auv1", keys.status_key("auv2")), ("auv1", keys.ctl_key("auv2")),
+              ("auv2", keys.rx_key("auv1")), ("relay", keys.ctl_key("auv1")),
+              ("operator", keys.status_key("auv1"))]
+    got = heard(endpoint, creds, allowed + denied)
+    assert got == set(allowed)
+
+
+def test_no_login_without_the_password(router) -> None:
+    endpoint, _ = router
+    for login in (None, ZenohLogin("auv1", "not-the-password")):
+        conf = client_config([endpoint], timeout_s=1.0)
+        if login is not None:
+            conf.insert_json5("transport/auth/usrpwd",
+                              f'{{"user": "{login.user}", "password": "{login.password}"}}')
+        with pytest.raises(Exception):
+            zenoh.open(conf).close()
