@@ -17,6 +17,7 @@ from pathlib import Path
 
 from fleet_agent.config import AgentConfig, load_config
 from fleet_agent.node import main
+from fleet_bus.credentials import load_auth
 from fleet_bus.process import process_stop
 from fleet_bus.session import DEFAULT_ENDPOINT, client_config
 
@@ -28,16 +29,22 @@ if __name__ == "__main__":
                         help=f"Zenoh router (repeatable; default {DEFAULT_ENDPOINT})")
     parser.add_argument("--journal", type=Path, help="journal file (default ./<id>.journal)")
     parser.add_argument("--mission-timeout", type=float, default=120.0, metavar="S")
+    parser.add_argument("--credentials", type=Path, metavar="DIR",
+                        help="this vehicle's credentials directory (its own signing key, the "
+                             "run's key ring, its Zenoh login; docs/security.md); without it "
+                             "the bus is open: experiments only")
     args = parser.parse_args()
     try:
+        auth = load_auth(args.credentials, args.id) if args.credentials else None
         config = load_config(args.config) if args.config else AgentConfig()
         env_key = os.environ.get("COTSFLEET_FLEET_KEY", "")
         if not config.fleet_key_hex and env_key:
             config = replace(config, fleet_key_hex=env_key)
         config.fleet_key  # noqa: B018 - fail early without a key
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError) as exc:  # CredentialsError is a ValueError
         print(f"fleet_agent: {exc}", file=sys.stderr)
         raise SystemExit(2)
-    raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT]), args.id, config,
+    raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT],
+                                        credentials=args.credentials), args.id, config,
                           args.journal or Path(f"{args.id}.journal"), process_stop(),
-                          args.mission_timeout))
+                          args.mission_timeout, auth))

@@ -23,22 +23,24 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 from fleet_agent import membership as mb
+from fleet_agent.beliefs import Beliefs
 from fleet_agent.config import AgentConfig
 from fleet_agent.decisions import Decisions
+from fleet_agent.discovery import Discovery
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import (Command, Frame, Input, Output, Outputs, Publish, Record,
-                                  Send, Tick)
+                                  Send, Sensed, Tick)
 from fleet_agent.knowledge import Knowledge, PeerPose
 from fleet_agent.radio import PendingAbort, Radio, Slots
 from fleet_agent.records import Aborted, Checkpoint, Clear, Hold, Home, PeerState, Start
 from fleet_agent.restore import restore
-from fleet_agent.vehicle import Arrived, Cleared, Vehicle
-from fleet_agent.wire import (Abort, Claim, ClearedSegment, Pose, Release, WireError,
-                              radio_kind)
+from fleet_agent.vehicle import Arrived, Cleared, Inspected, Vehicle
+from fleet_agent.wire import (MAX_LEAD_S, Abort, Claim, ClearedSegment, Found, Pose, Release,
+                              WireError, radio_kind)
 from fleet_bus.telemetry import Status, Truth
 
-__all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Input", "Send", "Publish", "Record",
-           "Output"]
+__all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Sensed", "Input", "Send", "Publish",
+           "Record", "Output"]
 
 
 class Agent:
@@ -52,11 +54,20 @@ class Agent:
         slots = Slots(index, p.n_vehicles, config.slot_s)
         self.vehicle = Vehicle(p, index, fleet.paths)
         self.know = Knowledge(fleet, index, config, slots.cycle_s)
+        if fleet.dynamic is not None:  # the map is a prior: look before injecting
+            cam = fleet.dynamic.camera
+            self.know.beliefs = Beliefs(fleet.dynamic.scenario, cam, config, index, fleet.seed,
+                                        slots.cycle_s)
+            self.vehicle.needs_look = self.know.beliefs.unknown
+            self.vehicle.inspect_s = cam.inspect_s
+            self.vehicle.reserve_s = config.battery_reserve_s
+        self.discovery = Discovery(self)  # the reef as the camera shows it
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
         self.counters: dict[str, int] = {}
         self.decide = Decisions(fleet, config, self.vehicle, self.know, self.radio, now,
                                 self.count)
         self.largest_frame = 0
+        self.lag_s = 0.0  # worst lateness of the host since the last status (`note_lag`)
         self.t = float(now)
         self.restarted = bool(journal)
         self._next_status = self._next_truth = now
@@ -67,6 +78,7 @@ class Agent:
         else:
             self.vehicle.set_route(fleet.base_routes[index])
             self._boot.record(Start(now, index))
+        self.discovery.rebind()
 
     # -- the state machine -----------------------------------------------------------------
 
@@ -78,6 +90,10 @@ class Agent:
             self._on_frame(inp.data, now, out)
         elif isinstance(inp, Command):
             self._on_command(inp.name, now, out)
+        elif isinstance(inp, Sensed):
+            self.discovery.on_sensed(inp, now, out)
+        self.discovery.settled(now)
+        self.discovery.rebind()
         self._detect(now, out)
         self.decide.cooperate(now, out)
         self.decide.sync_route(now, out)
@@ -95,6 +111,10 @@ class Agent:
             times.append(ev)
         if self.decide.active:
             times.append(self.decide.next_coop_s)
+            b = self.know.beliefs
+            settle = None if b is None else b.next_settle_s(self.t)
+            if settle is not None:
+                times.append(settle)
             dl = self.know.members.next_deadline_s()
             if dl is not None:
                 times.append(dl)
@@ -106,8 +126,13 @@ class Agent:
 
     @property
     def quiet(self) -> bool:
-        """Home or aborted, and done announcing it."""
+        """Home or aborted, and done announcing it (it may still keep watch)."""
         return not self.decide.active and self.radio.idle
+
+    def note_lag(self, late_s: float) -> None:
+        """The host ran a step ``late_s`` mission seconds after it was due (a busy machine):
+        reported in the next status, for the operator's clock (not a decision input)."""
+        self.lag_s = max(self.lag_s, late_s)
 
     def count(self, name: str, n: int = 1) -> None:
         self.counters[name] = self.counters.get(name, 0) + n
@@ -125,7 +150,9 @@ class Agent:
                 self.know.cleared.add(ev.task)
                 self.radio.push_cleared = 2
                 out.record(Clear(ev.t_s, (ev.task,), own=True))
-                out.event(ev.t_s, "cleared", [ev.task])
+                out.event(ev.t_s, "cleared", [ev.task], detail=self.discovery.where(ev.task))
+            elif isinstance(ev, Inspected):
+                self.discovery.on_inspected(ev, out)
             elif isinstance(ev, Arrived):
                 # An aborted vehicle already said goodbye; others announce their arrival.
                 self.radio.home_left = 0 if self.vehicle.aborted else self.config.home_repeats
@@ -145,6 +172,9 @@ class Agent:
         if msg.sender == self.index:
             self.count("drop_self")  # our own frame played back: a replay
             return
+        if msg.seq > now + MAX_LEAD_S:  # from the future: forged (see wire.MAX_LEAD_S)
+            self.count("drop_future")
+            return
         if not know.replay.accept(msg.sender, msg.seq):
             self.count("drop_replay")
             return
@@ -153,9 +183,13 @@ class Agent:
         revived = [v] if know.members.heard(v, float(msg.seq), now) else []
         revived += know.members.take_heard(v, msg.heard, float(msg.seq), now)
         for u in revived:
-            self.decide.dirty = True
+            # Its claims live again: the overlap is settled now (spots taken from it leave
+            # the route), and whatever of ours a takeover released is looked at again at once.
+            self.decide.dirty = self.decide.coop_soon = True
             out.event(now, "revived", peer=know.vid(u))
             out.record(PeerState(u, mb.ALIVE, now))
+        for u in know.members.confirm(v, msg.heard, float(msg.seq), now):
+            self._declare_lost(u, now, out)
         if isinstance(msg, Pose):
             self._on_pose(msg, now, out)
         elif isinstance(msg, ClearedSegment):
@@ -163,10 +197,13 @@ class Agent:
             if new:
                 self.decide.dirty = True
                 out.record(Clear(now, tuple(new), own=False))
+                self.discovery.fold_aliases(now, out)
             if know.cleared.missing_from(msg.segment, msg.bits):
                 self.radio.mismatch.add(v)
         elif isinstance(msg, (Claim, Release)):
             self._on_holding(msg, now, out)
+        elif isinstance(msg, Found):
+            self.discovery.on_found(msg, now, out)
         elif isinstance(msg, Abort) and msg.who != self.index:
             if self._peer_gone(msg.who, mb.ABORTED, now, out, msg.t_s) and msg.who != v:
                 self.count("abort_relayed_in")
@@ -179,7 +216,8 @@ class Agent:
         # Push only if the peer may lack something we have: equal sizes with different
         # hashes, or a smaller set (sizes are mod 128; a larger set will push to us instead).
         behind = (mine.count - msg.digest.count) % 128
-        if msg.digest != mine and (behind == 0 or behind < 64):
+        working = msg.state not in ("home", "aborted")  # a watcher needs no cleared set
+        if working and msg.digest != mine and (behind == 0 or behind < 64):
             self.radio.mismatch.add(v)
         if msg.state == "home":
             self._peer_gone(v, mb.HOME, now, out)
@@ -226,18 +264,21 @@ class Agent:
             if self.decide.active:
                 self.radio.aborts.append(
                     PendingAbort(v, int(now) if t_event is None else t_event))
-            if before == mb.ALIVE:
+            if before in mb.WORKING:
                 self.decide.takeover(v, now, out)
         return True
 
     def _detect(self, now: float, out: Outputs) -> None:
-        if not self.decide.active:
-            return
+        """Silence past the deadline makes a suspect, nothing more (`membership`)."""
         for v in self.know.members.check(now):
-            self.decide.dirty = True
-            out.record(PeerState(v, mb.LOST, now))
-            out.event(now, "lost", peer=self.know.vid(v), detail="silent")
-            self.decide.takeover(v, now, out)
+            out.event(now, "suspect", peer=self.know.vid(v))
+
+    def _declare_lost(self, v: int, now: float, out: Outputs) -> None:
+        """Another vehicle confirmed ``v``'s silence: its work is taken over."""
+        self.decide.dirty = True
+        out.record(PeerState(v, mb.LOST, now))
+        out.event(now, "lost", peer=self.know.vid(v), detail="silent")
+        self.decide.takeover(v, now, out, doubt=self.know.members.doubt(now))
 
     # -- radio out -------------------------------------------------------------------------
 
@@ -286,7 +327,12 @@ class Agent:
             peers={know.vid(u): s for u, (s, _) in know.members.snapshot().items()},
             claims=know.tids(sorted(know.standing_claims())),
             counters={**self.counters, "largest_frame": self.largest_frame},
+            lag_s=self._take_lag(),
         )
+
+    def _take_lag(self) -> float:
+        lag, self.lag_s = self.lag_s, 0.0
+        return float(lag)
 
     def truth(self, now: float) -> Truth:
         v = self.vehicle

@@ -28,16 +28,45 @@ class AgentConfig:
     claim_refresh_cycles: int = 12  # rebroadcast of standing claims (late joiners, loss)
     abort_repeats: int = 4
     home_repeats: int = 3
-    # Failure detection: lost when no evidence of life (direct or relayed, dated by the
-    # sender's clock) for this many cycles: four frames in a row must go missing, and a
-    # vehicle that really went silent is still detected within 5 cycles (4.5 + latency).
-    lost_after_cycles: float = 4.5
+    # A vehicle done with the mission (home or aborted) keeps watch: after its announcements
+    # it still sends a pose every this many own slots (0: falls silent). Its "heard" codes are
+    # what lets the last working vehicle confirm a silent peer (`membership`); the slot is its
+    # own in the TDMA schedule, so a pose in every one costs the working vehicles nothing.
+    watch_every_cycles: int = 1
+    # Failure detection: suspected when no evidence of life (direct or relayed, dated by the
+    # sender's clock) for this many cycles; declared lost when another vehicle's next frame
+    # confirms it has not heard the suspect for 4 periods either (`membership`), so a vehicle
+    # that really went silent is lost within about 5 cycles (4 + the confirmer's slot) of
+    # n * slot_s seconds (the bound grows linearly with the fleet: docs/wire.md).
+    lost_after_cycles: float = 4.0
+    # Takeover: of the spots a peer declared lost leaves, those it would itself have reached
+    # within this many seconds go to the end of the taker's route (a peer presumed lost may
+    # only be out of earshot; see `fleet_agent.decisions`).
+    takeover_wait_s: float = 120.0
+    # A silence is taken as a death outright (the replanner's routes as they are) only when
+    # the chance the peer is alive and unheard, from the measured reception, is at most this;
+    # otherwise the takeover keeps every spot the taker holds (see `Decisions.takeover`).
+    takeover_doubt: float = 1e-4
     # Planning (iteration budgets only: every agent must compute the same plans).
     plan_iterations: int = 500
     replan_iterations: int = 150
     coop_period_s: float = 120.0  # online cooperation operator: how often to look for work
     coop_min_slack_s: float = 60.0  # below this spare battery, do not even look
     battery_reserve_s: float = 1.0  # keep this much battery at the rendezvous
+    # Dynamic missions (a scenario with a hidden reef, `hfc_core.truth`): the map is a prior.
+    # A predicted spot is planned at its expected value, p_cots * rho (eq. 2's priority times
+    # the chance it holds COTS), and costs the look (the camera's inspect_s) plus p_cots times
+    # its injection time; within aggregation_radius_m of a find its value uses
+    # p_cots_near_find instead (COTS aggregate; the time stays at the prior's). 0.75: the share of predicted spots that held COTS in the paper-like
+    # preset of `cotsfleet scenario --dynamic` (67 of 90).
+    discovery: bool = True  # False: --no-discovery (ignore sightings, no reallocation)
+    p_cots: float = 0.75
+    p_cots_near_find: float = 0.9
+    aggregation_radius_m: float = 100.0
+    find_slots: int = 24  # finds one vehicle may name (bounded memory: more are counted)
+    find_repeats: int = 3  # each new find is sent this many times
+    find_refresh_cycles: int = 6  # one known find rebroadcast every this many cycles
+    find_settle_cycles: float = 3.0  # a find is planned this long after it is learned
     # Telemetry and persistence.
     status_period_s: float = 5.0
     truth_period_s: float = 5.0
@@ -52,16 +81,28 @@ class AgentConfig:
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"agent config: {name} must be a positive number, got {value!r}")
         counts = ("pose_every_cycles", "cleared_refresh_cycles", "claim_repeats",
-                  "claim_refresh_cycles", "abort_repeats", "home_repeats")
+                  "claim_refresh_cycles", "abort_repeats", "home_repeats", "find_repeats",
+                  "find_refresh_cycles")
         for name in counts:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"agent config: {name} must be an integer >= 1, got {value!r}")
-        for name in ("plan_iterations", "replan_iterations"):
+        for name in ("plan_iterations", "replan_iterations", "watch_every_cycles"):
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 0):
                 raise ValueError(f"agent config: {name} must be an integer >= 0, got {value!r}")
-        for name in ("coop_min_slack_s", "battery_reserve_s"):
+        for name in ("p_cots", "p_cots_near_find"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
+                raise ValueError(f"agent config: {name} must be in 0..1, got {value!r}")
+        if not isinstance(self.discovery, bool):
+            raise ValueError(f"agent config: discovery must be true or false, got "
+                             f"{self.discovery!r}")
+        if not (isinstance(self.find_slots, int) and 0 <= self.find_slots <= 64):
+            raise ValueError(f"agent config: find_slots must be an integer 0..64, got "
+                             f"{self.find_slots!r}")
+        for name in ("coop_min_slack_s", "battery_reserve_s", "aggregation_radius_m",
+                     "find_settle_cycles", "takeover_wait_s", "takeover_doubt"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value >= 0):
                 raise ValueError(f"agent config: {name} must be >= 0, got {value!r}")

@@ -55,6 +55,40 @@ def takeover_share(planner: Planner, me: Live, peers: Sequence[Live], cleared: C
     return [t for t in routes.get(me.index, []) if t not in cleared]
 
 
+def peer_etas(problem: Problem, v: int, pose: PeerPose | None, route: Sequence[int]
+              ) -> dict[int, float]:
+    """When peer ``v``, if alive and on its known route, reaches each spot of it: straight
+    legs at cruise speed from its last pose (from its start at time 0 without one). Only an
+    ordering is needed, so currents and land are left out."""
+    speed = problem.vehicles[v].speed_mps
+    here = np.asarray(pose.pos if pose is not None else problem.vehicles[v].start, dtype=float)
+    t = pose.t_s if pose is not None else 0.0
+    etas = {}
+    for task in route:
+        t += float(np.linalg.norm(problem.xyz[task] - here)) / speed
+        etas[task] = t
+        t += float(problem.service_s[task])
+        here = problem.xyz[task]
+    return etas
+
+
+def after_own(route: Sequence[int], soon: Collection[int]) -> list[int]:
+    """The route after a takeover: the replanner's route with the spots in ``soon`` moved to
+    its end (in their order).
+
+    ``soon`` are the taken spots the presumed-lost peer, were it alive, would reach before
+    long (`peer_etas`). A peer presumed lost may only be out of earshot; whatever it is going
+    to treat, it treats on its own schedule. A duplicate on one of its next spots needs this
+    vehicle to get there before hearing anything from the peer again (any frame revives it
+    and hands its spots back), so those go last, leaving that window as long as the route
+    allows. Spots far down the peer's route are safe to take early: the peer would reach
+    them long after this vehicle's clear has spread. Spots this vehicle held before are
+    protected by the caller: a false alarm never costs it its own plan.
+    """
+    late = set(soon)
+    return [t for t in route if t not in late] + [t for t in route if t in late]
+
+
 def cooperation_route(planner: Planner, me: Live, cleared: Collection[int],
                       held: Mapping[int, int], seed: int) -> list[int]:
     """This vehicle's route with free spots inserted (single-vehicle replan)."""

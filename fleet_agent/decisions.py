@@ -1,7 +1,13 @@
 """What the vehicle decides: which spots it takes, and its route.
 
-- takeover: when a peer aborts or goes silent, replan the survivors over the spots it freed
-  and claim this vehicle's share (`fleet_agent.cooperation.takeover_share`);
+- takeover: when a peer aborts, or its silence is confirmed, replan the survivors over the
+  spots it freed and claim this vehicle's share (`fleet_agent.cooperation.takeover_share`).
+  Safe under false suspicion: the taken spots the peer would reach within
+  ``takeover_wait_s`` go to the end of the route (`cooperation.after_own`), so they are
+  reached as late as the route allows, which leaves the presumed-lost vehicle the most time
+  to be heard again; when it is, its claims (the initial plan's, at time 0, or older than
+  ours) win and the taken spots leave the route at once (`sync_route`). Its own spots are
+  never dropped to make room for taken ones;
 - cooperation, the paper's operator online: with spare battery, claim free spots that fit;
 - the route kept true to what the vehicle knows: only spots it holds and nobody cleared,
   held spots folded in, within battery; whatever it holds but will not treat is released.
@@ -11,11 +17,12 @@ Every claim and release is journalled (durable) before the radio is asked to ann
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Collection
 
 from fleet_agent.config import AgentConfig
-from fleet_agent.cooperation import (cheapest_insertion, cooperation_route, detour_fits,
-                                     live_peer, live_self, takeover_share)
+from fleet_agent.cooperation import (after_own, cheapest_insertion, cooperation_route,
+                                     detour_fits, live_peer, live_self, peer_etas,
+                                     takeover_share)
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Outputs
 from fleet_agent.knowledge import Knowledge
@@ -39,26 +46,44 @@ class Decisions:
     def active(self) -> bool:
         return not (self.vehicle.done or self.vehicle.aborted)
 
-    def takeover(self, gone: int, now: float, out: Outputs) -> None:
-        """Replan the survivors over the spots freed by ``gone``; claim this vehicle's share."""
+    def takeover(self, gone: int, now: float, out: Outputs, doubt: float = 0.0) -> None:
+        """Replan the survivors over the spots freed by ``gone``; claim this vehicle's share.
+
+        ``doubt``: the chance ``gone`` is in fact alive (0 for an announced abort). Above
+        ``takeover_doubt`` the takeover is the safe one: spots this vehicle holds are kept
+        whatever the replanner says. At or below it the replanner's route is taken (a vehicle
+        may give up one of its own spots for a richer one of the dead peer's, as a
+        centralized replan would). Either way the taken spots the peer would itself reach
+        within ``takeover_wait_s`` go last: a vehicle cut off by a partition looks dead to
+        the others exactly as a dead one does, and its next spots are where a duplicate
+        would happen."""
         if not self.active:
             return
         know = self.know
-        free = know.free_spots()
+        free = know.free_spots(now)
         if not free:
             return
         peers = [live_peer(know.problem, v, know.peer_pose.get(v), know.peer_route(v), now)
                  for v in know.active_peers()]
         # The same seed on every survivor: equal views give equal answers.
         self.count("replans")
-        mine = takeover_share(self.fleet.planner, live_self(self.vehicle), peers,
-                              frozenset(know.cleared), know.held_map(),
+        mine = takeover_share(know.planner, live_self(self.vehicle), peers,
+                              know.unavailable(now), know.held_map(),
                               seed=self.fleet.seed * 1000 + gone)
         gained = [t for t in mine if t in free]
+        etas = peer_etas(know.problem, gone, know.peer_pose.get(gone), know.freed_route(gone))
+        horizon = now + self.config.takeover_wait_s
+        soon = [t for t in gained if etas.get(t, horizon) < horizon]
         if gained:
             self.hold(gained, True, now, out)
             out.event(now, "takeover", gained, peer=know.vid(gone))
-        self.set_route(mine, now, out, why=f"takeover of {know.vid(gone)}")
+        why = f"takeover of {know.vid(gone)}"
+        if doubt <= self.config.takeover_doubt:
+            self.set_route(after_own(mine, soon), now, out, why=why)
+        else:
+            own = [t for t in self.vehicle.route if t not in know.cleared]
+            self.set_route(self.keeping_own(mine, own, soon), now, out, why=why,
+                           protect=frozenset(own))
 
     def cooperate(self, now: float, out: Outputs) -> None:
         """The paper's cooperation operator, online: spend spare battery on free spots."""
@@ -67,20 +92,48 @@ class Decisions:
         cfg, know = self.config, self.know
         self.coop_soon = False
         self.next_coop_s = now + cfg.coop_period_s
+        if self.fleet.dynamic is not None and not cfg.discovery:
+            return  # --no-discovery: the time empty spots free is not reallocated
         slack = self.vehicle.slack_s(cfg.battery_reserve_s)
         if slack < cfg.coop_min_slack_s:
             return
-        free = know.free_spots()
+        free = know.free_spots(now)
         if not free or not detour_fits(self.vehicle, free, slack):
             return
         self.count("replans")
-        mine = cooperation_route(self.fleet.planner, live_self(self.vehicle),
-                                 frozenset(know.cleared), know.held_map(),
+        mine = cooperation_route(know.planner, live_self(self.vehicle),
+                                 know.unavailable(now), know.held_map(),
                                  seed=self.fleet.seed * 1000 + 100 + know.index)
         gained = [t for t in mine if t in free]
         if gained:
             self.hold(gained, True, now, out)
-            self.set_route(mine, now, out, why="cooperation")
+            if self.fleet.dynamic is not None:
+                # the map is a prior: a spot of ours is worth what it is expected to hold, and
+                # giving it up for a find is the replanner's call
+                self.set_route(mine, now, out, why="cooperation")
+                return
+            own = [t for t in self.vehicle.route if t not in know.cleared]
+            self.set_route(self.keeping_own(mine, own, ()), now, out, why="cooperation",
+                           protect=frozenset(own))
+
+    def keeping_own(self, planned: list[int], own: list[int], late: Collection[int]
+                    ) -> list[int]:
+        """``planned`` (a replanner's route) with the spots in ``late`` moved to its end
+        (`cooperation.after_own`), unless that would cost this vehicle one of the spots it
+        already holds (``own``, its route now, which fits): then its route as it is, the new
+        spots inserted where they cost least, ``late`` ones at the end. The replanner works
+        on rounded states and may leave a spot of ours out or order ours longer; a takeover
+        or a cooperation must never make a vehicle collect less than its own route would."""
+        cand = after_own(planned, late)
+        cand += [t for t in own if t not in cand]
+        fitted = fit_route(self.vehicle, cand, self.config.battery_reserve_s, own)
+        if set(own) <= set(fitted):
+            return cand
+        route = list(own)
+        for t in planned:
+            if t not in own and t not in late:
+                route = cheapest_insertion(self.vehicle, route, t)
+        return route + [t for t in planned if t in late and t not in own]
 
     def hold(self, tasks: list[int], claim: bool, now: float, out: Outputs) -> None:
         """Claim (or release) ``tasks``: journal it first, then tell the fleet."""
@@ -101,15 +154,17 @@ class Decisions:
         self.dirty = False
         know, vehicle = self.know, self.vehicle
         injecting = vehicle.injecting
+        alias = {} if know.beliefs is None else know.beliefs.alias
         route = [t for t in vehicle.route if t not in know.cleared
-                 and (t == injecting or know.holder(t) == know.index)]
+                 and (t == injecting or (know.holder(t) == know.index and t not in alias))]
         orphans = [t for t in know.held_by(know.index) if t not in route and t not in know.cleared]
         for t in orphans:
             route = cheapest_insertion(vehicle, route, t)
         self.set_route(route, now, out, why="sync")
 
-    def set_route(self, route: list[int], now: float, out: Outputs, why: str) -> None:
-        fitted = fit_route(self.vehicle, route, self.config.battery_reserve_s)
+    def set_route(self, route: list[int], now: float, out: Outputs, why: str,
+                  protect: frozenset[int] = frozenset()) -> None:
+        fitted = fit_route(self.vehicle, route, self.config.battery_reserve_s, protect)
         # Whatever this vehicle holds but will not treat is released for the others.
         dropped = [t for t in self.know.held_by(self.know.index) if t not in fitted]
         if dropped:

@@ -6,6 +6,11 @@ A backend supplies a `Transport` (send a frame on the radio, publish telemetry) 
 vehicle on the shared warp clock) and the in-process simulation (`cotsfleet.mission.inprocess`,
 the whole fleet on a discrete-event loop). Both go through `carry_out`, so what a vehicle
 journals, sends and reports, and in which order, never depends on the backend.
+
+In a dynamic mission the driver also carries the world's camera (`fleet_agent.sensor.World`):
+after each step it sweeps the track the vehicle just ran and answers a look that began, and
+feeds what the camera saw back to the agent as a `Sensed` input at the same mission time. So
+the agent learns the reef only through its sensor, the same way under both backends.
 """
 
 from __future__ import annotations
@@ -13,7 +18,9 @@ from __future__ import annotations
 from typing import Any, Callable, Protocol, Sequence
 
 from fleet_agent.agent import Agent
-from fleet_agent.io_types import Command, Frame, Input, Output, Publish, Record, Send, Tick
+from fleet_agent.io_types import (Command, Frame, Input, Output, Publish, Record, Send, Sensed,
+                                  Tick)
+from fleet_agent.sensor import World
 from fleet_bus.telemetry import Event, Status, Truth
 
 
@@ -33,9 +40,11 @@ class AgentDriver:
     """Steps one agent and carries out what it decides."""
 
     def __init__(self, agent: Agent, transport: Transport, journal: JournalSink,
-                 tap: Callable[[Sequence[Output]], None] | None = None) -> None:
+                 tap: Callable[[Sequence[Output]], None] | None = None,
+                 world: World | None = None) -> None:
         self.agent, self.transport, self.journal = agent, transport, journal
         self.tap = tap  # sees every step's outputs (tests, debugging)
+        self.world = world  # the simulated camera (dynamic missions), else None
 
     def tick(self, now: float) -> None:
         self.step(Tick(now))
@@ -48,6 +57,20 @@ class AgentDriver:
 
     def step(self, inp: Input) -> None:
         self.carry_out(self.agent.step(inp))
+        if self.world is not None:
+            self._sense()
+
+    def _sense(self) -> None:
+        """What the camera saw since the last step, and the answer of a look just begun."""
+        agent, world = self.agent, self.world
+        assert world is not None
+        v = agent.vehicle
+        sightings = tuple(world.sweep(v.pos))
+        task = v.inspecting
+        inspection = world.inspect(task) if task is not None and task not in v.readings \
+            else None
+        if sightings or inspection is not None:
+            self.carry_out(agent.step(Sensed(agent.t, sightings, inspection)))
 
     def next_wakeup(self) -> float:
         return self.agent.next_wakeup()

@@ -6,15 +6,30 @@ from dataclasses import dataclass
 
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
+from fleet_agent.sensor import Camera
 from fleet_agent.vehicle import PathFn, path_function
 from fleet_agent.wire import Codec
 from hfc_core.problem import Problem
 
 
 @dataclass(frozen=True)
+class Dynamic:
+    """A dynamic mission (the scenario has a hidden reef): the map the fleet was given and
+    the camera its vehicles carry (never the reef itself)."""
+
+    scenario: Problem
+    camera: Camera
+
+
+@dataclass(frozen=True)
 class Fleet:
-    """The scenario, the wire codec under the fleet key, the planner, the land metric, the
-    mission seed, and the initial fleet plan every agent computes alone (no messages)."""
+    """The scenario, the wire codec under the run's keys (fleet key and run id), the planner,
+    the land metric, the mission seed, and the initial fleet plan every agent computes alone
+    (no messages).
+
+    In a dynamic mission ``problem`` is the working problem before anything is seen
+    (`fleet_agent.beliefs`: predicted spots at their expected value, then a slot per possible
+    find) and the initial plan is made on the expected values."""
 
     problem: Problem
     codec: Codec
@@ -22,11 +37,31 @@ class Fleet:
     paths: PathFn
     seed: int
     base_routes: tuple[tuple[int, ...], ...]
+    dynamic: Dynamic | None = None
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
-              planner: Planner | None = None) -> "Fleet":
+              planner: Planner | None = None, *, run_id: str,
+              camera: Camera | None = None) -> "Fleet":
+        if camera is not None:
+            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera)
         planner = planner or Planner(problem, seed, config.plan_iterations,
                                      config.replan_iterations)
-        return Fleet(problem, Codec.for_problem(problem, key), planner, path_function(problem),
+        return Fleet(problem, Codec.for_problem(problem, key, run_id), planner, path_function(problem),
                      seed, planner.initial_routes())
+
+    @staticmethod
+    def _build_dynamic(scenario: Problem, key: bytes, seed: int, config: AgentConfig,
+                       run_id: str, camera: Camera) -> "Fleet":
+        from fleet_agent.beliefs import (FIND_MARGIN_M, expected_problem,
+                                         initial_working_problem)
+
+        expected = expected_problem(scenario, camera, config.p_cots)
+        routes = Planner(expected, seed, config.plan_iterations,
+                         config.replan_iterations).initial_routes()
+        working = initial_working_problem(scenario, camera, config)
+        planner = Planner(working, seed, config.plan_iterations, config.replan_iterations)
+        codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
+                                  found_from=scenario.n_tasks)
+        return Fleet(working, codec, planner, path_function(working), seed, routes,
+                     Dynamic(scenario, camera))

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Union
 
 from fleet_agent.records import JournalRecord
+from fleet_agent.sensor import Inspection, Sighting
 from fleet_bus.telemetry import Event, Status, Truth
 
 
@@ -32,7 +33,18 @@ class Command:
     now: float
 
 
-Input = Union[Tick, Frame, Command]
+@dataclass(frozen=True)
+class Sensed:
+    """What the camera showed at ``now`` (dynamic missions; the driver's `sensor.World`):
+    aggregations seen along the track since the last step, and the answer of the look under
+    way at a predicted spot, if one began."""
+
+    now: float
+    sightings: tuple[Sighting, ...] = ()
+    inspection: Inspection | None = None
+
+
+Input = Union[Tick, Frame, Command, Sensed]
 
 
 @dataclass(frozen=True)

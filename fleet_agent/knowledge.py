@@ -12,11 +12,13 @@ from dataclasses import dataclass
 from typing import Iterable
 
 from fleet_agent import membership as mb
+from fleet_agent.beliefs import Beliefs
 from fleet_agent.cleared import ClearedSet
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
 from fleet_agent.membership import Membership
 from fleet_agent.negotiation import Holdings
+from fleet_agent.plans import Planner
 from fleet_agent.replay import ReplayWindow
 from fleet_agent.wire import Digest
 
@@ -35,7 +37,7 @@ class PeerPose:
 class Knowledge:
     def __init__(self, fleet: Fleet, index: int, config: AgentConfig, cycle_s: float) -> None:
         p = fleet.problem
-        self.fleet, self.problem, self.index = fleet, p, index
+        self.fleet, self.index = fleet, index
         self.k = p.n_vehicles
         self.cleared = ClearedSet(p.n_tasks)
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
@@ -44,6 +46,24 @@ class Knowledge:
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
         self.peer_digest: dict[int, Digest] = {}
+        # Dynamic missions: what this vehicle believes of the reef (None: the map is exact).
+        self.beliefs: Beliefs | None = None
+
+    @property
+    def problem(self):  # -> Problem: the working problem in a dynamic mission
+        return self.fleet.problem if self.beliefs is None else self.beliefs.problem
+
+    @property
+    def planner(self) -> Planner:
+        return self.fleet.planner if self.beliefs is None else self.beliefs.planner
+
+    def blocked(self, now: float) -> frozenset[int]:
+        """Spots the planner must not be offered (`Beliefs.blocked`; none on an exact map)."""
+        return frozenset() if self.beliefs is None else self.beliefs.blocked(now)
+
+    def unavailable(self, now: float) -> frozenset[int]:
+        """Cleared or blocked: what a replan must leave out."""
+        return frozenset(self.cleared) | self.blocked(now)
 
     # -- holdings under the current membership view ----------------------------------------
 
@@ -51,17 +71,20 @@ class Knowledge:
         return self.holdings.holder(task, self.members.alive)
 
     def held_map(self) -> dict[int, int]:
-        """Spot -> holder, for every held spot nobody has cleared."""
+        """Spot -> holder, for every held spot nobody has cleared (an alias of a find is not
+        a spot: its aggregation is held under the find's own slot)."""
+        alias = {} if self.beliefs is None else self.beliefs.alias
         return {t: h for t, h in self.holdings.holders(self.members.alive).items()
-                if t not in self.cleared}
+                if t not in self.cleared and t not in alias}
 
     def held_by(self, v: int) -> list[int]:
         return [t for t, h in self.held_map().items() if h == v]
 
-    def free_spots(self) -> set[int]:
+    def free_spots(self, now: float = 0.0) -> set[int]:
         held = self.held_map()
+        blocked = self.blocked(now)
         return {t for t in range(self.problem.n_tasks)
-                if t not in self.cleared and t not in held}
+                if t not in self.cleared and t not in held and t not in blocked}
 
     def standing_claims(self) -> dict[int, int]:
         """Spots this vehicle claimed after the initial plan and still holds: spot -> time."""
@@ -72,7 +95,7 @@ class Knowledge:
 
     def active_peers(self) -> list[int]:
         return [v for v in range(self.k)
-                if v != self.index and self.members.status(v) == mb.ALIVE]
+                if v != self.index and self.members.status(v) in mb.WORKING]
 
     def peer_route(self, v: int) -> list[int]:
         """What peer ``v`` is believed to do: its initial route's spots it still holds, then
@@ -82,6 +105,15 @@ class Knowledge:
         extra = sorted((t for t, h in held.items() if h == v and t not in base),
                        key=lambda t: (self.holdings.claim_time(t, v) or 0, t))
         return base + extra
+
+    def freed_route(self, v: int) -> list[int]:
+        """What a peer just declared gone was believed to do and nobody holds now: its
+        initial route's spots, then its own claims in claim order."""
+        free = self.free_spots()
+        claims = self.holdings.explicit_claims(v)
+        base = [t for t in self.fleet.base_routes[v] if t in free]
+        return base + sorted((t for t in claims if t in free and t not in base),
+                             key=lambda t: (claims[t], t))
 
     # -- ids at the edges --------------------------------------------------------------------
 

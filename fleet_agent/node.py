@@ -8,9 +8,15 @@ arrive on ``fleet/ctl/<id>``: ``abort`` goes to the agent's logic; ``stop`` ends
 cleanly.
 
 Start-up: the agent reads the mission record (``fleet/mission``: scenario, seed, run id),
-computes the shared initial plan, declares the liveliness token ``fleet/alive/<id>``, then
-waits for the clock record (``fleet/clock``), which the operator serves once every agent is
-ready.
+computes the shared initial plan, announces itself ready on ``fleet/alive/<id>`` (a signed
+put, repeated until the clock comes, and a liveliness token), then waits for the clock record
+(``fleet/clock``), which the operator serves once every agent is ready.
+
+Authentication (`fleet_bus.auth`, with ``--credentials``): everything this agent puts is
+signed with its own key; it takes deliveries only signed by the relay and commands, mission
+and clock records only signed by the operator. Envelopes are opened on Zenoh's threads, so a
+forgery never reaches the inbox; refusals are counted into the agent's counters
+(``drop_auth_<reason>``, in its statuses and so in the mission report).
 """
 
 from __future__ import annotations
@@ -20,7 +26,9 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Callable
 
+import msgpack
 import zenoh
 
 from fleet_agent.agent import Agent
@@ -28,17 +36,21 @@ from fleet_agent.config import AgentConfig
 from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
 from fleet_agent.journal import Journal
+from fleet_agent.sensor import Camera, World
 from fleet_bus import keys
+from fleet_bus.auth import BusAuth, seal, unseal
 from fleet_bus.clock import WarpClock
 from fleet_bus.commands import STOP, decode_command
-from fleet_bus.mission import fetch_clock, fetch_mission
+from fleet_bus.mission import fetch_clock, fetch_mission, follow_clock
 from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth
 from hfc_core.problem import ScenarioError
 from hfc_core.scenario import problem_from_dict
+from hfc_core.truth import reef_from_doc
 
 MAX_WAIT_WALL_S = 0.25  # longest sleep between looks at the stop flag
 INBOX_LIMIT = 4096  # frames and commands waiting for the agent; beyond, the newest are dropped
+ALIVE_EVERY_S = 1.0  # the ready announcement is repeated until the clock record comes
 
 
 class Inbox:
@@ -71,33 +83,57 @@ class Inbox:
 class ZenohTransport:
     """Puts the driver's frames and telemetry on the bus under this vehicle's keys."""
 
-    def __init__(self, session: zenoh.Session, vid: str) -> None:
-        self._tx = session.declare_publisher(keys.tx_key(vid))
-        self._telemetry = {topic: session.declare_publisher(f"{keys.PREFIX}/{topic}/{vid}")
-                           for topic in keys.TELEMETRY_KINDS}
+    def __init__(self, session: zenoh.Session, vid: str, auth: BusAuth | None = None) -> None:
+        self._auth = auth
+        self._tx_key = keys.tx_key(vid)
+        self._tx = session.declare_publisher(self._tx_key)
+        self._telemetry = {topic: (key, session.declare_publisher(key)) for topic, key in
+                           ((t, f"{keys.PREFIX}/{t}/{vid}") for t in keys.TELEMETRY_KINDS)}
 
     def send(self, frame: bytes, kind: str) -> None:
-        self._tx.put(frame, attachment=kind.encode())
+        self._tx.put(seal(self._auth, self._tx_key, frame), attachment=kind.encode())
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
-        self._telemetry[topic].put(payload.encode())
+        key, publisher = self._telemetry[topic]
+        publisher.put(seal(self._auth, key, payload.encode()))
+
+
+def _announce_ready(session: zenoh.Session, vid: str, auth: BusAuth | None,
+                    until: threading.Event) -> None:
+    """Put the signed ready announcement every `ALIVE_EVERY_S` until ``until`` is set (the
+    operator may subscribe after the first one, e.g. a launcher restarted)."""
+    key = keys.alive_key(vid)
+    doc = msgpack.packb({"id": vid, "run_id": auth.run_id if auth else ""})
+    while True:
+        session.put(key, seal(auth, key, doc))
+        if until.wait(ALIVE_EVERY_S):
+            return
 
 
 def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
-         stop: threading.Event, mission_timeout_s: float = 120.0) -> int:
+         stop: threading.Event, mission_timeout_s: float = 120.0,
+         auth: BusAuth | None = None) -> int:
     """Run agent ``vid`` until ``stop``. Returns 0, 2 if the vehicle is not in the mission,
-    or 3 if no mission or clock record came."""
+    or 3 if no mission or clock record came. With ``auth`` (its own key and the run's ring)
+    it signs what it puts and takes only what its rightful senders signed."""
     inbox = Inbox()
+
+    def take(kind: str, key: str) -> Callable[[zenoh.Sample], None]:
+        def on_sample(sample: zenoh.Sample) -> None:
+            payload = unseal(auth, key, sample.payload.to_bytes())
+            if payload is not None:
+                inbox.put(kind, payload)
+        return on_sample
+
     with Journal(journal_path) as journal, zenoh.open(conf) as session, \
-            session.declare_subscriber(keys.rx_key(vid),
-                                       lambda s: inbox.put("rx", s.payload.to_bytes())), \
-            session.declare_subscriber(keys.ctl_key(vid),
-                                       lambda s: inbox.put("ctl", s.payload.to_bytes())):
-        mission = fetch_mission(session, stop, mission_timeout_s)
+            session.declare_subscriber(keys.rx_key(vid), take("rx", keys.rx_key(vid))), \
+            session.declare_subscriber(keys.ctl_key(vid), take("ctl", keys.ctl_key(vid))):
+        mission = fetch_mission(session, stop, mission_timeout_s, auth)
         if mission is None:
             return 0 if stop.is_set() else 3
         try:
             problem = problem_from_dict(mission.scenario)
+            reef = reef_from_doc(mission.scenario, problem)  # the simulated world's reef
         except ScenarioError as exc:
             print(f"fleet_agent {vid}: the mission's scenario is not valid: {exc}",
                   file=sys.stderr)
@@ -105,28 +141,47 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
         if vid not in problem.vehicle_index:
             print(f"fleet_agent: {vid!r} is not a vehicle of the mission", file=sys.stderr)
             return 2
-        fleet = Fleet.build(problem, config.fleet_key, mission.seed, config)  # initial plan
+        fleet = Fleet.build(problem, config.fleet_key, mission.seed, config,  # initial plan
+                            run_id=mission.run_id,  # the wire keys bind the run
+                            camera=None if reef is None else Camera.of(reef))
+        clocked = threading.Event()
+        threading.Thread(target=_announce_ready, args=(session, vid, auth, clocked),
+                         name="ready", daemon=True).start()
         with session.liveliness().declare_token(keys.alive_key(vid)):
-            record = fetch_clock(session, stop, mission_timeout_s)
+            try:
+                record = fetch_clock(session, stop, mission_timeout_s, auth)
+            finally:
+                clocked.set()
             if record is None:
                 return 0 if stop.is_set() else 3
-            clock = WarpClock(record.epoch_unix, record.warp)
+            clock = WarpClock(record.epoch_unix, record.warp, seq=record.seq)
+            follower = follow_clock(session, clock, auth)  # noqa: F841  (kept alive)
             while clock.now() < 0 and not stop.is_set():
                 stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
             now = clock.now()
             agent = Agent(fleet, problem.vehicle_index[vid], config, now, journal.records)
-            driver = AgentDriver(agent, ZenohTransport(session, vid), journal)
+            driver = AgentDriver(agent, ZenohTransport(session, vid, auth), journal,
+                                 world=None if reef is None else
+                                 World(reef, mission.seed, problem.vehicle_index[vid]))
             start = f"restart, {len(journal.records)} records" if journal.records else "fresh"
+            damage = journal.describe_damage()
+            if damage:  # what the restart could not read, and where the evidence is
+                print(f"fleet_agent {vid}: {damage}", file=sys.stderr, flush=True)
+                start += f"; {damage}"
+            if journal.damage is not None:
+                agent.count("journal_damaged_bytes", journal.damage.damaged_bytes)
             ready(AGENT_READY, f"{vid} at t={now:.1f} s ({start})")
-            _loop(driver, inbox, clock, stop)
+            _loop(driver, inbox, clock, stop, auth)
             driver.final_status(clock.now())
     return 0
 
 
-def _loop(driver: AgentDriver, inbox: Inbox, clock: WarpClock, stop: threading.Event) -> None:
+def _loop(driver: AgentDriver, inbox: Inbox, clock: WarpClock, stop: threading.Event,
+          auth: BusAuth | None = None) -> None:
     driver.tick(clock.now())
     while not stop.is_set():
-        wait = min(MAX_WAIT_WALL_S, clock.wall_delay(driver.next_wakeup() - clock.now()))
+        due = driver.next_wakeup()
+        wait = min(MAX_WAIT_WALL_S, clock.wall_delay(due - clock.now()))
         item = inbox.get(wait)
         while item is not None:
             kind, payload, wall = item
@@ -148,4 +203,9 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: WarpClock, stop: threading.E
         dropped = inbox.take_overflow()
         if dropped:
             driver.agent.count("inbox_overflow", dropped)
-        driver.tick(clock.now())
+        if auth is not None:
+            for reason, n in auth.verifier.take_refused().items():
+                driver.agent.count(f"drop_auth_{reason}", n)
+        now = clock.now()
+        driver.agent.note_lag(max(0.0, now - due))  # how late this host runs the mission
+        driver.tick(now)

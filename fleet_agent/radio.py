@@ -9,15 +9,23 @@ with the number of times it is still to be sent (its time to live in slots), in 
 order. `Radio.choose` picks one message per slot, most urgent first:
 
 1. aborting: its own ABORT (``abort_repeats`` times), then one push of its cleared set;
-2. home: a POSE saying so (``home_repeats`` times), then silence;
+2. home: a POSE saying so (``home_repeats`` times); then, aborted or home, a POSE every
+   ``watch_every_cycles`` slots (keeping watch: its heard codes confirm silences) or silence;
 3. an ABORT it passes on (news of another vehicle's abort, once);
 4. a POSE if the last one is ``pose_every_cycles`` slots old (the heartbeat);
-5. pending CLAIM/RELEASE entries, oldest first, each ``claim_repeats`` times (spots cleared
+5. a new find of this vehicle (dynamic missions): FOUND, ``find_repeats`` times;
+6. pending CLAIM/RELEASE entries, oldest first, each ``claim_repeats`` times (spots cleared
    meanwhile are left out; an entry with nothing left is dropped);
-6. the cleared set, one segment: after a local clear, when a peer's digest or segment shows
+6b. the finds' anti-entropy (dynamic missions; ahead of 6 when it has waited two refresh
+   periods, so claims cannot starve it): every known find once when a peer's FOUND shows a
+   digest unlike ours and a count not above ours (it may lack some), one find when its count
+   is above ours (so it pushes to us), else one known find (round robin) every
+   ``find_refresh_cycles``: finds are a grow-only map, so loss, duplication and reordering
+   can only delay one;
+7. the cleared set, one segment: after a local clear, when a peer's digest or segment shows
    it lacks something, or every ``cleared_refresh_cycles``;
-7. standing claims again every ``claim_refresh_cycles`` (late joiners, loss);
-8. else a POSE.
+8. standing claims again every ``claim_refresh_cycles`` (late joiners, loss);
+9. else a POSE.
 """
 
 from __future__ import annotations
@@ -28,7 +36,8 @@ from dataclasses import dataclass
 from fleet_agent.config import AgentConfig
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.vehicle import Vehicle
-from fleet_agent.wire import Abort, Claim, ClearedSegment, Message, Pose, Release
+from fleet_agent.wire import (Abort, Claim, ClearedSegment, Digest, Found, Heard, Message,
+                              Pose, Release)
 from fleet_bus.tdma import TdmaSchedule
 
 SLOT_OFFSET = 0.05  # start this far into the slot (share of it): room for clock skew
@@ -98,6 +107,12 @@ class Radio:
         self.mismatch: set[int] = set()  # peers that may lack part of our cleared set
         self._last_refresh_slot = 0
         self._last_claim_refresh_slot = 0
+        self._segment_turn = 0  # rotation over the cleared set's segments, one per push
+        self.finds_new: deque[int] = deque()  # slots of new own finds, one entry per send
+        self.finds_owed: deque[int] = deque()  # finds a peer may lack, to push once each
+        self.finds_mismatch = False  # a peer's finds digest differs from ours
+        self._last_found_refresh_slot = 0
+        self._found_rr = 0
 
     @property
     def idle(self) -> bool:
@@ -141,18 +156,28 @@ class Radio:
             if self.push_cleared > 0:
                 self.push_cleared -= 1
                 return self._cleared(now, know, heard)
-            return None
+            return self._watch(now, vehicle, know, heard)
         if vehicle.done:
             if self.home_left > 0:
                 self.home_left -= 1
                 return self._pose(now, vehicle, know, heard)
-            return None
+            return self._watch(now, vehicle, know, heard)
         self.since_pose += 1
         if self.aborts:
             news = self.aborts.popleft()
             return Abort(me, self.next_seq(now), news.t_s, heard, news.subject)
         if self.since_pose >= cfg.pose_every_cycles:
             return self._pose(now, vehicle, know, heard)
+        beliefs = know.beliefs
+        while beliefs is not None and self.finds_new:
+            slot_no = self.finds_new.popleft()
+            if slot_no in beliefs.finds:
+                return self._found(now, know, heard, slot_no)
+        # Claims first (a late claim is how two vehicles come to treat one spot), unless the
+        # finds' anti-entropy has waited two refresh periods: it must not starve either.
+        starving = self.slot_no - self._last_found_refresh_slot >= 2 * cfg.find_refresh_cycles
+        if beliefs is not None and beliefs.finds and starving:
+            return self._found_refresh(now, know, heard)
         if self.holdings:
             entry = self.holdings[0]
             tasks = tuple(t for t in entry.tasks if t not in know.cleared)
@@ -162,6 +187,10 @@ class Radio:
             if tasks:
                 return entry.cls(me, self.next_seq(now), entry.t_s, tasks, heard)
         slot = self.slot_no  # the slot after the one taken: rotation and refresh clocks
+        if beliefs is not None and beliefs.finds and (
+                self.finds_owed or self.finds_mismatch
+                or slot - self._last_found_refresh_slot >= cfg.find_refresh_cycles):
+            return self._found_refresh(now, know, heard)
         if self.push_cleared > 0 or self.mismatch or \
                 slot - self._last_refresh_slot >= cfg.cleared_refresh_cycles:
             self.push_cleared = max(0, self.push_cleared - 1)
@@ -182,15 +211,62 @@ class Radio:
                 return entry.cls(me, self.next_seq(now), entry.t_s, entry.tasks, heard)
         return self._pose(now, vehicle, know, heard)
 
-    def _pose(self, now: float, vehicle: Vehicle, know: Knowledge, heard: int) -> Pose:
+    def _watch(self, now: float, vehicle: Vehicle, know: Knowledge, heard: Heard) -> Pose | None:
+        """Out of the mission, announcements done: a pose now and then, if keeping watch."""
+        every = self.config.watch_every_cycles
+        self.since_pose += 1
+        if every and self.since_pose >= every:
+            return self._pose(now, vehicle, know, heard)
+        return None
+
+    def _pose(self, now: float, vehicle: Vehicle, know: Knowledge, heard: Heard) -> Pose:
         self.since_pose = 0
         return Pose(know.index, self.next_seq(now), vehicle.pos, int(round(vehicle.yaw_deg)),
                     vehicle.state(), know.cleared.digest(), heard)
 
-    def _cleared(self, now: float, know: Knowledge, heard: int) -> ClearedSegment:
-        # Rotate over segments; the one holding our latest clear goes first.
+    def owe_finds(self, know: Knowledge, peer_digest: Digest) -> None:
+        """A peer's finds digest differs from ours. If it may lack some of ours (a smaller or
+        equal count), owe it every find we know, once each; if it has more, send one soon so
+        that our digest makes it push to us."""
+        b = know.beliefs
+        if b is None:
+            return
+        behind = (b.digest().count - peer_digest.count) % 128
+        if behind == 0 or behind < 64:
+            queued = set(self.finds_owed)
+            self.finds_owed.extend(s for s in sorted(b.finds) if s not in queued)
+        else:
+            self.finds_mismatch = True
+
+    def _found_refresh(self, now: float, know: Knowledge, heard: Heard) -> Found:
+        """A find a peer may lack, else one known find, round robin (anti-entropy: every
+        FOUND carries our digest)."""
+        assert know.beliefs is not None
+        self.finds_mismatch = False
+        self._last_found_refresh_slot = self.slot_no
+        while self.finds_owed:
+            slot = self.finds_owed.popleft()
+            if slot in know.beliefs.finds:
+                return self._found(now, know, heard, slot)
+        known = sorted(know.beliefs.finds)
+        self._found_rr += 1
+        return self._found(now, know, heard, known[self._found_rr % len(known)])
+
+    def _found(self, now: float, know: Knowledge, heard: Heard, slot: int) -> Found:
+        assert know.beliefs is not None
+        f = know.beliefs.finds[slot]
+        return Found(know.index, self.next_seq(now), know.beliefs.digest(), slot, f.pos,
+                     f.priority, f.service_s, heard)
+
+    def _cleared(self, now: float, know: Knowledge, heard: Heard) -> ClearedSegment:
+        # Rotate over segments; the one holding our latest clear goes first. The rotation
+        # counts pushes, not slots: poses take every other slot, so a slot-number rotation
+        # over two segments would push the same one forever.
         cleared = know.cleared
-        seg = cleared.segment_of(know.treated[-1][0]) if know.treated and self.push_cleared \
-            else int(self.slot_no % cleared.n_segments)
+        if know.treated and self.push_cleared:
+            seg = cleared.segment_of(know.treated[-1][0])
+        else:
+            seg = self._segment_turn % cleared.n_segments
+            self._segment_turn += 1
         return ClearedSegment(know.index, self.next_seq(now), cleared.digest(), seg,
                               cleared.segment(seg), heard)

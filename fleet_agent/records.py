@@ -116,7 +116,25 @@ class Checkpoint:
                 "hw": {str(s): q for s, q in self.high_water.items()}, "home": self.home_at_s}
 
 
-JournalRecord = Union[Start, Clear, Hold, PeerState, Aborted, Home, Restarted, Checkpoint]
+@dataclass(frozen=True)
+class FoundSpot:
+    """A find (own or heard) in a dynamic mission: its slot, position, rho and t. Durable
+    when this vehicle named it: the fleet may know it only from this vehicle."""
+
+    t_s: float
+    slot: int
+    pos: tuple[float, float, float]
+    priority: float
+    service_s: float
+    durable: bool = False
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "find", "t": self.t_s, "s": self.slot, "pos": list(self.pos),
+                "r": self.priority, "d": self.service_s}
+
+
+JournalRecord = Union[Start, Clear, Hold, PeerState, Aborted, Home, Restarted, Checkpoint,
+                      FoundSpot]
 
 
 def _ints(value: Any) -> tuple[int, ...]:
@@ -142,6 +160,12 @@ def parse(doc: Mapping[str, Any]) -> JournalRecord | None:
             return Restarted(t)
         if k == "start":
             return Start(t, int(doc.get("i", -1)))
+        if k == "find":
+            pos = tuple(float(c) for c in doc["pos"])
+            if len(pos) != 3:
+                return None
+            return FoundSpot(t, int(doc["s"]), pos, float(doc["r"]),  # type: ignore[arg-type]
+                             float(doc["d"]))
         if k == "ckpt":
             pos = tuple(float(c) for c in doc["pos"])
             if len(pos) != 3:

@@ -18,7 +18,7 @@ from fleet_agent.io_types import Outputs
 if TYPE_CHECKING:
     from fleet_agent.agent import Agent
 
-KNOWN_KINDS = ("start", "clr", "hold", "peer", "abort", "home", "restart", "ckpt")
+KNOWN_KINDS = ("start", "clr", "hold", "peer", "abort", "home", "restart", "ckpt", "find")
 
 
 def restore(agent: "Agent", journal: Sequence[Mapping[str, Any]], now: float,
@@ -42,6 +42,8 @@ def restore(agent: "Agent", journal: Sequence[Mapping[str, Any]], now: float,
                     know.cleared.add(t)
                     if r.own and all(t != x for x, _ in know.treated):
                         know.treated.append((t, r.t_s))
+        elif isinstance(r, rec.FoundSpot) and know.beliefs is not None:
+            know.beliefs.add_find(r.slot, r.pos, r.priority, r.service_s, r.t_s)
         elif isinstance(r, rec.Hold):
             know.holdings.apply(r.v, r.t_s, list(r.tasks), r.claim)
         elif isinstance(r, rec.PeerState) and r.status in (mb.ABORTED, mb.HOME):
@@ -55,6 +57,7 @@ def restore(agent: "Agent", journal: Sequence[Mapping[str, Any]], now: float,
     for peer in know.members.peers.values():
         peer.evidence_s = max(peer.evidence_s, now)
         peer.since_s = max(peer.since_s, now)
+    agent.discovery.rebind()  # finds back in the working problem before the route aims at them
     if ckpt is not None:
         agent.radio.last_seq = ckpt.seq
         know.replay.restore(dict(ckpt.high_water))

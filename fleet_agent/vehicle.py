@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Callable, Collection, Sequence
 
 import numpy as np
 
@@ -33,6 +33,9 @@ Point3 = tuple[float, float, float]
 PathFn = Callable[[Point3, Point3], tuple[float, list[Point3]]]
 
 TRANSIT, INJECTING, RETURNING, HOME, ABORTED = "transit", "injecting", "returning", "home", "aborted"
+# Hovering at a predicted spot to see what is there (dynamic missions). Reported as
+# "injecting" on the wire and in telemetry: for the fleet it is a vehicle busy at a spot.
+INSPECTING = "inspecting"
 _EPS = 1e-9
 
 
@@ -68,13 +71,113 @@ class Cleared:
 
 
 @dataclass(frozen=True)
+class Inspected:
+    """The vehicle finished looking at ``task`` at ``t_s``: COTS ``present`` or not, and
+    whether it stays to inject them (``treating``: False if they do not fit the battery)."""
+
+    task: int
+    t_s: float
+    present: bool
+    treating: bool
+
+
+@dataclass(frozen=True)
 class Arrived:
     """The vehicle reached the rendezvous at ``t_s``."""
 
     t_s: float
 
 
-class Vehicle:
+class _Looking:
+    """The vehicle's look at a predicted spot (dynamic missions): it hovers ``inspect_s`` at
+    a spot its agent knows nothing about, then injects what the camera showed (if it fits the
+    battery) or moves on. Part of `Vehicle`, kept apart: one idea."""
+
+    route: list[int]
+    mode: str
+    t_s: float
+    pos: Point3
+    inspect_s: float
+    inspect_until_s: float | None
+    inject_until_s: float | None
+    readings: dict[int, float | None]
+    reserve_s: float
+
+    def _init_looking(self) -> None:
+        # Which spots must be looked at before injecting (the agent's beliefs), how long a
+        # look takes, what each look showed (task -> real injection time, None: empty), and
+        # the battery kept back when deciding to inject what a look found.
+        self.needs_look: Callable[[int], bool] = lambda task: False
+        self.inspect_s = 0.0
+        self.inspect_until_s = None
+        self.readings = {}
+        self.reserve_s = 0.0
+
+    def _look_ends_s(self) -> float | None:
+        """When the look under way ends; None past its end without the camera's answer:
+        nothing happens until the driver delivers it (in the step that started the look)."""
+        end = self.inspect_until_s if self.inspect_until_s is not None else self.t_s
+        return end if end > self.t_s or self.route[0] in self.readings else None
+
+    @property
+    def inspecting(self) -> int | None:
+        return self.route[0] if self.mode == INSPECTING and self.route else None
+
+    def reveal(self, task: int, service_s: float | None) -> None:
+        """The camera's answer for ``task``: its real injection time, or None (empty)."""
+        self.readings[int(task)] = None if service_s is None else float(service_s)
+
+    def _at_spot_left_s(self) -> float:
+        """Time still to spend at the spot being looked at: the rest of the look, then the
+        injection it reveals (expected from the plan's figure until the camera answers)."""
+        task = self.route[0]
+        left = max(0.0, (self.inspect_until_s or self.t_s) - self.t_s)
+        if task in self.readings:
+            service = self.readings[task]
+            return left + (0.0 if service is None else service)
+        return left + max(0.0, float(self.problem.service_s[task]) - self.inspect_s)
+
+    def _busy_until_s(self, route: Sequence[int]) -> float | None:
+        """When the vehicle is done at the spot it is busy at, if ``route`` starts with it
+        (injecting, or looking: the look and the injection it may reveal); else None."""
+        if not route or not self.route or route[0] != self.route[0]:
+            return None
+        if self.mode == INJECTING:
+            return self.inject_until_s or self.t_s
+        return self.t_s + self._at_spot_left_s() if self.mode == INSPECTING else None
+
+    def _fits_here(self, service_s: float) -> bool:
+        """Can the vehicle inject for ``service_s`` here and still reach the rendezvous within
+        its battery (less ``reserve_s``)?"""
+        if self.current is None:
+            home_s = service_s + self.paths(self.pos, self.rendezvous)[0] / self.speed_mps
+        else:
+            home_s = self._fly_s(self.pos, self.rendezvous, self.t_s + service_s) - self.t_s
+        return fits(home_s, self.battery_left_s() - self.reserve_s)
+
+    def _end_look(self, until_s: float, events: list) -> bool:
+        """Finish the look under way if it ends by ``until_s`` and the camera has answered:
+        inject what is there (it fits) or move on. False: nothing to do yet."""
+        end = self.inspect_until_s if self.inspect_until_s is not None else self.t_s
+        task = self.route[0]
+        if end > until_s or task not in self.readings:
+            return False
+        self.t_s = max(self.t_s, end)
+        self.inspect_until_s = None
+        service = self.readings[task]
+        treating = service is not None and self._fits_here(service)
+        events.append(Inspected(task, self.t_s, service is not None, treating))
+        if treating:
+            self.mode = INJECTING
+            self.inject_until_s = self.t_s + float(service)  # type: ignore[arg-type]
+        else:  # nothing there, or more than the battery allows: move on
+            self.route.pop(0)
+            self.mode = TRANSIT
+            self._retarget()  # type: ignore[attr-defined]
+        return True
+
+
+class Vehicle(_Looking):
     """One AUV's physical state. ``route`` holds task indices still to treat, in order; the
     head is the spot being approached or injected."""
 
@@ -97,6 +200,7 @@ class Vehicle:
         self.pitch_deg = 0.0
         self.inject_until_s: float | None = None
         self.home_at_s: float | None = None
+        self._init_looking()
         self._waypoints: list[Point3] = []
         self._target: int | None = None  # task index, or -1 for the rendezvous
         self._origin, self._origin_t, self._origin_dist = self.pos, self.t_s, 0.0
@@ -126,7 +230,8 @@ class Vehicle:
         """The telemetry state (`fleet_agent.telemetry.STATES`)."""
         if self.aborted and self.mode != HOME:
             return ABORTED
-        return self.mode
+        return INJECTING if self.mode == INSPECTING else self.mode
+
 
     def time_to_finish_s(self, route: Sequence[int] | None = None) -> float:
         """Time from now to the rendezvous through ``route`` (default: the current one)."""
@@ -138,8 +243,9 @@ class Vehicle:
         dist = self.problem.dist_m
         total = 0.0
         i = 0
-        if route and self.mode == INJECTING and route[0] == self.route[0]:
-            total += max(0.0, (self.inject_until_s or self.t_s) - self.t_s)
+        busy = self._busy_until_s(route)
+        if busy is not None:
+            total += max(0.0, busy - self.t_s)
             i = 1
         elif route:
             total += self._reach_m(route[0]) / self.speed_mps + self.problem.service_s[route[0]]
@@ -161,8 +267,9 @@ class Vehicle:
         p, speed = self.problem, self.speed_mps
         t = self.t_s
         i = 0
-        if route and self.mode == INJECTING and route[0] == self.route[0]:
-            t = max(t, self.inject_until_s or t)
+        busy = self._busy_until_s(route)
+        if busy is not None:
+            t = max(t, busy)
             i = 1
         elif route:
             t = self._reach_at_s(route[0]) + float(p.service_s[route[0]])
@@ -217,6 +324,8 @@ class Vehicle:
             return None
         if self.mode == INJECTING:
             return self.inject_until_s
+        if self.mode == INSPECTING:
+            return self._look_ends_s()
         return max(self.t_s, self._leg_end_s())
 
     # -- commands --------------------------------------------------------------------------
@@ -226,9 +335,9 @@ class Vehicle:
         route = [int(t) for t in route]
         if self.mode == HOME:
             return
-        if self.mode == INJECTING and (not route or route[0] != self.route[0]):
+        if self.mode in (INJECTING, INSPECTING) and (not route or route[0] != self.route[0]):
             self.mode = TRANSIT
-            self.inject_until_s = None
+            self.inject_until_s = self.inspect_until_s = None
         self.route = route if not self.aborted else []
         self._retarget()
 
@@ -245,7 +354,7 @@ class Vehicle:
         self.pos = tuple(float(c) for c in pos)  # type: ignore[assignment]
         self.distance_m = float(distance_m)
         self.aborted = aborted
-        self.inject_until_s = None
+        self.inject_until_s = self.inspect_until_s = None
         self._target, self._waypoints = None, []
         self._origin, self._origin_t, self._origin_dist = self.pos, self.t_s, self.distance_m
         if home_at_s is not None:
@@ -257,13 +366,17 @@ class Vehicle:
         self.route = [] if aborted else [int(t) for t in route]
         self._retarget()
 
-    def advance(self, until_s: float) -> list[Cleared | Arrived]:
+    def advance(self, until_s: float) -> list[Cleared | Arrived | Inspected]:
         """Move to time ``until_s``; return what happened on the way, in time order.
 
         An event due at ``until_s`` (as `next_event_s` announced it) is settled now, so
         waking at the announced time always makes progress."""
-        events: list[Cleared | Arrived] = []
+        events: list[Cleared | Arrived | Inspected] = []
         while self.mode != HOME:
+            if self.mode == INSPECTING:
+                if not self._end_look(until_s, events):
+                    break  # still looking, or waiting for the camera's answer
+                continue
             if self.mode == INJECTING:
                 end = self.inject_until_s if self.inject_until_s is not None else self.t_s
                 if end > until_s:
@@ -379,7 +492,7 @@ class Vehicle:
         return run0
 
     def _retarget(self) -> None:
-        if self.mode in (HOME, INJECTING):
+        if self.mode in (HOME, INJECTING, INSPECTING):
             return
         target = self.route[0] if self.route else -1
         if target == self._target and self._waypoints:
@@ -390,8 +503,12 @@ class Vehicle:
         self._waypoints = list(waypoints)
         self._start_segment(self.pos, self.t_s, self.distance_m)
 
-    def _arrive(self, events: list[Cleared | Arrived]) -> None:
-        if self._target is not None and self._target >= 0:
+    def _arrive(self, events: list[Cleared | Arrived | Inspected]) -> None:
+        if self._target is not None and self._target >= 0 and self.needs_look(self._target):
+            self.mode = INSPECTING
+            self.inspect_until_s = self.t_s + self.inspect_s
+            self._target = None
+        elif self._target is not None and self._target >= 0:
             self.mode = INJECTING
             self.inject_until_s = self.t_s + float(self.problem.service_s[self._target])
             self._target = None
@@ -411,11 +528,13 @@ class Vehicle:
         self.pitch_deg = math.degrees(math.atan2(-dz, horizontal))
 
 
-def fit_route(vehicle: Vehicle, route: Sequence[int], reserve_s: float) -> list[int]:
+def fit_route(vehicle: Vehicle, route: Sequence[int], reserve_s: float,
+              protect: Collection[int] = ()) -> list[int]:
     """``route`` with spots dropped until it ends at the rendezvous within the battery.
 
     Drops the spot whose removal saves the most time per unit of priority (the paper's
-    screening idea), never the one being injected.
+    screening idea), never the one being injected, and spots in ``protect`` only once no
+    other spot is left to drop.
     """
     route = list(route)
     priority = vehicle.problem.priority
@@ -423,8 +542,10 @@ def fit_route(vehicle: Vehicle, route: Sequence[int], reserve_s: float) -> list[
     while route and not fits(vehicle.time_to_finish_s(route), budget_s):
         base = vehicle.time_to_finish_s(route)
         best, best_score = None, -math.inf
+        spare = any(t not in protect and not (i == 0 and vehicle.injecting == t)
+                    for i, t in enumerate(route))
         for i, task in enumerate(route):
-            if i == 0 and vehicle.injecting == task:
+            if (i == 0 and vehicle.injecting == task) or (spare and task in protect):
                 continue
             saved = base - vehicle.time_to_finish_s(route[:i] + route[i + 1:])
             score = saved / max(float(priority[task]), 1e-9)

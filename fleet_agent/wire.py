@@ -1,21 +1,31 @@
-"""The acoustic wire protocol: compact, quantised, versioned, authenticated frames.
+"""The acoustic wire protocol, version 2: compact, quantised, versioned, authenticated frames.
 
-Layout of every frame::
+Layout of every frame (fixed binary fields, big-endian; `docs/wire.md` has the full table)::
 
-    byte 0      version << 4 | kind
-    byte 1      sender index (order of the scenario's vehicles)
-    body        a msgpack array of small ints (and one bin for id lists / bitmaps)
-    last 4      HMAC-SHA256(fleet key, header + body), truncated
+    byte 0        version << 4 | kind
+    byte 1        sender index (order of the scenario's vehicles; up to `MAX_VEHICLES`)
+    bytes 2-5     seq: the send time in whole simulation seconds (uint32)
+    byte 6        heard offset: the roster index of the first peer in the heard window
+    next c bytes  heard codes, 2 bits each, for min(n, `HEARD_WINDOW`) peers from the offset
+    body          kind-specific fixed fields (`_BODY`), then a tail (id list, bitmap)
+    last 8        HMAC-SHA256 under the sender's run key, truncated to `MAC_BYTES`
 
-Every body starts with ``[seq, heard, ...]``. The sequence number is the send time in whole
-simulation seconds, bumped by one when two frames would share a second: strictly increasing
-per sender (replay protection) and a timestamp at once, so no separate time field is needed.
-``heard`` packs, two bits per vehicle index, how long ago the sender last heard each peer
-(`HEARD_AGES`): the piggybacked, SWIM-style evidence `fleet_agent.membership` uses. Positions
-are decimetres from the scenario's south-west corner (coarser only for fields wider than
-6.5 km), depth in decimetres, yaw in whole degrees. Task ids travel as their index in the
-scenario (one byte for up to 256 spots). Every frame is at most 64 bytes and a pose at most 32
-(`max_size` computes the worst case of each kind; `encode` refuses anything larger).
+The sequence number is strictly increasing per sender (replay protection) and a timestamp at
+once, so no separate time field is needed: bumped by one when two frames would share a second.
+The heard codes are the piggybacked, SWIM-style evidence `fleet_agent.membership` uses: how
+long ago the sender last heard each peer of a window that rotates over the roster
+(`heard_offset`), so every peer's evidence is carried at least every ceil(n / 16) frames of
+each sender whatever the fleet size. Positions are decimetres from the scenario's south-west
+corner (coarser only for fields wider than 6.5 km), depth in decimetres, yaw in whole degrees.
+Task ids travel as their index in the scenario (one byte for up to 256 spots, else two).
+Every frame is at most 64 bytes and a pose at most 32 (`Codec.max_size` gives the worst case of
+each kind; `encode` refuses anything larger).
+
+Keys: the MAC key of sender ``s`` is derived from the fleet key, the run id and ``s``
+(`sender_key`), so a frame recorded in one run fails the MAC in every other run, and a frame
+cannot be re-attributed to another sender. Every vehicle holds the fleet key (it must verify
+everyone), so a vehicle's key material speaks for the whole fleet of that fleet key:
+`docs/wire.md` says what such an insider can still do and why nothing cheaper fits 64 bytes.
 """
 
 from __future__ import annotations
@@ -23,23 +33,28 @@ from __future__ import annotations
 import hashlib
 import hmac
 import math
+import struct
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Sequence, Union
-
-import msgpack
+from typing import Callable, Sequence, Union
 
 from hfc_core.problem import Problem
 
-VERSION = 1
-MAC_BYTES = 4
-HEADER_BYTES = 2
+VERSION = 2
+MAC_BYTES = 8  # 2^-64 per forged frame: online forging at acoustic rates is hopeless
+HEADER_BYTES = 7  # version|kind, sender, seq (4), heard offset; the heard codes follow
 MAX_FRAME_BYTES = 64
 MAX_POSE_BYTES = 32
-MAX_VEHICLES = 8  # two "heard" bits per vehicle stay within 16 bits
+MAX_VEHICLES = 255  # the sender index is one byte
+MAX_TASKS = 65536  # a task id is at most two bytes
 MAX_SEQ = 2**32 - 1
+# A frame's seq is its send time on the shared mission clock, so one from further ahead of the
+# receiver's clock than this is forged (an insider's way to push a sender's replay high-water
+# mark to the end of time and silence it); the agent drops it as "future".
+MAX_LEAD_S = 30
 SEGMENT_BITS = 320  # tasks covered by one cleared-set bitmap segment (40 bytes)
-MAX_ID_BYTES = 41  # room for task ids in a claim/release frame
+HEARD_WINDOW = 16  # peers whose heard code one frame carries (4 bytes)
+MAX_ID_BYTES = 41  # room for task ids in a claim/release frame (64 - 23 bytes of the rest)
 # "heard" codes 0, 1, 2: the peer was heard at most this many heartbeat periods (TDMA cycles)
 # before the frame was sent; code 3: not within the last of them (or never).
 HEARD_AGES = (1, 2, 4)
@@ -52,6 +67,31 @@ POSE_STATES = ("transit", "injecting", "returning", "home", "aborted")
 DECODE_REASONS = ("short", "long", "version", "kind", "sender", "mac", "malformed")
 
 
+def heard_window(n_vehicles: int) -> int:
+    """How many heard codes a frame of an ``n_vehicles`` fleet carries."""
+    return min(n_vehicles, HEARD_WINDOW)
+
+
+def heard_offset(sender: int, cycle: int, n_vehicles: int) -> int:
+    """The first roster index of the heard window ``sender`` reports in TDMA cycle ``cycle``.
+
+    Consecutive cycles of one sender tile the roster, so each peer is covered at least every
+    ceil(n / `HEARD_WINDOW`) cycles; senders are staggered, so in every cycle each peer is
+    reported on by about a window's worth of senders rather than by all or none."""
+    if n_vehicles <= HEARD_WINDOW:
+        return 0
+    return ((cycle + sender) * HEARD_WINDOW) % n_vehicles
+
+
+def sender_key(fleet_key: bytes, run_id: str, sender: int) -> bytes:
+    """The MAC key of ``sender`` in run ``run_id``: HMAC-SHA256 derivations (HKDF-expand
+    style) from the fleet key, so one fleet key serves every run without a frame of one run
+    ever verifying in another."""
+    run_key = hmac.new(fleet_key, b"cotsfleet wire v2 run\x00" + run_id.encode("utf-8"),
+                       hashlib.sha256).digest()
+    return hmac.new(run_key, b"sender\x00" + bytes([sender]), hashlib.sha256).digest()
+
+
 class Kind(IntEnum):
     POSE = 1  # heartbeat: position, state, peers heard, digest of the cleared set
     CLEARED = 2  # a segment of the cleared-set bitmap (grow-only set, full state)
@@ -59,6 +99,8 @@ class Kind(IntEnum):
     RELEASE = 4  # "I no longer hold these spots" (release time, ids)
     ABORT = 5  # "vehicle s aborted at t": its claims die, its spots are free (s may be the
     # sender, or a vehicle whose abort the sender heard: aborts spread epidemically)
+    FOUND = 6  # a COTS aggregation the map missed: its slot, position, priority, injection
+    # time, and the digest of the sender's finds (gossiped until digests agree)
 
 
 class WireError(ValueError):
@@ -71,6 +113,30 @@ class WireError(ValueError):
 
 class WireSizeError(ValueError):
     """A message that cannot be encoded within its size limit."""
+
+
+@dataclass(frozen=True)
+class Heard:
+    """Heard codes for a window of the roster: peer ``(offset + i) % n`` has ``codes[i]``
+    (a `HEARD_AGES` index, or `HEARD_NEVER`). Trailing `HEARD_NEVER` codes are dropped, so
+    equal evidence compares equal whatever the window's length."""
+
+    offset: int = 0
+    codes: tuple[int, ...] = ()
+
+    def __post_init__(self) -> None:
+        codes = tuple(self.codes)
+        while codes and codes[-1] == HEARD_NEVER:
+            codes = codes[:-1]
+        object.__setattr__(self, "codes", codes)
+
+    def items(self, n_vehicles: int) -> list[tuple[int, int]]:
+        """(peer index, code) for every code other than `HEARD_NEVER`."""
+        return [((self.offset + i) % n_vehicles, c) for i, c in enumerate(self.codes)
+                if c != HEARD_NEVER]
+
+
+NO_HEARD = Heard()
 
 
 @dataclass(frozen=True)
@@ -89,7 +155,7 @@ class Pose:
     yaw_deg: int
     state: str
     digest: Digest
-    heard: int = 0  # 2 bits per vehicle index: `HEARD_AGES` code
+    heard: Heard = NO_HEARD
 
 
 @dataclass(frozen=True)
@@ -99,7 +165,7 @@ class ClearedSegment:
     digest: Digest  # of the sender's whole set
     segment: int
     bits: bytes  # bit i of byte j: task index segment * SEGMENT_BITS + 8 j + i
-    heard: int = 0
+    heard: Heard = NO_HEARD
 
 
 @dataclass(frozen=True)
@@ -110,7 +176,7 @@ class HoldingChange:
     seq: int
     t_s: int
     tasks: tuple[int, ...]
-    heard: int = 0
+    heard: Heard = NO_HEARD
 
 
 @dataclass(frozen=True)
@@ -128,7 +194,7 @@ class Abort:
     sender: int
     seq: int
     t_s: int
-    heard: int = 0
+    heard: Heard = NO_HEARD
     subject: int | None = None  # the vehicle that aborted; None: the sender
 
     @property
@@ -136,9 +202,27 @@ class Abort:
         return self.sender if self.subject is None else self.subject
 
 
-Message = Union[Pose, ClearedSegment, Claim, Release, Abort]
+@dataclass(frozen=True)
+class Found:
+    """A discovered aggregation (dynamic missions): ``slot`` is its task index (n + finder *
+    slots per vehicle + counter, so two finders never name two finds alike), ``pos`` as
+    quantised on the wire, priority and injection time in tenths (16 bits each); ``digest``
+    summarises every find the sender knows (`fleet_agent.beliefs`)."""
+
+    sender: int
+    seq: int
+    digest: Digest
+    slot: int
+    pos: tuple[float, float, float]
+    priority: float
+    service_s: float
+    heard: Heard = NO_HEARD
+
+
+Message = Union[Pose, ClearedSegment, Claim, Release, Abort, Found]
 _KIND_OF = {Pose: Kind.POSE, ClearedSegment: Kind.CLEARED, Claim: Kind.CLAIM,
-            Release: Kind.RELEASE, Abort: Kind.ABORT}
+            Release: Kind.RELEASE, Abort: Kind.ABORT, Found: Kind.FOUND}
+MAX_TENTHS = 65535  # a find's priority and injection time travel as tenths in 16 bits
 
 
 def radio_kind(msg: Message) -> str:
@@ -146,18 +230,36 @@ def radio_kind(msg: Message) -> str:
     return "pose" if isinstance(msg, Pose) else "data"
 
 
-class Codec:
-    """Encoder/decoder bound to one mission: the fleet key, roster size and geometry."""
+# Fixed fields after the header, per kind; a claim/release and a cleared segment end with a
+# tail of bytes (task ids; the segment's bitmap).
+_BODY = {
+    Kind.POSE: struct.Struct(">HHhHBH"),  # x, y, z, yaw + 180 << 3 | state, count, hash16
+    Kind.CLEARED: struct.Struct(">BHB"),  # count, hash16, segment; bitmap tail
+    Kind.CLAIM: struct.Struct(">I"),  # claim time; id tail
+    Kind.RELEASE: struct.Struct(">I"),  # release time; id tail
+    Kind.ABORT: struct.Struct(">IB"),  # abort time, the vehicle that aborted
+    # finds' count, hash16, slot, x, y, z, priority and injection time in tenths
+    Kind.FOUND: struct.Struct(">BHHHHhHH"),
+}
+_HEAD = struct.Struct(">BBIB")  # version|kind, sender, seq, heard offset
+_MIN_BODY = 5  # the smallest body of any kind: an abort; a release of one spot
 
-    def __init__(self, key: bytes, n_vehicles: int, n_tasks: int,
-                 origin_xy: tuple[float, float] = (0.0, 0.0), unit_m: float = 0.1) -> None:
+
+class Codec:
+    """Encoder/decoder bound to one mission: the run's keys, roster size and geometry."""
+
+    def __init__(self, key: bytes, run_id: str, n_vehicles: int, n_tasks: int,
+                 origin_xy: tuple[float, float] = (0.0, 0.0), unit_m: float = 0.1,
+                 found_from: int | None = None) -> None:
         if len(key) < 16:
             raise ValueError("fleet key must be at least 16 bytes")
+        if not isinstance(run_id, str) or not run_id:
+            raise ValueError("the wire keys need the mission's run id")
         if not 1 <= n_vehicles <= MAX_VEHICLES:
             raise ValueError(f"the wire format carries 1..{MAX_VEHICLES} vehicles")
-        if not 0 <= n_tasks <= 65536:
-            raise ValueError("the wire format carries at most 65536 spots")
-        self._key = bytes(key)
+        if not 0 <= n_tasks <= MAX_TASKS:
+            raise ValueError(f"the wire format carries at most {MAX_TASKS} spots")
+        self.run_id = run_id
         self.n_vehicles = n_vehicles
         self.n_tasks = n_tasks
         self.origin_xy = (float(origin_xy[0]), float(origin_xy[1]))
@@ -165,16 +267,27 @@ class Codec:
         self.id_width = 1 if n_tasks <= 256 else 2
         self.max_ids = MAX_ID_BYTES // self.id_width
         self.n_segments = max(1, math.ceil(n_tasks / SEGMENT_BITS))
+        # FOUND frames name slots found_from..n_tasks-1 (None: a mission without discovery)
+        self.found_from = n_tasks if found_from is None else int(found_from)
+        self.window = heard_window(n_vehicles)
+        self.code_bytes = math.ceil(self.window / 4)
+        # One keyed HMAC state per sender, copied per frame (255 key schedules once, not one
+        # per frame).
+        self._macs = [hmac.new(sender_key(key, run_id, s), digestmod=hashlib.sha256)
+                      for s in range(n_vehicles)]
 
     @staticmethod
-    def for_problem(problem: Problem, key: bytes) -> "Codec":
-        """Origin at the south-west corner of everything in the scenario (100 m margin);
-        decimetres unless the field is wider than 6.5 km."""
+    def for_problem(problem: Problem, key: bytes, run_id: str, margin_m: float = 100.0,
+                    found_from: int | None = None) -> "Codec":
+        """Origin at the south-west corner of everything in the scenario (``margin_m``
+        margin: wider in dynamic missions, where finds may lie off the map); decimetres unless
+        the field is wider than 6.5 km."""
         xy = problem.xyz[:, :2]
-        lo = xy.min(axis=0) - 100.0
-        span = float((xy.max(axis=0) + 100.0 - lo).max())
+        lo = xy.min(axis=0) - margin_m
+        span = float((xy.max(axis=0) + margin_m - lo).max())
         unit = max(0.1, span / 65535.0)
-        return Codec(key, problem.n_vehicles, problem.n_tasks, (float(lo[0]), float(lo[1])), unit)
+        return Codec(key, run_id, problem.n_vehicles, problem.n_tasks,
+                     (float(lo[0]), float(lo[1])), unit, found_from)
 
     # -- encoding --------------------------------------------------------------------------
 
@@ -184,40 +297,63 @@ class Codec:
             raise ValueError(f"sender index {msg.sender} outside the roster")
         if not 0 <= msg.seq <= MAX_SEQ:
             raise ValueError(f"sequence number {msg.seq} out of range")
-        if not 0 <= msg.heard < (1 << (2 * self.n_vehicles)):
-            raise ValueError("heard field outside the roster")
-        fields = self._fields(msg)
-        body = msgpack.packb([fields[0], msg.heard, *fields[1:]], use_bin_type=True)
-        head = bytes(((VERSION << 4) | int(kind), msg.sender))
-        frame = head + body + self._mac(head + body)
+        head = _HEAD.pack((VERSION << 4) | int(kind), msg.sender, msg.seq,
+                          self._check_heard(msg.heard)) + self._pack_codes(msg.heard.codes)
+        data = head + self._body(kind, msg)
+        frame = data + self._mac(msg.sender, data)
         limit = MAX_POSE_BYTES if kind == Kind.POSE else MAX_FRAME_BYTES
         if len(frame) > limit:
             raise WireSizeError(f"{kind.name} frame of {len(frame)} bytes exceeds {limit}")
         return frame
 
-    def _fields(self, msg: Message) -> list:
+    def _check_heard(self, heard: Heard) -> int:
+        if not 0 <= heard.offset < self.n_vehicles:
+            raise ValueError(f"heard offset {heard.offset} outside the roster")
+        if len(heard.codes) > self.window or \
+                not all(isinstance(c, int) and 0 <= c <= HEARD_NEVER for c in heard.codes):
+            raise ValueError(f"heard window holds 1..{self.window} codes of 0..{HEARD_NEVER}")
+        return heard.offset
+
+    def _pack_codes(self, codes: Sequence[int]) -> bytes:
+        padded = list(codes) + [HEARD_NEVER] * (4 * self.code_bytes - len(codes))
+        return bytes(sum(c << (2 * j) for j, c in enumerate(padded[i:i + 4]))
+                     for i in range(0, len(padded), 4))
+
+    def _body(self, kind: Kind, msg: Message) -> bytes:
+        fmt = _BODY[kind]
         if isinstance(msg, Pose):
             x, y, z = self.quantise(msg.pos)
             yaw = int(round(msg.yaw_deg)) % 360
             yaw = yaw - 360 if yaw >= 180 else yaw
-            return [msg.seq, x, y, z, yaw, POSE_STATES.index(msg.state),
-                    msg.digest.count & 0x7F, msg.digest.hash16 & 0xFFFF]
+            return fmt.pack(x, y, z, (yaw + 180) << 3 | POSE_STATES.index(msg.state),
+                            msg.digest.count & 0x7F, msg.digest.hash16 & 0xFFFF)
         if isinstance(msg, ClearedSegment):
             if not 0 <= msg.segment < self.n_segments:
                 raise ValueError(f"segment {msg.segment} outside the set")
             if len(msg.bits) != self._segment_bytes(msg.segment):
                 raise ValueError("segment bitmap has the wrong length")
-            return [msg.seq, msg.digest.count & 0x7F, msg.digest.hash16 & 0xFFFF, msg.segment,
-                    bytes(msg.bits)]
+            return fmt.pack(msg.digest.count & 0x7F, msg.digest.hash16 & 0xFFFF,
+                            msg.segment) + bytes(msg.bits)
         if isinstance(msg, HoldingChange):
             if not 0 < len(msg.tasks) <= self.max_ids:
-                raise WireSizeError(f"a claim carries 1..{self.max_ids} spots, got {len(msg.tasks)}")
-            if not 0 <= msg.t_s <= MAX_SEQ:
-                raise ValueError("claim time out of range")
-            return [msg.seq, msg.t_s, self._pack_ids(msg.tasks)]
+                raise WireSizeError(f"a claim carries 1..{self.max_ids} spots, "
+                                    f"got {len(msg.tasks)}")
+            if not 0 <= msg.t_s <= msg.seq:
+                raise ValueError("claim time out of range (after the frame was sent)")
+            return fmt.pack(msg.t_s) + self._pack_ids(msg.tasks)
+        if isinstance(msg, Found):
+            if not 0 <= msg.slot < self.n_tasks:  # decode also checks it is a find's slot
+                raise ValueError(f"find slot {msg.slot} outside the scenario")
+            prio, service = round(msg.priority * 10), round(msg.service_s * 10)
+            if not (0 <= prio <= MAX_TENTHS and 0 <= service <= MAX_TENTHS):
+                raise WireSizeError("find priority or injection time beyond 6553.5")
+            return fmt.pack(msg.digest.count & 0x7F, msg.digest.hash16 & 0xFFFF, msg.slot,
+                            *self.quantise(msg.pos), prio, service)
         if not 0 <= msg.who < self.n_vehicles:
             raise ValueError(f"abort subject {msg.who} outside the roster")
-        return [msg.seq, msg.t_s, msg.who]
+        if not 0 <= msg.t_s <= MAX_SEQ:
+            raise ValueError("abort time out of range")
+        return fmt.pack(msg.t_s, msg.who)
 
     def quantise(self, pos: Sequence[float]) -> tuple[int, int, int]:
         u = self.unit_m
@@ -242,23 +378,26 @@ class Codec:
         bits = min(SEGMENT_BITS, self.n_tasks - segment * SEGMENT_BITS)
         return max(1, math.ceil(bits / 8))
 
-    def _mac(self, data: bytes) -> bytes:
-        return hmac.new(self._key, data, hashlib.sha256).digest()[:MAC_BYTES]
+    def _mac(self, sender: int, data: bytes) -> bytes:
+        h = self._macs[sender].copy()
+        h.update(data)
+        return h.digest()[:MAC_BYTES]
 
     # -- decoding --------------------------------------------------------------------------
 
     def decode(self, frame: bytes) -> Message:
         """The message in ``frame``, or `WireError` naming why it was refused.
 
-        Only the two header bytes are looked at before the MAC is checked: nothing
-        unauthenticated reaches the msgpack parser."""
+        Only the first two bytes are looked at before the MAC is checked: nothing
+        unauthenticated reaches the field parser."""
         frame = bytes(frame)
-        if len(frame) < HEADER_BYTES + 1 + MAC_BYTES:
+        head_len = HEADER_BYTES + self.code_bytes
+        if len(frame) < 2:
             raise WireError("short", f"{len(frame)} bytes")
         if len(frame) > MAX_FRAME_BYTES:
             raise WireError("long", f"{len(frame)} bytes")
         version, kind_no, sender = frame[0] >> 4, frame[0] & 0x0F, frame[1]
-        if version != VERSION:
+        if version != VERSION:  # before the length: an old frame counts as old, whatever size
             raise WireError("version", str(version))
         try:
             kind = Kind(kind_no)
@@ -266,59 +405,66 @@ class Codec:
             raise WireError("kind", str(kind_no)) from None
         if sender >= self.n_vehicles:
             raise WireError("sender", str(sender))
-        if not hmac.compare_digest(self._mac(frame[:-MAC_BYTES]), frame[-MAC_BYTES:]):
+        if len(frame) < head_len + _MIN_BODY + MAC_BYTES:
+            raise WireError("short", f"{len(frame)} bytes")
+        if not hmac.compare_digest(self._mac(sender, frame[:-MAC_BYTES]), frame[-MAC_BYTES:]):
             raise WireError("mac")
-        try:
-            fields = msgpack.unpackb(frame[HEADER_BYTES:-MAC_BYTES], raw=False,
-                                     strict_map_key=True, use_list=True)
-            return self._message(kind, sender, fields)
-        except WireError:
-            raise
-        except Exception as exc:  # msgpack raises several unrelated types on garbage
-            raise WireError("malformed", repr(exc)) from None
+        _, _, seq, offset = _HEAD.unpack_from(frame)
+        if offset >= self.n_vehicles:
+            raise WireError("malformed", "heard offset outside the roster")
+        heard = Heard(offset, self._unpack_codes(frame[HEADER_BYTES:head_len]))
+        body = frame[head_len:-MAC_BYTES]
+        fmt = _BODY[kind]
+        if len(body) < fmt.size:
+            raise WireError("malformed", "body too short")
+        return _PARSE[kind](self, sender, seq, heard, fmt.unpack_from(body), body[fmt.size:])
 
-    def _message(self, kind: Kind, sender: int, f: list) -> Message:
-        arity = {Kind.POSE: 9, Kind.CLEARED: 6, Kind.CLAIM: 4, Kind.RELEASE: 4, Kind.ABORT: 4}
-        if not isinstance(f, list) or len(f) != arity[kind]:
-            raise WireError("malformed", "wrong field count")
-        blob = f[-1] if kind in (Kind.CLEARED, Kind.CLAIM, Kind.RELEASE) else None
-        ints = f[:-1] if blob is not None else f
-        if not all(isinstance(v, int) and not isinstance(v, bool) for v in ints):
-            raise WireError("malformed", "non-integer field")
-        if blob is not None and not isinstance(blob, bytes):
-            raise WireError("malformed", "expected a byte string")
-        seq, heard, f = f[0], f[1], f[2:]
-        if not 0 <= seq <= MAX_SEQ:
-            raise WireError("malformed", "sequence number out of range")
-        if not 0 <= heard < (1 << (2 * self.n_vehicles)):
-            raise WireError("malformed", "heard field outside the roster")
-        if kind == Kind.POSE:
-            x, y, z, yaw, state, count, h16 = f
-            if not (0 <= x <= 65535 and 0 <= y <= 65535 and -32768 <= z <= 32767
-                    and -180 <= yaw < 180 and 0 <= state < len(POSE_STATES)
-                    and 0 <= count < 128 and 0 <= h16 <= 0xFFFF):
-                raise WireError("malformed", "pose field out of range")
-            return Pose(sender, seq, self.dequantise(x, y, z), yaw, POSE_STATES[state],
-                        Digest(count, h16), heard)
-        if kind == Kind.CLEARED:
-            count, h16, segment, bits = f
-            if not (0 <= count < 128 and 0 <= h16 <= 0xFFFF and 0 <= segment < self.n_segments
-                    and len(bits) == self._segment_bytes(segment)):
-                raise WireError("malformed", "cleared segment out of range")
-            return ClearedSegment(sender, seq, Digest(count, h16), segment, bits, heard)
-        if kind in (Kind.CLAIM, Kind.RELEASE):
-            t_s, raw = f
-            w = self.id_width
-            if not (0 <= t_s <= MAX_SEQ and raw and len(raw) % w == 0):
-                raise WireError("malformed", "claim out of range")
-            tasks = tuple(int.from_bytes(raw[i:i + w], "little") for i in range(0, len(raw), w))
-            if any(t >= self.n_tasks for t in tasks):
-                raise WireError("malformed", "unknown spot")
-            return (Claim if kind == Kind.CLAIM else Release)(sender, seq, t_s, tasks, heard)
+    def _unpack_codes(self, raw: bytes) -> tuple[int, ...]:
+        codes = [b >> (2 * j) & 3 for b in raw for j in range(4)]
+        if any(c != HEARD_NEVER for c in codes[self.window:]):
+            raise WireError("malformed", "heard codes beyond the window")
+        return tuple(codes[:self.window])
+
+    def _pose(self, sender: int, seq: int, heard: Heard, f: tuple, tail: bytes) -> Pose:
+        x, y, z, yaw_state, count, h16 = f
+        yaw, state = (yaw_state >> 3) - 180, yaw_state & 7
+        if tail or not (yaw < 180 and state < len(POSE_STATES) and count < 128):
+            raise WireError("malformed", "pose field out of range")
+        return Pose(sender, seq, self.dequantise(x, y, z), yaw, POSE_STATES[state],
+                    Digest(count, h16), heard)
+
+    def _cleared(self, sender: int, seq: int, heard: Heard, f: tuple,
+                 tail: bytes) -> ClearedSegment:
+        count, h16, segment = f
+        if not (count < 128 and segment < self.n_segments
+                and len(tail) == self._segment_bytes(segment)):
+            raise WireError("malformed", "cleared segment out of range")
+        return ClearedSegment(sender, seq, Digest(count, h16), segment, tail, heard)
+
+    def _holding(self, cls: type[HoldingChange], sender: int, seq: int, heard: Heard,
+                 f: tuple, tail: bytes) -> HoldingChange:
+        w = self.id_width
+        if not (tail and len(tail) % w == 0 and len(tail) // w <= self.max_ids):
+            raise WireError("malformed", "claim out of range")
+        tasks = tuple(int.from_bytes(tail[i:i + w], "little") for i in range(0, len(tail), w))
+        if any(t >= self.n_tasks for t in tasks):
+            raise WireError("malformed", "unknown spot")
+        if f[0] > seq:  # newest claim wins a conflict: a claim dated after its frame is forged
+            raise WireError("malformed", "claim dated after its frame")
+        return cls(sender, seq, f[0], tasks, heard)
+
+    def _abort(self, sender: int, seq: int, heard: Heard, f: tuple, tail: bytes) -> Abort:
         t_s, who = f
-        if not (0 <= t_s <= MAX_SEQ and 0 <= who < self.n_vehicles):
+        if tail or who >= self.n_vehicles:
             raise WireError("malformed", "abort out of range")
         return Abort(sender, seq, t_s, heard, None if who == sender else who)
+
+    def _found(self, sender: int, seq: int, heard: Heard, f: tuple, tail: bytes) -> Found:
+        count, h16, slot, x, y, z, prio, service = f
+        if tail or not (count < 128 and self.found_from <= slot < self.n_tasks):
+            raise WireError("malformed", "find out of range")
+        return Found(sender, seq, Digest(count, h16), slot, self.dequantise(x, y, z),
+                     prio / 10, service / 10, heard)
 
     # -- limits ----------------------------------------------------------------------------
 
@@ -328,7 +474,7 @@ class Codec:
         far = (self.origin_xy[0] + 65535 * self.unit_m, self.origin_xy[1] + 65535 * self.unit_m,
                -32768 * self.unit_m)
         digest = Digest(127, 0xFFFF)
-        heard = (1 << (2 * self.n_vehicles)) - 1
+        heard = Heard(top, (0,) * self.window)
         if kind == Kind.POSE:
             return Pose(top, MAX_SEQ, far, -180, "aborted", digest, heard)
         if kind == Kind.CLEARED:
@@ -339,4 +485,21 @@ class Codec:
             n = min(self.max_ids, self.n_tasks)
             ids = tuple(range(self.n_tasks - n, self.n_tasks))
             return (Claim if kind == Kind.CLAIM else Release)(top, MAX_SEQ, MAX_SEQ, ids, heard)
-        return Abort(top, MAX_SEQ, MAX_SEQ, heard, max(0, top - 1))
+        if kind == Kind.FOUND:
+            return Found(top, MAX_SEQ, digest, self.n_tasks - 1, far, MAX_TENTHS / 10,
+                         MAX_TENTHS / 10, heard)
+        return Abort(top, MAX_SEQ, MAX_SEQ, heard, top - 1 if top else None)
+
+    def max_size(self, kind: Kind) -> int:
+        """The worst-case frame size of ``kind`` under this codec, bytes."""
+        return len(self.encode(self.largest(kind)))
+
+
+_PARSE: dict[Kind, Callable[..., Message]] = {
+    Kind.POSE: Codec._pose,
+    Kind.CLEARED: Codec._cleared,
+    Kind.CLAIM: lambda c, *a: c._holding(Claim, *a),
+    Kind.RELEASE: lambda c, *a: c._holding(Release, *a),
+    Kind.ABORT: Codec._abort,
+    Kind.FOUND: Codec._found,
+}

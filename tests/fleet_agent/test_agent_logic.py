@@ -8,6 +8,8 @@ logic; the channel has its own tests.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import functools
 from collections import defaultdict
 
@@ -39,15 +41,15 @@ def problem() -> Problem:
 
 @functools.lru_cache(maxsize=None)
 def fleet() -> Fleet:
-    return Fleet.build(problem(), KEY, 5, CONFIG)
+    return Fleet.build(problem(), KEY, 5, CONFIG, run_id="sim-5")  # as InProcessBackend names seed 5
 
 
 class World:
     """The three agents in process, every step's outputs kept per vehicle."""
 
-    def __init__(self, faults: tuple[Fault, ...] = ()) -> None:
+    def __init__(self, faults: tuple[Fault, ...] = (), config: AgentConfig = CONFIG) -> None:
         self.outputs: dict[str, list] = defaultdict(list)
-        self.backend = InProcessBackend(problem(), CONFIG, seed=5, key=KEY, channel=LOSSLESS,
+        self.backend = InProcessBackend(problem(), config, seed=5, key=KEY, channel=LOSSLESS,
                                         tap=lambda vid, out: self.outputs[vid].extend(out))
         self.backend.start(faults)
 
@@ -78,7 +80,7 @@ def test_hostile_frames_are_counted_and_change_nothing() -> None:
     base = World()
     base.run_until(1500.0)
     rng = np.random.default_rng(0)
-    forger = Codec.for_problem(problem(), b"not the fleet key")
+    forger = Codec.for_problem(problem(), b"not the fleet key", "sim-5")
     attacked = World()
     hostile: list[tuple[float, bytes]] = []
     for k in range(60):
@@ -131,7 +133,7 @@ def test_restart_from_the_journal_forgets_nothing() -> None:
     assert "restart" in events
 
 
-def test_abort_announces_then_goes_quiet_and_home() -> None:
+def test_abort_announces_then_keeps_watch_and_goes_home() -> None:
     world = World((Fault("abort", 600.5, "auv3"),))
     world.run_until(600.0)
     n_before = len(world.sent("auv3"))
@@ -139,11 +141,50 @@ def test_abort_announces_then_goes_quiet_and_home() -> None:
     sent = [fleet().codec.decode(f) for f in world.sent("auv3")[n_before:]]
     kinds = [type(m).__name__ for m in sent]
     assert kinds[:CONFIG.abort_repeats] == ["Abort"] * CONFIG.abort_repeats
-    assert "Pose" not in kinds  # an aborted vehicle is out of the conversation
+    # then only poses saying "aborted", one every `watch_every_cycles` slots: keeping watch
+    watch = sent[CONFIG.abort_repeats + 1:]
+    assert watch and all(type(m).__name__ == "Pose" and m.state in ("aborted", "home")
+                         for m in watch)
+    slots = (4000.0 - 600.0) / (3 * CONFIG.slot_s)
+    assert len(watch) <= slots / CONFIG.watch_every_cycles + 2
     assert world.agent("auv3").vehicle.done and world.agent("auv3").quiet
     for vid in ("auv1", "auv2"):
         assert world.agent(vid).know.members.status(2) == "aborted"
         assert world.agent(vid).status().peers["auv3"] == "aborted"
+
+
+def test_a_vehicle_off_watch_falls_silent_after_its_announcements() -> None:
+    world = World((Fault("abort", 600.5, "auv3"),), replace(CONFIG, watch_every_cycles=0))
+    world.run_until(600.0)
+    n_before = len(world.sent("auv3"))
+    world.run_until(4000.0)
+    kinds = [type(fleet().codec.decode(f)).__name__ for f in world.sent("auv3")[n_before:]]
+    assert kinds[:CONFIG.abort_repeats] == ["Abort"] * CONFIG.abort_repeats
+    assert "Pose" not in kinds
+
+
+def test_the_last_working_vehicle_confirms_a_dead_peer_through_a_watcher() -> None:
+    """auv3 aborts early and keeps watch; auv2 is killed; auv1, the last one working, can
+    only confirm auv2's silence through auv3's heard codes, and does, and takes its spots."""
+    world = World((Fault("abort", 300.5, "auv3"), Fault("kill", 900.0, "auv2")))
+    world.run_until(1200.0)
+    a1 = world.agent("auv1")
+    assert a1.know.members.status(1) == "lost"
+    events = [o.payload for o in world.outputs["auv1"]
+              if isinstance(o, Publish) and o.topic == "event"]
+    assert any(e.kind == "takeover" and e.peer == "auv2" for e in events)
+
+
+def test_without_a_watcher_the_last_working_vehicle_only_suspects() -> None:
+    world = World((Fault("abort", 300.5, "auv3"), Fault("kill", 900.0, "auv2")),
+                  replace(CONFIG, watch_every_cycles=0))
+    world.run_until(1200.0)
+    a1 = world.agent("auv1")
+    assert a1.know.members.status(1) == "suspect"  # silence alone is not death
+    events = [o.payload for o in world.outputs["auv1"]
+              if isinstance(o, Publish) and o.topic == "event"]
+    assert any(e.kind == "suspect" and e.peer == "auv2" for e in events)
+    assert not any(e.kind == "takeover" and e.peer == "auv2" for e in events)
 
 
 def test_truth_goes_out_before_the_first_frame() -> None:

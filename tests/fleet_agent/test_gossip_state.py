@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from fleet_agent.cleared import ClearedSet
-from fleet_agent.membership import ABORTED, ALIVE, HOME, LOST, Membership
+from fleet_agent.membership import ABORTED, ALIVE, HOME, LOST, SUSPECT, Membership
 from fleet_agent.negotiation import Holdings
 from fleet_agent.replay import WINDOW, ReplayWindow
-from fleet_agent.wire import SEGMENT_BITS
+from fleet_agent.wire import HEARD_NEVER, SEGMENT_BITS, Heard
 
 
 # -- cleared set ------------------------------------------------------------------------------
@@ -93,27 +93,59 @@ def test_replay_window_restored_after_restart_refuses_old_frames() -> None:
 
 # -- failure detector -------------------------------------------------------------------------
 
-def test_silent_peer_is_lost_after_the_timeout_and_revived_by_its_own_frame() -> None:
+def never_heard(*peers: int, n: int = 3) -> Heard:
+    """A heard window over the whole roster whose sender heard none of ``peers`` (code 0,
+    heard within one period, for everyone else)."""
+    return Heard(0, tuple(HEARD_NEVER if v in peers else 0 for v in range(n)))
+
+
+def test_silence_alone_makes_a_suspect_that_keeps_its_work() -> None:
     m = Membership(3, 0, lost_after_s=30.0, period_s=7.5)
     m.heard(1, 10.0, 11.0)
     m.heard(2, 10.0, 11.0)
     assert m.check(39.9) == []
     assert m.next_deadline_s() == 40.0
     assert sorted(m.check(40.0)) == [1, 2]
+    assert m.status(1) == SUSPECT and m.alive(1)  # its claims still count
+    assert m.check(10_000.0) == []  # total silence: suspects forever, never lost
+    assert m.heard(1, 50.0, 51.0) is False  # a frame of its own clears the suspicion...
+    assert m.status(1) == ALIVE  # ... and nothing had been taken, so nothing is "revived"
+
+
+def test_a_second_observer_confirms_a_silence_and_a_frame_revives_the_lost() -> None:
+    m = Membership(3, 0, lost_after_s=30.0, period_s=7.5)
+    m.heard(1, 10.0, 11.0)
+    m.heard(2, 38.0, 39.0)
+    assert m.check(40.0) == [1]
+    # vehicle 2's frame was sent before the suspicion began: no confirmation
+    assert m.confirm(2, never_heard(1, 2), sent_s=38.0, now_s=40.5) == []
+    # a frame sent after it saying vehicle 2 heard vehicle 1 recently is no confirmation
+    assert m.confirm(2, never_heard(2), sent_s=42.0, now_s=43.0) == []
+    assert m.confirm(2, never_heard(1, 2), sent_s=45.0, now_s=46.0) == [1]
     assert m.status(1) == LOST and not m.alive(1)
-    assert m.heard(1, 50.0, 51.0) is True  # a frame of its own: alive again
+    assert m.heard(1, 50.0, 51.0) is True  # heard after it was declared lost: revived
     assert m.status(1) == ALIVE
 
 
-def test_relayed_evidence_delays_detection_but_stale_evidence_never_revives() -> None:
+def test_the_suspect_cannot_confirm_its_own_silence() -> None:
+    m = Membership(2, 0, lost_after_s=30.0, period_s=7.5)
+    assert m.check(30.0) == [1]
+    assert m.confirm(1, never_heard(0, 1, n=2), sent_s=31.0, now_s=32.0) == []
+    assert m.status(1) == SUSPECT
+
+
+def test_relayed_evidence_delays_suspicion_but_stale_evidence_never_revives() -> None:
     m = Membership(3, 0, lost_after_s=30.0, period_s=7.5)
     m.heard(1, 10.0, 11.0)
     m.heard(2, 40.0, 41.0)
     m.relayed(1, 25.0, now_s=26.0)  # vehicle 2 heard vehicle 1 later than we did
     assert m.check(45.0) == []
     assert m.check(55.0) == [1]
-    assert m.relayed(1, 24.0, now_s=60.0) is False  # older than what we had: still lost
-    assert m.relayed(1, 56.0, now_s=70.0) is True  # heard after we declared it: revived
+    assert m.relayed(1, 24.0, now_s=56.0) is False  # older than what we had: still suspect
+    assert m.status(1) == SUSPECT
+    assert m.confirm(2, never_heard(1, 2), sent_s=57.0, now_s=58.0) == [1]
+    assert m.relayed(1, 24.0, now_s=60.0) is False  # stale: still lost
+    assert m.relayed(1, 59.0, now_s=70.0) is True  # heard after we declared it: revived
 
 
 def test_heard_field_carries_ages_and_yields_conservative_evidence() -> None:
@@ -122,7 +154,7 @@ def test_heard_field_carries_ages_and_yields_conservative_evidence() -> None:
     a.heard(2, 85.0, 86.0)
     field = a.heard_field(104.0)
     # self: never; vehicle 1 heard 4 s ago (code 0: <= 1 period); vehicle 2 19 s ago (code 1)
-    assert (field & 3, field >> 2 & 3, field >> 4 & 3) == (3, 0, 1)
+    assert (field.offset, field.codes) == (0, (3, 0, 1))
     b = Membership(3, 2, lost_after_s=30.0, period_s=10.0)
     b.take_heard(0, field, sent_s=104.0, now_s=105.0)
     assert b.peers[1].evidence_s == 94.0  # sent minus one period: never later than the truth

@@ -1,7 +1,8 @@
 """Properties of the wire codec and the cleared-set CRDT, searched by Hypothesis.
 
 Stated once, checked against generated counterexamples: every message within the limits
-survives encoding (positions to the quantum), any byte string is either a valid message or a
+survives encoding (positions to the quantum) at 5, 32 and 255 vehicles, no frame verifies
+under another run's keys, any byte string is either a valid message or a
 `WireError` (never another exception), and cleared-set gossip under any loss, duplication
 and order converges to the union and never un-clears a spot.
 """
@@ -12,43 +13,60 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fleet_agent.cleared import ClearedSet
-from fleet_agent.wire import (MAX_FRAME_BYTES, MAX_POSE_BYTES, POSE_STATES, Abort, Claim,
-                              ClearedSegment, Codec, Digest, Pose, Release, WireError)
+from fleet_agent.wire import (HEARD_NEVER, MAX_FRAME_BYTES, MAX_POSE_BYTES, MAX_VEHICLES,
+                              POSE_STATES, Abort, Claim, ClearedSegment, Codec, Digest, Heard,
+                              Message, Pose, Release, WireError)
 
 KEY = bytes(range(16))
-CODEC = Codec(KEY, 5, 700, (-100.0, -100.0), 0.1)
+# A small fleet (one window covers everyone), 32 vehicles (two windows), the wire's limit.
+CODECS = [Codec(KEY, "run-p", 5, 700, (-100.0, -100.0), 0.1),
+          Codec(KEY, "run-p", 32, 700, (-100.0, -100.0), 0.1),
+          Codec(KEY, "run-p", MAX_VEHICLES, 200, (-100.0, -100.0), 0.1)]
 seqs = st.integers(0, 2**32 - 1)
-heard = st.integers(0, (1 << (2 * CODEC.n_vehicles)) - 1)
-senders = st.integers(0, CODEC.n_vehicles - 1)
 digests = st.builds(Digest, st.integers(0, 127), st.integers(0, 0xFFFF))
 coords = st.floats(-100.0, -100.0 + 6000.0, allow_nan=False)
 
-poses = st.builds(Pose, senders, seqs, st.tuples(coords, coords, st.floats(-3000.0, 3000.0)),
-                  st.integers(-180, 179), st.sampled_from(POSE_STATES), digests, heard)
-holdings = st.builds(
-    lambda cls, s, q, t, ids, h: cls(s, q, t, tuple(ids), h),
-    st.sampled_from([Claim, Release]), senders, seqs, seqs,
-    st.lists(st.integers(0, CODEC.n_tasks - 1), min_size=1, max_size=CODEC.max_ids), heard)
-aborts = st.builds(lambda s, q, t, h, who: Abort(s, q, t, h, None if who == s else who),
-                   senders, seqs, seqs, heard, senders)
-
 
 @st.composite
-def segments(draw: st.DrawFn) -> ClearedSegment:
-    seg = draw(st.integers(0, CODEC.n_segments - 1))
-    size = CODEC._segment_bytes(seg)
+def messages(draw: st.DrawFn, codec: Codec, kinds: tuple[str, ...]) -> Message:
+    """Any message ``codec`` can carry, of one of ``kinds``."""
+    n = codec.n_vehicles
+    sender = draw(st.integers(0, n - 1))
+    heard = Heard(draw(st.integers(0, n - 1)),
+                  tuple(draw(st.lists(st.integers(0, HEARD_NEVER), max_size=codec.window))))
+    seq = draw(seqs)
+    kind = draw(st.sampled_from(kinds))
+    if kind == "pose":
+        pos = draw(st.tuples(coords, coords, st.floats(-3000.0, 3000.0)))
+        return Pose(sender, seq, pos, draw(st.integers(-180, 179)),
+                    draw(st.sampled_from(POSE_STATES)), draw(digests), heard)
+    if kind == "holding":
+        cls = draw(st.sampled_from([Claim, Release]))
+        ids = draw(st.lists(st.integers(0, codec.n_tasks - 1), min_size=1,
+                            max_size=codec.max_ids))
+        return cls(sender, seq, draw(st.integers(0, seq)), tuple(ids), heard)  # dated <= sent
+    if kind == "abort":
+        who = draw(st.integers(0, n - 1))
+        return Abort(sender, seq, draw(seqs), heard, None if who == sender else who)
+    seg = draw(st.integers(0, codec.n_segments - 1))
+    size = codec._segment_bytes(seg)
     bits = draw(st.binary(min_size=size, max_size=size))
-    return ClearedSegment(draw(senders), draw(seqs), draw(digests), seg, bits, draw(heard))
+    return ClearedSegment(sender, seq, draw(digests), seg, bits, heard)
+
+
+ALL = ("pose", "holding", "abort", "segment")
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.one_of(poses, holdings, aborts, segments()))
-def test_every_message_round_trips_within_its_limits(msg) -> None:
-    frame = CODEC.encode(msg)
+@given(st.data())
+def test_every_message_round_trips_within_its_limits(data: st.DataObject) -> None:
+    codec = data.draw(st.sampled_from(CODECS))
+    msg = data.draw(messages(codec, ALL))
+    frame = codec.encode(msg)
     assert len(frame) <= (MAX_POSE_BYTES if isinstance(msg, Pose) else MAX_FRAME_BYTES)
-    back = CODEC.decode(frame)
+    back = codec.decode(frame)
     if isinstance(msg, Pose):
-        assert all(abs(a - b) <= CODEC.unit_m / 2 + 1e-6 for a, b in zip(back.pos, msg.pos))
+        assert all(abs(a - b) <= codec.unit_m / 2 + 1e-6 for a, b in zip(back.pos, msg.pos))
         assert (back.seq, back.yaw_deg, back.state, back.digest, back.heard) == \
             (msg.seq, msg.yaw_deg, msg.state, msg.digest, msg.heard)
     else:
@@ -56,24 +74,39 @@ def test_every_message_round_trips_within_its_limits(msg) -> None:
 
 
 @settings(max_examples=500, deadline=None)
-@given(st.binary(max_size=80))
-def test_any_bytes_are_a_message_or_a_wire_error(data: bytes) -> None:
+@given(st.sampled_from(CODECS), st.binary(max_size=80))
+def test_any_bytes_are_a_message_or_a_wire_error(codec: Codec, data: bytes) -> None:
     try:
-        CODEC.decode(data)
+        codec.decode(data)
     except WireError:
         pass
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.one_of(poses, holdings, aborts), st.integers(0, 63), st.integers(1, 255))
-def test_a_flipped_byte_is_always_refused(msg, where: int, flip: int) -> None:
-    frame = bytearray(CODEC.encode(msg))
+@given(st.data(), st.integers(0, 63), st.integers(1, 255))
+def test_a_flipped_byte_is_always_refused(data: st.DataObject, where: int, flip: int) -> None:
+    codec = data.draw(st.sampled_from(CODECS))
+    frame = bytearray(codec.encode(data.draw(messages(codec, ("pose", "holding", "abort")))))
     frame[where % len(frame)] ^= flip
     try:
-        CODEC.decode(bytes(frame))
+        codec.decode(bytes(frame))
     except WireError:
         return
     raise AssertionError("a corrupted frame was accepted")
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.data())
+def test_no_frame_verifies_in_another_run(data: st.DataObject) -> None:
+    codec = data.draw(st.sampled_from(CODECS))
+    other = Codec(KEY, "run-q", codec.n_vehicles, codec.n_tasks, codec.origin_xy, codec.unit_m)
+    frame = codec.encode(data.draw(messages(codec, ALL)))
+    try:
+        other.decode(frame)
+    except WireError as exc:
+        assert exc.reason == "mac"
+        return
+    raise AssertionError("a frame of one run was accepted in another")
 
 
 N_TASKS = 700

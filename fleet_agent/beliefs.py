@@ -1,0 +1,301 @@
+"""What a vehicle believes about the reef in a dynamic mission: the map is a prior.
+
+Each predicted spot is *unknown* until the camera shows it (`fleet_agent.sensor`): *present*
+(with its real priority rho and injection time t, eq. 2) or *empty*. Aggregations the map
+missed become *finds*, task indices beyond the scenario's: ``n + finder * find_slots +
+counter``, so two finders never name two finds alike and the fleet's bitmaps (cleared set,
+claims) cover them as they cover predicted spots. Two finds closer than `MERGE_M` are one
+aggregation seen twice: the lower index is the spot, the other an alias nobody plans.
+
+The planner works on a *working problem* of fixed size (n predicted + every slot): a predicted
+spot at its expected value (eq. 9's priority term taken in expectation: p * rho, and time
+inspect_s + p * t), a present one at its real figures, a find at its figures, an unused slot a
+placeholder at the first station that is never offered to the planner (`blocked`). The problem
+is rebuilt when beliefs change (distances only when a find adds a position).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fleet_agent.config import AgentConfig
+from fleet_agent.plans import Planner
+from fleet_agent.sensor import Camera
+from fleet_agent.wire import Digest
+from hfc_core.problem import Problem, Task
+
+Point3 = tuple[float, float, float]
+UNKNOWN, PRESENT, EMPTY = "unknown", "present", "empty"
+MATCH_M = 5.0  # a sighting this close to a predicted spot is that spot
+MERGE_M = 2.0  # finds this close are one aggregation (the camera's fix, on the wire's grid)
+FIND_MARGIN_M = 1000.0  # the wire's grid reaches this far beyond the map (finds off it)
+
+
+def _slot_hash(slot: int) -> int:
+    return int.from_bytes(hashlib.blake2b(slot.to_bytes(4, "little"), digest_size=2,
+                                          person=b"finds").digest(), "little")
+
+
+@dataclass(frozen=True)
+class Find:
+    """An aggregation the map missed: its slot, where, rho and t, and when this vehicle
+    learned of it (mission time: a find is planned `settle_s` later)."""
+
+    slot: int
+    pos: Point3
+    priority: float
+    service_s: float
+    learned_s: float
+
+
+def expected_problem(scenario: Problem, camera: Camera, p_cots: float) -> Problem:
+    """The scenario at its expected value: every predicted spot worth p * rho and costing
+    the look plus p * t. The initial plan every vehicle computes alone is made on it."""
+    tasks = [Task(t.id, t.pos, p_cots * t.priority, camera.inspect_s + p_cots * t.service_s)
+             for t in scenario.tasks]
+    return Problem.build(f"{scenario.name}-expected", scenario.vehicles, tasks,
+                         [poly.tolist() for poly in scenario.forbidden],
+                         dist_m=scenario.dist_m, current=scenario.current)
+
+
+def working_size(scenario: Problem, config: AgentConfig) -> int:
+    return scenario.n_tasks + scenario.n_vehicles * config.find_slots
+
+
+def find_ids(scenario: Problem, config: AgentConfig) -> range:
+    """The task ids finds go by in telemetry (after the scenario's largest id), so a report
+    or an operator can tell them from predicted spots."""
+    base = max((t.id for t in scenario.tasks), default=-1) + 1
+    return range(base, base + scenario.n_vehicles * config.find_slots)
+
+
+class Beliefs:
+    """Predicted spots' states, finds and aliases, and the working problem they make."""
+
+    def __init__(self, scenario: Problem, camera: Camera, config: AgentConfig, index: int,
+                 seed: int, cycle_s: float) -> None:
+        self.scenario, self.camera, self.config = scenario, camera, config
+        self.index, self.seed = index, seed
+        self.n = scenario.n_tasks
+        self.cap = config.find_slots
+        self.size = working_size(scenario, config)
+        self.settle_s = config.find_settle_cycles * cycle_s
+        self.state = [UNKNOWN] * self.n
+        self.real: dict[int, tuple[float, float]] = {}  # present predicted: (rho, t)
+        self.finds: dict[int, Find] = {}
+        self.alias: dict[int, int] = {}  # slot -> the slot it is an alias of
+        self.own_found = 0
+        self.finds_dropped = 0  # own finds beyond find_slots (memory stays bounded)
+        self.conflicts = 0  # a slot announced twice with different figures
+        self.refused = 0  # finds on land or off the map's grid: no vehicle could treat them
+        self._count = 0
+        self._hash = 0
+        self._base_id = find_ids(scenario, config).start
+        self._pred_xyz = np.array([t.pos for t in scenario.tasks], dtype=float).reshape(-1, 3)
+        self._problem: Problem | None = None
+        self._planner: Planner | None = None
+        self._dist: np.ndarray | None = None
+        self._dist_finds = -1  # number of finds the cached distances include
+        self.version = 0
+
+    # -- queries ---------------------------------------------------------------------------
+
+    def unknown(self, task: int) -> bool:
+        """Must the vehicle look before injecting ``task``?"""
+        return task < self.n and self.state[task] == UNKNOWN
+
+    def task_id(self, slot: int) -> int:
+        return self._base_id + slot - self.n
+
+    def is_find_id(self, task_id: int) -> bool:
+        return task_id >= self._base_id
+
+    def canonical(self, task: int) -> int:
+        return self.alias.get(task, task)
+
+    def blocked(self, now: float) -> frozenset[int]:
+        """Spots the planner must not offer: unused slots, aliases, finds still settling."""
+        out = [s for s in range(self.n, self.size) if s not in self.finds or s in self.alias
+               or self.finds[s].learned_s + self.settle_s > now]
+        return frozenset(out)
+
+    def next_settle_s(self, now: float) -> float | None:
+        """When the next find still settling may be planned."""
+        due = [f.learned_s + self.settle_s for f in self.finds.values()
+               if f.learned_s + self.settle_s > now]
+        return min(due) if due else None
+
+    def digest(self) -> Digest:
+        """Size mod 128 and an order-free 16-bit hash of the slots known: equal digests,
+        (almost surely) equal sets."""
+        return Digest(self._count & 0x7F, self._hash)
+
+    def match(self, pos: Point3) -> tuple[str, int] | None:
+        """What a sighting at ``pos`` is: ("task", t) a predicted spot, ("find", s) a known
+        find, or None (news)."""
+        p = np.asarray(pos, float)
+        if self.n:
+            d = np.linalg.norm(self._pred_xyz - p, axis=1)
+            t = int(np.argmin(d))
+            if d[t] <= MATCH_M:
+                return ("task", t)
+        for s, f in self.finds.items():
+            if math.dist(f.pos, pos) <= MERGE_M:
+                return ("find", self.canonical(s))
+        return None
+
+    # -- learning --------------------------------------------------------------------------
+
+    def learn(self, task: int, present: bool, priority: float = 0.0,
+              service_s: float = 0.0) -> bool:
+        """A predicted spot seen (present, with rho and t) or inspected empty; True if news."""
+        if not 0 <= task < self.n:
+            return False
+        new = PRESENT if present else EMPTY
+        if self.state[task] == new and (not present
+                                        or self.real.get(task) == (priority, service_s)):
+            return False
+        self.state[task] = new
+        if present:
+            self.real[task] = (float(priority), float(service_s))
+        self._changed()
+        return True
+
+    def own_slot(self) -> int | None:
+        """The next slot this vehicle may name, or None (all used: counted)."""
+        if self.own_found >= self.cap:
+            self.finds_dropped += 1
+            return None
+        slot = self.n + self.index * self.cap + self.own_found
+        self.own_found += 1
+        return slot
+
+    def add_find(self, slot: int, pos: Point3, priority: float, service_s: float,
+                 now: float) -> bool:
+        """A find (own or heard); True if news. A slot already known with other figures is a
+        conflict (counted, the first kept): finds never change once named."""
+        if not self.n <= slot < self.size:
+            return False
+        if not self._wet(pos):
+            self.refused += 1  # a planner fed a spot on land would fail: keep it out
+            return False
+        old = self.finds.get(slot)
+        if old is not None:
+            if old.pos != tuple(pos) or old.priority != priority or old.service_s != service_s:
+                self.conflicts += 1
+            return False
+        finder, counter = divmod(slot - self.n, self.cap)
+        if finder == self.index:  # our own slot, heard back (e.g. after a restart)
+            self.own_found = max(self.own_found, counter + 1)
+        self.finds[slot] = Find(slot, tuple(float(c) for c in pos),  # type: ignore[arg-type]
+                                float(priority), float(service_s), float(now))
+        self._count += 1
+        self._hash = (self._hash + _slot_hash(slot)) & 0xFFFF
+        self._merge(slot)
+        self._changed()
+        return True
+
+    def _wet(self, pos: Point3) -> bool:
+        """Finite and in the water (the working problem must stay plannable)."""
+        if not all(math.isfinite(c) for c in pos):
+            return False
+        land = self.scenario.land
+        return land is None or not bool(land.inside(np.array([pos], dtype=float))[0])
+
+    def _merge(self, slot: int) -> None:
+        """Group ``slot`` with the finds within `MERGE_M`: the lowest index is the spot."""
+        pos = self.finds[slot].pos
+        group = {s for s, f in self.finds.items() if math.dist(f.pos, pos) <= MERGE_M}
+        group |= {self.alias[s] for s in group if s in self.alias}
+        head = min(group)
+        for s in group:
+            if s != head:
+                self.alias[s] = head
+        for s, h in list(self.alias.items()):  # aliases of a member now point at the head
+            if h in group and h != head:
+                self.alias[s] = head
+
+    def _changed(self) -> None:
+        self.version += 1
+        self._problem = None
+        self._planner = None
+
+    # -- the working problem ---------------------------------------------------------------
+
+    def p_of(self, task: int) -> float:
+        """The chance predicted spot ``task`` holds COTS: the prior, raised near a find or a
+        spot seen present (COTS aggregate)."""
+        cfg = self.config
+        pos = self.scenario.tasks[task].pos
+        r = cfg.aggregation_radius_m
+        near = any(math.dist(self.scenario.tasks[t].pos, pos) <= r for t in self.real) or \
+            any(math.dist(f.pos, pos) <= r for s, f in self.finds.items() if s not in self.alias)
+        return max(cfg.p_cots, cfg.p_cots_near_find) if near else cfg.p_cots
+
+    def _tasks(self) -> list[Task]:
+        out = []
+        for i, t in enumerate(self.scenario.tasks):
+            if self.state[i] == PRESENT:
+                rho, service = self.real[i]
+            elif self.state[i] == EMPTY:
+                rho, service = 0.0, 0.0
+            else:
+                # The value follows the neighbourhood; the time stays at the prior's: raising
+                # it near every find would overfill the routes and drop spots that would have
+                # fit (COTS are dense: most spots are near some find).
+                rho = self.p_of(i) * t.priority
+                service = self.camera.inspect_s + self.config.p_cots * t.service_s
+            out.append(Task(t.id, t.pos, rho, service))
+        station = self.scenario.vehicles[0].start
+        for s in range(self.n, self.size):
+            f = self.finds.get(s)
+            if f is None or s in self.alias:
+                out.append(Task(self.task_id(s), f.pos if f else station, 0.0, 0.0))
+            else:
+                out.append(Task(self.task_id(s), f.pos, f.priority, f.service_s))
+        return out
+
+    @property
+    def problem(self) -> Problem:
+        if self._problem is None:
+            self._problem = self._build()
+        return self._problem
+
+    @property
+    def planner(self) -> Planner:
+        if self._planner is None:
+            cfg = self.config
+            self._planner = Planner(self.problem, self.seed, cfg.plan_iterations,
+                                    cfg.replan_iterations)
+        return self._planner
+
+    def _build(self) -> Problem:
+        sc = self.scenario
+        tasks = self._tasks()
+        if self._dist is None or self._dist_finds != len(self.finds):
+            xyz = np.zeros((len(tasks) + 2 * sc.n_vehicles, 3))
+            xyz[:len(tasks)] = [t.pos for t in tasks]
+            xyz[len(tasks):] = sc.xyz[sc.n_tasks:]
+            if sc.land is not None:
+                self._dist = sc.land.distance_matrix(xyz)
+            else:
+                from hfc_core.geometry import distance_matrix
+
+                self._dist = distance_matrix(xyz)
+            self._dist_finds = len(self.finds)
+        return Problem.build(f"{sc.name}-believed", sc.vehicles, tasks,
+                             [poly.tolist() for poly in sc.forbidden], dist_m=self._dist,
+                             current=sc.current)
+
+
+def initial_working_problem(scenario: Problem, camera: Camera, config: AgentConfig) -> Problem:
+    """The working problem before anything is seen (what every vehicle starts from)."""
+    return Beliefs(scenario, camera, config, 0, 0, 1.0).problem
+
+
+__all__ = ["Beliefs", "Find", "expected_problem", "initial_working_problem", "working_size",
+           "UNKNOWN", "PRESENT", "EMPTY", "MATCH_M", "MERGE_M", "FIND_MARGIN_M"]

@@ -1,0 +1,223 @@
+"""Dynamic missions: beliefs, finds and their gossip, no double treatment of a find."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from cotsfleet.mission.inprocess import simulate
+from fleet_agent.agent import Agent
+from fleet_agent.beliefs import EMPTY, MERGE_M, PRESENT, Beliefs
+from fleet_agent.config import AgentConfig
+from fleet_agent.fleet import Fleet
+from fleet_agent.io_types import Frame, Send, Sensed, Tick
+from fleet_agent.sensor import Camera, Sighting
+from fleet_agent.wire import Codec, Digest, Found
+from hfc_core.generate import DynamicParams, GeneratorParams, generate_dynamic_doc
+from hfc_core.scenario import problem_from_dict
+from hfc_core.truth import reef_from_doc
+
+KEY = bytes(range(16))
+RUN = "test-dyn"
+CONFIG = AgentConfig(plan_iterations=30, replan_iterations=10).with_key(KEY)
+
+
+def small_doc(seed: int = 5) -> dict:
+    params = DynamicParams(base=GeneratorParams(name="small", n_tasks=30, n_vehicles=3,
+                                                size_m=600.0, battery_s=1500.0,
+                                                service_s=60.0), n_unmapped=5)
+    return generate_dynamic_doc(params, np.random.default_rng(seed))
+
+
+@pytest.fixture(scope="module")
+def fleet() -> Fleet:
+    doc = small_doc()
+    problem = problem_from_dict(doc)
+    return Fleet.build(problem, KEY, 4, CONFIG, run_id=RUN,
+                       camera=Camera.of(reef_from_doc(doc, problem)))
+
+
+def off_map(fleet: Fleet, k: int) -> tuple[float, float, float]:
+    """A position no predicted spot is near: the k-th of a grid of candidates."""
+    assert fleet.dynamic is not None
+    xyz = fleet.dynamic.scenario.xyz[:fleet.dynamic.scenario.n_tasks]
+    found = []
+    for x in np.arange(20.0, 600.0, 37.0):
+        for y in np.arange(20.0, 600.0, 41.0):
+            if np.linalg.norm(xyz[:, :2] - (x, y), axis=1).min() > 20.0:
+                found.append((float(x), float(y), -3.0))
+    return found[k]
+
+
+# -- beliefs ----------------------------------------------------------------------------------
+
+
+def test_two_finds_of_one_aggregation_merge_and_the_lower_slot_wins(fleet):
+    assert fleet.dynamic is not None
+    b = Beliefs(fleet.dynamic.scenario, fleet.dynamic.camera, CONFIG, 1, 0, 7.5)
+    pos = off_map(fleet, 0)
+    high = b.n + 2 * CONFIG.find_slots  # vehicle 2's first slot
+    low = b.n + 0 * CONFIG.find_slots  # vehicle 0's first slot
+    assert b.add_find(high, pos, 40.0, 60.0, 0.0)
+    near = (pos[0] + MERGE_M / 2, pos[1], pos[2])
+    assert b.add_find(low, near, 40.0, 60.0, 5.0)
+    assert b.alias == {high: low} and b.canonical(high) == low
+    assert high in b.blocked(1e9) and low not in b.blocked(1e9)
+    assert low in b.blocked(5.0)  # still settling
+    # the same slot again: no news; other figures for it: a conflict, the first kept
+    assert not b.add_find(low, near, 40.0, 60.0, 9.0)
+    assert not b.add_find(low, near, 41.0, 60.0, 9.0) and b.conflicts == 1
+    assert b.finds[low].priority == 40.0
+
+
+def test_the_prior_values_predicted_spots_and_a_find_raises_its_neighbours(fleet):
+    assert fleet.dynamic is not None
+    sc = fleet.dynamic.scenario
+    b = Beliefs(sc, fleet.dynamic.camera, CONFIG, 0, 0, 7.5)
+    p = b.problem
+    np.testing.assert_allclose(p.priority[:sc.n_tasks], CONFIG.p_cots * sc.priority)
+    np.testing.assert_allclose(p.service_s[:sc.n_tasks],
+                               fleet.dynamic.camera.inspect_s + CONFIG.p_cots * sc.service_s)
+    assert (p.priority[sc.n_tasks:] == 0).all() and p.n_tasks == b.size
+    t = 3
+    b.learn(t, True, 77.0, 61.0)
+    assert b.state[t] == PRESENT and b.problem.priority[t] == 77.0
+    near = [i for i in range(sc.n_tasks) if i != t and
+            np.linalg.norm(sc.xyz[i] - sc.xyz[t]) <= CONFIG.aggregation_radius_m]
+    assert near
+    np.testing.assert_allclose(b.problem.priority[near],
+                               CONFIG.p_cots_near_find * sc.priority[near])
+    b.learn(t + 1, False)
+    assert b.state[t + 1] == EMPTY
+
+
+def test_finds_beyond_the_vehicles_slots_are_counted_not_kept(fleet):
+    config = dataclasses.replace(CONFIG, find_slots=2)
+    small = Fleet.build(fleet.dynamic.scenario, KEY, 4, config, run_id=RUN,
+                        camera=fleet.dynamic.camera)
+    agent = Agent(small, 1, config)
+    seen = tuple(Sighting(off_map(fleet, k), 30.0, 60.0) for k in range(4))
+    agent.step(Sensed(1.0, seen))
+    assert len(agent.know.beliefs.finds) == 2
+    assert agent.counters["finds_dropped"] == 2
+
+
+def test_a_malformed_or_forged_find_is_dropped_and_counted(fleet):
+    agent = Agent(fleet, 0, CONFIG)
+    n = fleet.dynamic.scenario.n_tasks
+    sloppy = Codec.for_problem(fleet.problem, KEY, RUN, 1000.0, found_from=0)  # any slot
+    bad_slot = sloppy.encode(Found(1, 5, Digest(1, 2), 3, (10.0, 10.0, 0.0), 10.0, 60.0))
+    forger = Codec.for_problem(fleet.problem, b"another key 1234", RUN, 1000.0, found_from=n)
+    forged = forger.encode(Found(1, 6, Digest(1, 2), n, (10.0, 10.0, 0.0), 10.0, 60.0))
+    agent.step(Frame(bad_slot, 2.0))
+    agent.step(Frame(forged, 3.0))
+    assert agent.counters["drop_malformed"] == 1 and agent.counters["drop_mac"] == 1
+    assert not agent.know.beliefs.finds
+
+
+# -- gossip -----------------------------------------------------------------------------------
+
+
+def exchange(agents: list[Agent], t0: float, t1: float, rng: np.random.Generator,
+             loss: float, dup: float, max_delay_s: float) -> None:
+    """Step every agent every half second from t0 to t1; each frame reaches each peer unless
+    lost, maybe twice, after a random delay (so frames overtake each other)."""
+    flight: list[tuple[float, int, bytes]] = []
+    t = t0
+    while t < t1:
+        due = sorted((x for x in flight if x[0] <= t), key=lambda x: x[0])
+        flight = [x for x in flight if x[0] > t]
+        for at, dst, frame in due:
+            agents[dst].step(Frame(frame, at))
+        for i, a in enumerate(agents):
+            for o in a.step(Tick(t)):
+                if not isinstance(o, Send):
+                    continue
+                for j in range(len(agents)):
+                    if j == i or rng.random() < loss:
+                        continue
+                    for _ in range(2 if rng.random() < dup else 1):
+                        flight.append((t + rng.uniform(0.0, max_delay_s), j, o.frame))
+        t += 0.5
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), loss=st.floats(0.0, 0.7),
+       dup=st.floats(0.0, 0.5), max_delay_s=st.floats(0.0, 30.0), n_finds=st.integers(1, 4))
+def test_find_gossip_loses_nothing_under_loss_duplication_and_reordering(
+        fleet, seed, loss, dup, max_delay_s, n_finds):
+    agents = [Agent(fleet, i, CONFIG) for i in range(3)]
+    rng = np.random.default_rng(seed)
+    for k in range(n_finds):  # finds by several vehicles, at once
+        agents[k % 2 * 2].step(Sensed(0.0, (Sighting(off_map(fleet, k), 20.0 + k, 60.0),)))
+    exchange(agents, 0.0, 120.0, rng, loss, dup, max_delay_s)  # hostile water
+    exchange(agents, 120.0, 420.0, rng, 0.0, 0.0, 0.0)  # then it calms down
+    finds = [a.know.beliefs.finds for a in agents]
+    assert len(finds[0]) == n_finds
+    for f in finds[1:]:
+        assert {s: (x.pos, x.priority, x.service_s) for s, x in f.items()} == \
+            {s: (x.pos, x.priority, x.service_s) for s, x in finds[0].items()}
+    assert len({a.know.beliefs.digest() for a in agents}) == 1
+
+
+# -- the fleet ------------------------------------------------------------------------------
+
+
+def test_three_vehicles_seeing_one_aggregation_at_once_treat_it_once():
+    doc = small_doc()
+    start = doc["vehicles"][0]["start"]
+    assert all(v["start"] == start for v in doc["vehicles"])  # all see it at t = 0
+    doc["truth"]["p_detect"] = 1.0
+    doc["truth"]["spots"].append({"pos": [start[0] + 10.0, start[1] + 5.0, 0.0],
+                                  "priority": 99.0, "service_s": 30.0, "task": None})
+    problem = problem_from_dict(doc)
+    reef = reef_from_doc(doc, problem)
+    r = simulate(problem, AgentConfig(), seed=2, reef=reef)
+    new = len(reef.spots) - 1
+    found_by = {e.id for e in r.events if e.kind == "found"
+                and e.detail.startswith(f"{start[0] + 10.0:.1f},")}
+    assert found_by == {"auv1", "auv2", "auv3"}  # three finds of one aggregation
+    assert [d["spot"] for d in r.report["dynamic"]["treated"]].count(new) == 1
+    assert r.report["fleet"]["duplicate_treatments"] == 0
+
+
+def test_a_restarted_agent_gets_its_finds_back_and_heads_for_the_one_it_was_going_to(fleet):
+    from fleet_agent.records import Checkpoint, FoundSpot, Start
+
+    n = fleet.dynamic.scenario.n_tasks
+    slot, pos = n + CONFIG.find_slots + 1, off_map(fleet, 3)  # vehicle 1's second slot
+    journal = [Start(0.0, 1).doc(), FoundSpot(50.0, slot, pos, 44.0, 70.0, durable=True).doc(),
+               Checkpoint(90.0, (30.0, 30.0, 0.0), 10.0, (slot,), 40, {}, None).doc()]
+    agent = Agent(fleet, 1, CONFIG, now=100.0, journal=journal)
+    assert agent.know.beliefs.finds[slot].priority == 44.0
+    assert agent.know.beliefs.own_found == 2  # its next find takes the slot after
+    assert agent.vehicle.route[:1] == [slot]
+    assert agent.vehicle._waypoints[-1][:2] == pytest.approx(pos[:2])
+
+
+def test_a_find_on_land_is_refused_and_counted_and_the_problem_stays_plannable():
+    import json
+    from pathlib import Path
+
+    doc = json.loads((Path(__file__).parents[2] / "examples" / "green_island.json").read_text())
+    problem = problem_from_dict(doc)
+    assert problem.land is not None
+    reef = reef_from_doc(doc, problem)
+    b = Beliefs(problem, Camera.of(reef), CONFIG, 0, 0, 7.5)
+    poly = problem.forbidden[0]
+    rng = np.random.default_rng(0)
+    lo, hi = poly.min(axis=0), poly.max(axis=0)
+    for xy in rng.uniform(lo, hi, size=(500, 2)):
+        if problem.land.inside(np.array([[*xy, 0.0]]))[0]:
+            break
+    else:
+        pytest.fail("no point inside the first land polygon")
+    assert not b.add_find(b.n, (float(xy[0]), float(xy[1]), 0.0), 30.0, 60.0, 0.0)
+    assert b.refused == 1 and not b.finds
+    sea = reef.spots[reef.unmapped()[0]].pos if reef.unmapped() else reef.spots[0].pos
+    assert b.add_find(b.n + 1, (sea[0] + 3.0, sea[1], sea[2]), 30.0, 60.0, 0.0)
+    assert b.problem.n_tasks == b.size  # builds, with the find in the water

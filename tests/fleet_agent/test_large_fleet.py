@@ -1,0 +1,60 @@
+"""A 24-vehicle fleet in process (three times the old wire's limit): one vehicle killed,
+nothing treated twice, the dead vehicle detected by every survivor within the documented bound
+(`lost_after_cycles` TDMA cycles of ``n_vehicles * slot_s``), every frame within 64 bytes."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from cotsfleet.mission.faults import Fault
+from cotsfleet.mission.inprocess import simulate
+from fleet_agent.config import AgentConfig
+from fleet_agent.cleared import ClearedSet
+from fleet_agent.radio import Radio, Slots
+from fleet_agent.wire import MAX_FRAME_BYTES, NO_HEARD
+from fleet_bus.tdma import TdmaSchedule
+from hfc_core.check import check_routes
+from hfc_core.generate import AreaParams, generate_area_doc
+from hfc_core.scenario import problem_from_dict
+
+KILL_S = 600.0
+
+
+def test_24_vehicles_with_a_kill_treat_nothing_twice_and_detect_the_dead() -> None:
+    doc = generate_area_doc(AreaParams(n_tasks=150, n_vehicles=24, area_m=1500.0,
+                                       battery_s=1800.0), np.random.default_rng(3))
+    problem = problem_from_dict(doc)
+    config = AgentConfig()
+    result = simulate(problem, config, seed=3, faults=[Fault("kill", KILL_S, "auv7")])
+    fleet = result.report["fleet"]
+    assert fleet["duplicate_treatments"] == 0
+    assert fleet["vehicles_home"] == 23
+    assert fleet["false_alarms"] == 0
+    assert result.report["messages"]["largest_frame_bytes"] <= MAX_FRAME_BYTES
+    routes = {v.id: [] for v in problem.vehicles}
+    for e in result.events:
+        if e.kind == "cleared":
+            routes[e.id] += e.tasks
+    assert check_routes(problem, routes) == []
+    assert fleet["spots_cleared"] >= 0.8 * problem.n_tasks
+    # Every survivor declared auv7 lost, no later than lost_after_cycles cycles after the
+    # kill (its last frame was sent before it): the bound docs/wire.md states.
+    bound_s = config.lost_after_cycles * TdmaSchedule(24, config.slot_s).cycle_s
+    delays = fleet["detection_delay_s"]["auv7"]
+    assert len(delays) == 23 and all(d is not None for d in delays.values())
+    assert max(delays.values()) <= bound_s + 1.0
+
+
+def test_cleared_pushes_rotate_over_every_segment() -> None:
+    """With more than 320 spots the cleared set has several segments; unprompted pushes must
+    visit all of them although poses take every other slot (a rotation by slot number over
+    two segments pushed the same one forever, so a clear in the other was never repaired)."""
+    radio = Radio(Slots(0, 24, 2.5), AgentConfig(), max_ids=41, now=0.0)
+    know = SimpleNamespace(cleared=ClearedSet(600), treated=[], index=0)
+    pushed = []
+    for k in range(6):
+        radio.slot_no = 2 * k + 1  # a pose in every other slot, as pose_every_cycles = 2
+        pushed.append(radio._cleared(60.0 * k, know, NO_HEARD).segment)
+    assert set(pushed) == {0, 1}
