@@ -14,6 +14,8 @@ from typing import Sequence
 
 import zenoh
 
+from fleet_bus.auth import BusAuth
+from fleet_bus.credentials import STATION_ID, CredentialsError, load_auth
 from fleet_bus.mission import fetch_mission
 from fleet_bus.process import STATION_READY, process_stop, ready
 from fleet_bus.session import DEFAULT_ENDPOINT, client_config, open_session
@@ -28,14 +30,16 @@ PREFIX = "ground_station:"
 
 
 def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
-         mission_timeout_s: float = 120.0) -> int:
+         mission_timeout_s: float = 120.0, auth: BusAuth | None = None) -> int:
     """Run until ``stop``; 0 on a clean stop, 2 if a viewer or file cannot be opened (said in
-    one line), 3 if no mission record ever came."""
+    one line), 3 if no mission record ever came. With ``auth`` (the run's key ring: the station
+    signs nothing) every sample must be signed by its rightful sender; the rest is dropped
+    and counted (``auth_<reason>``), on the dashboard too."""
     with open_session(conf) as session:
-        inbox = Inbox()
+        inbox = Inbox(auth=auth)
         # subscribe before asking for the mission, so nothing published meanwhile is lost
         with subscribed(session, inbox):
-            mission = fetch_mission(session, stop, mission_timeout_s)
+            mission = fetch_mission(session, stop, mission_timeout_s, auth)
             if mission is None:
                 if stop.is_set():
                     return 0
@@ -46,7 +50,7 @@ def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
                 opts = replace(opts, rrd=rrd_for_run(opts.rrd, mission.run_id))
             try:
                 sinks = open_recording(APPLICATION_ID, mission.run_id, opts, live_blueprint(
-                    layers[0].bounds, legend_bounds(layers[0])))
+                    layers[0].bounds, legend_bounds(layers[0]), layers[0].dynamic))
             except (SinkError, OSError) as exc:
                 print(f"{PREFIX} {exc}", file=sys.stderr, flush=True)
                 return 2
@@ -64,6 +68,8 @@ def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
                     sample = inbox.get(timeout_s=0.2)
                     if sample is not None:
                         station.handle(*sample)
+                    for reason, n in inbox.take_refused().items():
+                        station.refused(reason, n)
             finally:
                 station.close()
                 before = len(sinks.notes)
@@ -95,13 +101,22 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
                    help="port of the Rerun gRPC server the viewer reads (0: any free port)")
     p.add_argument("--mission-timeout", type=float, default=120.0,
                    help="seconds to wait for the fleet/mission record")
+    p.add_argument("--credentials", type=Path, metavar="DIR",
+                   help="the station's credentials directory (the run's key ring and a Zenoh "
+                        "login; no signing key); without it the bus is open: experiments only")
     return p.parse_args(argv)
 
 
 if __name__ == "__main__":
     args = parse_args()
+    try:
+        bus_auth = load_auth(args.credentials) if args.credentials else None
+    except CredentialsError as exc:
+        print(f"{PREFIX} {exc}", file=sys.stderr)
+        raise SystemExit(2)
     options = ViewerOptions(viewer=args.viewer or default_viewer(), rrd=args.rrd,
                             web_host=args.web_host, web_port=args.web_port,
                             grpc_port=args.grpc_port)
-    raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT]), options,
-                          process_stop(), args.mission_timeout))
+    raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT],
+                                        credentials=args.credentials), options,
+                          process_stop(), args.mission_timeout, bus_auth))

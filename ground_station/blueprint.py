@@ -5,7 +5,7 @@ from __future__ import annotations
 import rerun.blueprint as rrb
 from rerun.blueprint.encodings import TextLogColumn
 
-from ground_station.rerun_log import SERIES, TIMELINE
+from ground_station.rerun_log import REEF, SERIES, TIMELINE
 
 Bounds = tuple[float, float, float, float]
 
@@ -15,7 +15,10 @@ def map_view(bounds: Bounds, name: str = "Map") -> rrb.Spatial2DView:
     xmin, xmax, ymin, ymax = bounds
     return rrb.Spatial2DView(
         name=name, origin="/", contents=["+ /map/**"], background=[8, 12, 20],
-        visual_bounds=rrb.VisualBounds2D(x_range=[xmin, xmax], y_range=[-ymax, -ymin]))
+        visual_bounds=rrb.VisualBounds2D(x_range=[xmin, xmax], y_range=[-ymax, -ymin]),
+        # the hidden reef of a dynamic mission starts switched off (the eye in the entity
+        # tree shows it): the map shows what the fleet knows
+        overrides={f"/{REEF}": rrb.EntityBehavior(visible=False)})
 
 
 # The whole mission so far, not the viewer's default window around the cursor. A browser
@@ -42,15 +45,20 @@ def legend_view(bounds: Bounds) -> rrb.Spatial2DView:
 DEFAULT_LEGEND: Bounds = (-2.8, 14.8, -0.8, 4.9)
 
 
-def live_blueprint(bounds: Bounds, legend: Bounds = DEFAULT_LEGEND) -> rrb.Blueprint:
+def live_blueprint(bounds: Bounds, legend: Bounds = DEFAULT_LEGEND,
+                   dynamic: bool = False) -> rrb.Blueprint:
+    """The live layout; ``dynamic`` (a scenario with a hidden reef) adds the plot of the
+    fleet's share of the real reef's priority."""
     vehicles = rrb.Vertical(
         _series("Battery left (s)", "battery_s"),
         _series("T_diff (s)", "t_diff_s"),
         _series("Spots treated", "spots_treated"),
+        _series("Lag behind the mission clock (s)", "lag_s"),
     )
     fleet = rrb.Vertical(
         _series("Fleet: spots cleared, duplicates", "fleet/spots"),
         _series("Fleet: priority collected", "fleet/priority"),
+        *([_series("Fleet: share of the real reef's priority", "fleet/reef")] if dynamic else []),
         _series("Acoustic messages", "fleet/messages", "fleet/drops/**"),
         _series("Acoustic bytes delivered", "fleet/bytes"),
     )

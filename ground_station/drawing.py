@@ -28,6 +28,17 @@ class Spots:
 
 
 @dataclass(frozen=True)
+class Finds:
+    """The aggregations the map missed, each drawn from the moment a vehicle reported it
+    (dynamic missions): positions, priorities, labels."""
+
+    t_s: float
+    xy: np.ndarray  # (m, 2)
+    priority: np.ndarray  # (m,)
+    labels: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class Vehicles:
     """Every located vehicle's position, heading and label (empty where the label is drawn
     elsewhere: on a cluster's first vehicle, or on the station it is at)."""

@@ -25,6 +25,12 @@ SPOT_PENDING: Rgb = (205, 205, 205)
 SPOT_CLAIMED: Rgb = (255, 215, 0)
 SPOT_CLEARED: Rgb = (40, 200, 70)
 SPOT_ABANDONED: Rgb = (230, 40, 40)
+SPOT_EMPTY: Rgb = (120, 120, 120)  # a predicted spot the camera found empty (dynamic missions)
+# A prediction nobody has looked at yet (dynamic missions): filled with the deep sea's colour, so
+# only its ring (`map/predictions`) shows: drawn hollow, a prediction and not a fact.
+SPOT_HOLLOW: Rgb = (8, 24, 58)
+REEF: Rgb = (255, 120, 200)  # the hidden reef (a layer to switch on: what the fleet cannot see)
+FIND: Rgb = (0, 190, 255)  # an aggregation the map missed, once a vehicle reported it
 
 LINK_DELIVERED: Rgb = (60, 230, 90)  # a strong frame (SNR at or above LINK_SNR_STRONG_DB)
 LINK_WEAK: Rgb = (255, 235, 90)  # a frame delivered at or below LINK_SNR_WEAK_DB

@@ -8,6 +8,13 @@ Entity layout (timeline ``sim_time``, seconds of simulation time)::
     map/current                  Arrows2D: the water current (static unless tidal)
     map/stations                 Points2D: start and rendezvous, labels naming who is there
     map/spots                    static positions, radii (priority) and labels; colours by state
+                                 (grey: a predicted spot found empty, dynamic missions)
+    map/predictions              static LineStrips2D: a ring per predicted spot (dynamic
+                                 missions: a spot nobody has looked at is filled with the
+                                 sea's colour, so it reads hollow)
+    map/reef                     static Points2D: the hidden reef (dynamic missions), hidden by
+                                 default: switch it on to see what the fleet cannot
+    map/finds                    Points2D: aggregations the map missed, from when reported
     map/vehicles                 Points2D + Arrows2D: every vehicle's position, label, heading
     map/vehicles/<id>/mark       red/orange cross when aborted, lost, silent or dead
     map/trails                   LineStrips2D: each vehicle's recent stretch of trail
@@ -22,6 +29,7 @@ Entity layout (timeline ``sim_time``, seconds of simulation time)::
     series/fleet/drops/<reason>  Scalars: frames dropped for that reason (one entity each: a
                                  plot's lines are fixed from its first row)
     series/fleet/bytes           Scalars: bytes/delivered
+    series/fleet/reef            Scalars: reef_share, the real reef's priority treated (0..1)
     series/ground_station/dropped/<why>  Scalars: samples refused (malformed), failed on (error)
     events                       TextLog: claims, aborts, detections, takeovers, state changes
     mission                      static TextDocument: run, scenario
@@ -40,7 +48,8 @@ import rerun as rr
 
 from ground_station import palette
 from ground_station.drawing import (
-    Current, Drawing, Links, LogLine, Mark, Routes, SeriesRow, Spots, Stations, Trails, Vehicles,
+    Current, Drawing, Finds, Links, LogLine, Mark, Routes, SeriesRow, Spots, Stations, Trails,
+    Vehicles,
 )
 from ground_station.mapview import MapLayers
 
@@ -56,6 +65,8 @@ ROUTES = "map/routes"
 LINKS = "map/links"
 CURRENT = "map/current"
 STATIONS = "map/stations"
+REEF = "map/reef"
+FINDS = "map/finds"
 
 
 def vehicle_path(vid: str) -> str:
@@ -70,6 +81,11 @@ def arrow_length_m(layers: MapLayers) -> float:
     """Heading arrows and marks scale with the map, so they read the same on any reef."""
     xmin, xmax, ymin, ymax = layers.bounds
     return 0.04 * max(xmax - xmin, ymax - ymin)
+
+
+def _ring(xy: np.ndarray, r: float, n: int = 16) -> np.ndarray:
+    a = np.linspace(0.0, 2.0 * np.pi, n + 1)
+    return np.column_stack([xy[0] + r * np.cos(a), xy[1] + r * np.sin(a)])
 
 
 def log_map(rec: rr.RecordingStream, layers: MapLayers, live: bool = False) -> None:
@@ -97,6 +113,14 @@ def log_map(rec: rr.RecordingStream, layers: MapLayers, live: bool = False) -> N
               for t, p in zip(layers.spot_ids.tolist(), layers.spot_priority.tolist())]
     rec.log("map/spots", rr.Points2D(layers.spot_xy, radii=layers.spot_radius_m(), labels=labels,
                                      show_labels=False, draw_order=30.0), static=True)
+    if layers.dynamic:  # predictions as rings: a pending one is drawn hollow (palette)
+        rec.log("map/predictions", rr.LineStrips2D(
+            [_ring(xy, r) for xy, r in zip(layers.spot_xy, layers.spot_radius_m())],
+            colors=palette.SPOT_PENDING, radii=UI(1.0), draw_order=30.5), static=True)
+        rec.log(REEF, rr.Points2D(layers.truth_xy, radii=UI(4.0), colors=palette.REEF,
+                                  labels=[f"real spot {i} (priority {p:.0f})" for i, p in
+                                          enumerate(layers.truth_priority.tolist())],
+                                  show_labels=False, draw_order=31.0), static=True)
 
 
 def log_text(rec: rr.RecordingStream, markdown: str) -> None:
@@ -194,6 +218,10 @@ class RerunDashboard:
                     rr.Arrows2D.from_fields(
                         origins=d.xy, colors=d.colors,
                         vectors=self.arrow_m * np.column_stack([np.cos(yaw), np.sin(yaw)])))
+            case Finds():
+                self._style(FINDS, rr.Points2D.from_fields(radii=UI(6.0), colors=palette.FIND,
+                                                           show_labels=False, draw_order=32.0))
+                log(FINDS, rr.Points2D.from_fields(positions=d.xy, labels=list(d.labels)))
             case Stations():
                 log(STATIONS, rr.Points2D.from_fields(labels=list(d.labels)))
             case Trails():

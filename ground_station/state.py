@@ -22,10 +22,10 @@ import numpy as np
 
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import BROADCAST, LinkRecord
-from fleet_bus.telemetry import Event, Status, Truth
+from fleet_bus.telemetry import Event, Status, Truth, detail_position
 from ground_station import palette
 from ground_station.drawing import (
-    Current, Drawing, LinkLine, Links, LogLine, Mark, Routes, Scalar, SeriesRow, Spots,
+    Current, Drawing, Finds, LinkLine, Links, LogLine, Mark, Routes, Scalar, SeriesRow, Spots,
     Stations, Trails, Vehicles,
 )
 from ground_station.inputs import Record
@@ -49,6 +49,9 @@ COUNTER = Policy(heartbeat_s=HEARTBEAT_S, min_interval_s=15.0)
 SERIES_POLICIES: dict[str, Policy] = {
     "battery_s": LINEAR,
     "t_diff_s": Policy(tolerance=5.0, heartbeat_s=HEARTBEAT_S, corners=True),
+    # how far behind the mission clock each agent's process runs: the operator slows the
+    # shared clock past half a slot (the effective warp is in the report); spikes matter
+    "lag_s": Policy(tolerance=0.5, heartbeat_s=HEARTBEAT_S, corners=True),
     "fleet/messages": COUNTER,
     "fleet/bytes": COUNTER,
     "fleet/drops": COUNTER,
@@ -63,10 +66,11 @@ def series_policy(path: str) -> Policy:
     return COUNT
 
 
-PER_VEHICLE_PLOTS = ("battery_s", "t_diff_s", "spots_treated")
+PER_VEHICLE_PLOTS = ("battery_s", "t_diff_s", "spots_treated", "lag_s")
 FLEET_PLOTS = {"spots_cleared": "fleet/spots", "duplicates": "fleet/spots",
                "priority_collected": "fleet/priority", "messages": "fleet/messages",
-               "drops": "fleet/messages", "bytes": "fleet/bytes"}
+               "drops": "fleet/messages", "bytes": "fleet/bytes", "reef_share": "fleet/reef"}
+FIND_MATCH_M = 1.0  # a find's reported position (decimetres) names the truth spot this close
 
 
 def series_line(path: str) -> tuple[str, str]:
@@ -147,7 +151,12 @@ class FleetPicture:
             "fleet/priority": ("fleet/priority_collected",),
             "fleet/messages": ("fleet/messages/delivered", "fleet/messages/dropped"),
             "fleet/bytes": ("fleet/bytes/delivered",),
+            # dynamic missions: the share of the real reef's priority treated so far
+            **({"fleet/reef": ("fleet/reef_share",)} if layers.dynamic else {}),
         }
+        self.empty_ids: set[int] = set()  # predicted spots found empty
+        self.finds: list[tuple[float, float, float]] = []  # (x, y, priority) as reported
+        self.reef_treated: set[int] = set()  # truth spots some vehicle treated
         self._plot_t: dict[str, float] = {}  # plot entity -> time of its last row
         self._station_labels: tuple[str, ...] = ()
         self._station_names: list[list[_Vehicle]] = [[] for _ in layers.stations]
@@ -228,11 +237,16 @@ class FleetPicture:
         index = self.layers.spot_index
         priority = sum(float(self.layers.spot_priority[index[t]]) for t in self.ledger.cleared
                        if t in index)
-        return {
+        out = {
             "spots_cleared": float(len(self.ledger.cleared)),
             "priority_collected": priority,
             "duplicates": float(self.ledger.duplicates()),
         }
+        if self.layers.dynamic:
+            total = float(self.layers.truth_priority.sum()) or 1.0
+            out["reef_share"] = float(sum(self.layers.truth_priority[i]
+                                          for i in self.reef_treated)) / total
+        return out
 
     # -- records ------------------------------------------------------------------------------
 
@@ -289,6 +303,7 @@ class FleetPicture:
         out = self._heard(v, s.t_s)
         out += self.offer(f"battery_s/{s.id}", s.t_s, s.battery_s)
         out += self.offer(f"t_diff_s/{s.id}", s.t_s, s.t_diff_s)
+        out += self.offer(f"lag_s/{s.id}", s.t_s, s.lag_s)
         self.ledger.add_treated(s.id, s.treated)  # cumulative: safe in any order
         if v.status is not None and s.t_s < v.status.t_s:
             return out + self._treated_scalars(s.id)  # route and state: the newer status rules
@@ -323,8 +338,14 @@ class FleetPicture:
         out: list[Drawing] = [LogLine(e.t_s, text, WARN_EVENTS.get(e.kind, "INFO"))]
         if e.kind == "cleared":
             self.ledger.add_treated(e.id, e.tasks)
+            self._reef_treated(e)
             out.append(self._spots())
             out += self._treated_scalars(e.id)
+        elif e.kind == "empty":
+            self.empty_ids.update(e.tasks)
+            out.append(self._spots())
+        elif e.kind == "found":
+            out.append(self._found(e))
         elif e.kind == "abort":
             out += self._set_state(v, "aborted", e.t_s)
         elif e.kind in ("lost", "revived") and e.peer:
@@ -335,6 +356,29 @@ class FleetPicture:
                 peer.lost_by.discard(e.id)
             out += self._update_mark(peer, e.t_s)
         return out
+
+    def _reef_treated(self, e: Event) -> None:
+        """Which real spots a ``cleared`` event treated: a predicted spot by its truth, a
+        find by its reported position."""
+        for tid in e.tasks:
+            i = self.layers.truth_of_spot.get(tid)
+            if i is None and tid not in self.layers.spot_index:
+                xy = _fix(e.detail)
+                i = None if xy is None else self.layers.truth_near(xy, FIND_MATCH_M)
+            if i is not None:
+                self.reef_treated.add(i)
+
+    def _found(self, e: Event) -> Finds | None:
+        """A reported find joins the layer (the same aggregation reported twice: once)."""
+        xy = _fix(e.detail)
+        if xy is None or any(math.dist(xy, f[:2]) <= FIND_MATCH_M for f in self.finds):
+            return None
+        words = e.detail.split()
+        rho = float(words[2]) if len(words) >= 3 and words[1] == "rho" else 0.0
+        self.finds.append((xy[0], xy[1], rho))
+        arr = np.array(self.finds, float).reshape(-1, 3)
+        return Finds(self.now_s, arr[:, :2], arr[:, 2],
+                     tuple(f"find (priority {p:.0f})" for p in arr[:, 2].tolist()))
 
     def _on_link(self, e: LinkRecord) -> list[Drawing]:
         self.link_counts["delivered" if e.delivered else "dropped"] += 1
@@ -515,6 +559,8 @@ class FleetPicture:
         for tid in self.layers.spot_ids.tolist():
             if tid in self.ledger.cleared:
                 states.append("cleared")
+            elif tid in self.empty_ids:
+                states.append("empty")
             elif tid in claimed:
                 states.append(f"claimed:{claimed[tid]}")
             elif tid in planned:
@@ -534,8 +580,10 @@ class FleetPicture:
         kind, _, vid = state.partition(":")
         if kind == "planned":
             return self.vehicles[vid].color
+        pending = palette.SPOT_HOLLOW if self.layers.dynamic else palette.SPOT_PENDING
         return {"cleared": palette.SPOT_CLEARED, "claimed": palette.SPOT_CLAIMED,
-                "abandoned": palette.SPOT_ABANDONED}.get(kind, palette.SPOT_PENDING)
+                "abandoned": palette.SPOT_ABANDONED,
+                "empty": palette.SPOT_EMPTY}.get(kind, pending)
 
     def _links_layer(self, now: float, force: bool = False) -> list[Drawing]:
         """The latest frame of each link within its time to live, redrawn at most every
@@ -568,6 +616,12 @@ class FleetPicture:
             return []
         self._current_uv = uv
         return [Current(now, xy, uv, layer.scale_s, steady)]
+
+
+def _fix(detail: str) -> tuple[float, float] | None:
+    """The x, y of a find's event detail (`fleet_bus.telemetry.position_detail`)."""
+    xyz = detail_position(detail)
+    return None if xyz is None else xyz[:2]
 
 
 def _or_nan(value: float | None) -> float:

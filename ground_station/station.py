@@ -12,6 +12,7 @@ from collections import Counter
 import numpy as np
 import rerun as rr
 
+from fleet_bus.link import BROADCAST, INTRUDER, LinkRecord
 from fleet_bus.mission import Mission
 from ground_station import inputs, rerun_log
 from ground_station.mapview import MapLayers, map_layers
@@ -59,6 +60,7 @@ class GroundStation:
             rec, color_of=lambda vid: self.picture.vehicles[vid].color
             if vid in self.picture.vehicles else None,
             arrow_m=rerun_log.arrow_length_m(layers))
+        self.roster = frozenset(mission.roster())
         self.dropped: Counter[str] = Counter()  # kind of input -> samples dropped
         self.handled = 0
         rerun_log.log_map(rec, layers, live=True)
@@ -74,6 +76,8 @@ class GroundStation:
             vid, record = inputs.decode(key, payload)
         except ValueError:
             return self._drop(key, "malformed")
+        if not self._known(vid, record):
+            return self._drop(key, "unknown_vehicle")
         try:
             self.dashboard.draw(self.picture.apply(vid, record))
         except Exception:  # a bug must cost one sample, not the operator's dashboard
@@ -87,6 +91,23 @@ class GroundStation:
         """The mission is over (or the station stops): draw what was held back, so the
         recording ends on the newest values."""
         self.dashboard.draw(self.picture.flush())
+
+    def _known(self, vid: str, record: inputs.Record) -> bool:
+        """Ids of the mission's roster only (and the link's intruder or broadcast ends):
+        the picture keeps state per vehicle, so unknown ids must not grow it."""
+        if not self.roster:
+            return True
+        if isinstance(record, LinkRecord):
+            ends = {INTRUDER, BROADCAST} | self.roster
+            return record.src in ends and record.dst in ends
+        return vid in self.roster
+
+    def refused(self, reason: str, n: int) -> None:
+        """``n`` samples refused before decoding (not signed by their rightful sender)."""
+        why = f"auth_{reason}"
+        self.dropped[why] += n
+        self.dashboard.draw(self.picture.offer(f"ground_station/dropped/{why}",
+                                               self.picture.now_s, float(self.dropped[why])))
 
     def _drop(self, key: str, why: str) -> bool:
         kind = key.split("/")[1] if key.count("/") >= 2 else "unknown"

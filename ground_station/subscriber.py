@@ -1,18 +1,21 @@
 """Zenoh side: the four telemetry subscriptions.
 
-Zenoh calls the callbacks from its own threads; they only enqueue ``(key, payload)`` so all
-decoding, folding and logging happens on one thread, in arrival order, without locks.
+Zenoh calls the callbacks from its own threads; they only open the signed envelope (with the
+run's credentials) and enqueue ``(key, payload)`` so all decoding, folding and logging
+happens on one thread, in arrival order, without locks. A forgery never takes a queue slot.
 """
 
 from __future__ import annotations
 
 import queue
+from collections import Counter
 from contextlib import ExitStack, contextmanager
 from typing import Iterator
 
 import zenoh
 
 from fleet_bus import keys
+from fleet_bus.auth import BusAuth
 
 TOPICS = (keys.TRUTH_ALL, keys.STATUS_ALL, keys.EVENT_ALL, keys.LINK_ALL)
 
@@ -21,9 +24,10 @@ class Inbox:
     """A bounded FIFO of samples: a stalled logger drops (and counts) the newest samples
     instead of growing without bound."""
 
-    def __init__(self, maxsize: int = 200_000) -> None:
+    def __init__(self, maxsize: int = 200_000, auth: BusAuth | None = None) -> None:
         self._q: queue.Queue[tuple[str, bytes]] = queue.Queue(maxsize)
         self.overflow = 0
+        self.auth = auth
 
     def put(self, key: str, payload: bytes) -> None:
         try:
@@ -32,7 +36,19 @@ class Inbox:
             self.overflow += 1
 
     def on_sample(self, sample: zenoh.Sample) -> None:
-        self.put(str(sample.key_expr), sample.payload.to_bytes())
+        self.offer(str(sample.key_expr), sample.payload.to_bytes())
+
+    def offer(self, key: str, payload: bytes) -> None:
+        """Queue ``payload`` if its key's rightful sender signed it (always on an open bus)."""
+        if self.auth is not None:
+            payload = self.auth.open_payload(key, payload)
+            if payload is None:
+                return
+        self.put(key, payload)
+
+    def take_refused(self) -> Counter[str]:
+        """Envelopes refused since the last call, by reason."""
+        return self.auth.verifier.take_refused() if self.auth is not None else Counter()
 
     def get(self, timeout_s: float) -> tuple[str, bytes] | None:
         try:
