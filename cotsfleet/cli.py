@@ -23,6 +23,7 @@ COMMANDS = {
     "compare": "compare",
     "report": "report",
     "link": "link",
+    "credentials": "credentials",
 }
 
 

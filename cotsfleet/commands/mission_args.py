@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
@@ -15,11 +16,14 @@ from cotsfleet.cli import UsageError
 from cotsfleet.mission.faults import Fault, FaultError, check_schedule, parse_faults
 from cotsfleet.mission.runner import horizon_of
 from fleet_agent.config import AgentConfig
+from fleet_agent.wire import MAX_TASKS, MAX_VEHICLES
 from fleet_bus.telemetry import Event
 from hfc_core.problem import Problem, ScenarioError
 from hfc_core.scenario import problem_from_dict
+from hfc_core.truth import Reef, reef_from_doc
 
-MAX_PRESET_VEHICLES = 16
+# The acoustic wire's limit (one byte of sender index) is the only cap on a fleet's size.
+MAX_PRESET_VEHICLES = MAX_VEHICLES
 
 
 def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> None:
@@ -29,6 +33,10 @@ def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> 
     p.add_argument("--seed", type=int, default=0, help="mission seed (plans, channel)")
     p.add_argument("--loss", type=float, default=0.0, help="extra uniform link loss 0..1")
     p.add_argument("--config", type=Path, help="agent settings TOML (fleet_agent.config)")
+    p.add_argument("--no-discovery", action="store_true",
+                   help="dynamic scenarios (with a truth section): ignore sightings and do not "
+                        "reallocate the time empty spots free; execute the plan and treat what "
+                        "is found at predicted spots (the baseline)")
     faults = p.add_argument_group("faults (simulation times in seconds)")
     faults.add_argument("--abort", action="append", default=[], metavar="ID@S",
                         help="vehicle announces an abort at S (repeatable)")
@@ -53,6 +61,7 @@ class MissionArgs:
     config: AgentConfig
     faults: tuple[Fault, ...]
     loss: float
+    reef: Reef | None = None  # the scenario's hidden reef (None: the map is exact)
 
 
 def scenario_doc(path: Path | None, vehicles: int | None, seed: int) -> dict[str, Any]:
@@ -79,6 +88,17 @@ def scenario_doc(path: Path | None, vehicles: int | None, seed: int) -> dict[str
     return doc
 
 
+def check_wire_limits(problem: Problem) -> None:
+    """A fleet the acoustic wire cannot carry stops here with a usage error (exit 2), not in
+    every agent at start."""
+    if problem.n_vehicles > MAX_VEHICLES:
+        raise UsageError(f"the scenario has {problem.n_vehicles} vehicles; the acoustic wire "
+                         f"carries at most {MAX_VEHICLES}")
+    if problem.n_tasks > MAX_TASKS:
+        raise UsageError(f"the scenario has {problem.n_tasks} spots; the acoustic wire "
+                         f"carries at most {MAX_TASKS}")
+
+
 def agent_config(path: Path | None) -> AgentConfig:
     """The agent settings file (schema-checked, a clean usage error if bad), or the defaults."""
     if path is None:
@@ -97,6 +117,8 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
     try:
         doc = scenario_doc(args.scenario, args.vehicles, seed)
         problem = problem_from_dict(doc)
+        reef = reef_from_doc(doc, problem)
+        check_wire_limits(problem)
         faults = parse_faults(aborts=args.abort, kills=args.kill, restarts=args.restart,
                               partitions=args.partition, losses=args.loss_at,
                               attacks=args.attack)
@@ -105,7 +127,13 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
         raise UsageError(str(exc)) from None
     except ScenarioError:
         raise
-    return MissionArgs(problem, doc, seed, agent_config(args.config), tuple(faults), args.loss)
+    config = agent_config(args.config)
+    if getattr(args, "no_discovery", False):
+        config = dataclasses.replace(config, discovery=False)
+        if reef is None:
+            print("note: --no-discovery changes nothing here: the scenario has no truth "
+                  "section, so its map is exact", file=sys.stderr)
+    return MissionArgs(problem, doc, seed, config, tuple(faults), args.loss, reef)
 
 
 def write_reports(report: dict[str, Any], path: Path, events: Sequence[Event],

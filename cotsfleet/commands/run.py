@@ -30,7 +30,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "so agents on other machines can join (default: a free loopback port)")
     p.add_argument("--remote", action="append", default=[], metavar="ID",
                    help="a vehicle whose agent runs elsewhere: not started here, waited for "
-                   "(repeatable; needs fleet_key_hex in --config)")
+                   "(repeatable; needs fleet_key_hex in --config and --credentials)")
+    p.add_argument("--credentials", type=Path, metavar="DIR",
+                   help="credentials made beforehand with `cotsfleet credentials DIR` "
+                   "(default: fresh ones in the run dir)")
     p.add_argument("--startup-timeout", type=float, default=90.0, metavar="S",
                    help="wall seconds to wait for every agent to be ready (default 90)")
     p.add_argument("--hold-viewer", action=argparse.BooleanOptionalAction,
@@ -74,15 +77,16 @@ def run(args: argparse.Namespace) -> int:
         opts = ProcessOptions(warp=args.warp, loss=args.loss, viewer=viewer, rrd=args.rrd,
                               web_port=args.web_port, run_dir=args.run_dir,
                               agent_config=m.config, hold_viewer=hold, listen=args.listen,
-                              remote=tuple(args.remote), startup_timeout_s=args.startup_timeout)
+                              remote=tuple(args.remote), startup_timeout_s=args.startup_timeout,
+                              credentials=args.credentials)
         backend = ProcessBackend(m.problem, m.scenario, m.seed, opts)
-    except ValueError as exc:
+    except ValueError as exc:  # a CredentialsError too
         raise UsageError(str(exc)) from None
     for sig in (signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, _interrupt)
     try:
         outcome = run_mission(m.problem, backend, m.faults, seed=m.seed,
-                              step_s=args.warp * 0.25)
+                              step_s=args.warp * 0.25, reef=m.reef)
     except FaultError as exc:
         raise UsageError(str(exc)) from None
     except (TimeoutError, RuntimeError, OSError) as exc:
@@ -96,7 +100,26 @@ def run(args: argparse.Namespace) -> int:
     write_reports(report, path, backend.ledger.events, m.scenario)
     if report.get("failure"):
         print(f"cotsfleet run: the mission ended early: {report['failure']}", file=sys.stderr)
+    for line in run_warnings(report):
+        print(f"cotsfleet run: warning: {line}", file=sys.stderr)
     backend.hold_viewer()
     if report.get("interrupted"):
         return 130
     return 1 if report.get("failure") else 0
+
+
+def run_warnings(report: dict) -> list[str]:
+    """What an operator must not miss in a finished run: false alarms (a vehicle declared
+    lost that was alive: its spots were taken, maybe twice) and a clock that had to slow
+    down (the machine could not keep up with the warp asked for)."""
+    out = []
+    false = report.get("fleet", {}).get("false_alarms", 0)
+    if false:
+        out.append(f"{false} false alarm(s): a vehicle was declared lost while alive "
+                   f"({report['fleet'].get('duplicate_treatments', 0)} duplicate treatment(s))")
+    clock = report.get("clock") or {}
+    if clock.get("slowdowns"):
+        out.append(f"the machine could not keep up with warp {clock['warp']:g}: the clock "
+                   f"slowed to {clock['final_warp']:g} (effective {clock['effective_warp']}); "
+                   f"worst lag {clock['max_lag_s']} s")
+    return out

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from cotsfleet.cli import UsageError
+from fleet_agent.wire import MAX_VEHICLES
 from hfc_core.generate import (PAPER_PRESET, AreaParams, DynamicParams, GeneratorParams,
                                 generate_area_doc, generate_doc, generate_dynamic_doc,
                                 out_of_reach)
@@ -324,6 +325,9 @@ def check_dynamic_flags(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     check_dynamic_flags(args)
+    if args.vehicles is not None and not 1 <= args.vehicles <= MAX_VEHICLES:
+        raise UsageError(f"--vehicles must be 1..{MAX_VEHICLES} (the acoustic wire's limit: "
+                         f"one byte of sender index), got {args.vehicles}")
     if args.from_geojson is not None:
         doc = reef_scenario(args)
         if write_doc(doc, args.output):

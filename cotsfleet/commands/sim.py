@@ -49,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
             print("note: one run is simulated here; --jobs and --scheduler are for sweeps "
                   "(--runs N)", file=sys.stderr)
         m = mission_args(args)
-        result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults)
+        result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
+                          reef=m.reef)
         report = {**result.report, "wall_s": round(result.wall_s, 3)}
         write_reports(report, args.report or out / "report.json", result.events, m.scenario)
         print(f"wall {result.wall_s:.2f} s")

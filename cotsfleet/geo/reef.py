@@ -19,6 +19,7 @@ from shapely.geometry import Point, Polygon
 from shapely.validation import explain_validity
 
 from cotsfleet.geo.frame import LocalFrame
+from fleet_agent.wire import MAX_VEHICLES
 from hfc_core.problem import ScenarioError
 
 ROLES = {
@@ -67,8 +68,8 @@ class ReefOptions:
             raise ValueError(f"service_s must be >= 0, got {self.service_s}")
         if not 0.0 <= self.p_detect <= 1.0:
             raise ValueError(f"p_detect must be in 0..1, got {self.p_detect}")
-        if self.vehicles is not None and not 1 <= self.vehicles <= 64:
-            raise ValueError(f"vehicles must be 1..64, got {self.vehicles}")
+        if self.vehicles is not None and not 1 <= self.vehicles <= MAX_VEHICLES:
+            raise ValueError(f"vehicles must be 1..{MAX_VEHICLES}, got {self.vehicles}")
 
 
 @dataclass(frozen=True)

@@ -32,10 +32,13 @@ from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Output
 from fleet_agent.journal import MemoryJournal
 from fleet_agent.plans import Live, Planner
+from fleet_agent.vehicle import Vehicle, fit_route
+from fleet_agent.sensor import Camera, World
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition
 from fleet_bus.telemetry import Event, Status, Truth
 from hfc_core.problem import Problem
+from hfc_core.truth import Reef
 
 STEP_S = 60.0  # the runner looks at the mission (progress, end) this often
 Tap = Callable[[str, Sequence[Output]], None]  # (vehicle, outputs of one step): for tests
@@ -80,13 +83,18 @@ class InProcessBackend:
     def __init__(self, problem: Problem, config: AgentConfig, *, seed: int = 0,
                  loss: float = 0.0, channel: ChannelConfig | None = None,
                  planner: Planner | None = None, key: bytes | None = None,
-                 oracle_iterations: int = 300, tap: Tap | None = None) -> None:
+                 oracle_iterations: int = 300, tap: Tap | None = None,
+                 reef: Reef | None = None) -> None:
         self.problem = problem
         self.seed = seed
+        self.reef = reef  # the hidden reef (dynamic mission), seen only through the camera
         key = key or np.random.default_rng(
             np.random.SeedSequence(seed).spawn(MISSION_STREAMS)[2]).bytes(16)
         self.config = config.with_key(key)
-        self.fleet = Fleet.build(problem, key, seed, self.config, planner)
+        # A simulated run is named by its seed, as its fleet key is: the same seed replays
+        # the same mission bit for bit.
+        self.fleet = Fleet.build(problem, key, seed, self.config, planner, run_id=f"sim-{seed}",
+                                 camera=None if reef is None else Camera.of(reef))
         self.loop = EventLoop()
         self.channel = Channel(replace(channel or ChannelConfig(), extra_loss=loss),
                                channel_rng(seed))
@@ -139,13 +147,25 @@ class InProcessBackend:
         for s in self.seats.values():
             if s.driver is not None:
                 s.driver.final_status(end)
+        # The no-communication baseline: every vehicle flies its initial plan, as it fits its
+        # battery with the configured reserve, and nothing else (what the fleet collects with
+        # no link at all; the reference a lossy link must never fall below).
+        plan = []
+        for v, r in enumerate(self.fleet.base_routes):
+            vehicle = Vehicle(self.problem, v, self.fleet.paths)
+            vehicle.set_route(list(r))
+            plan += fit_route(vehicle, list(r), self.config.battery_reserve_s)
+        out: dict[str, Any] = {"baseline": {
+            "priority": round(float(sum(self.problem.priority[t] for t in plan)), 2),
+            "spots": len(plan)}}
         if not self.oracle:
-            return {}
+            return out
         after = self._collected_after(self.oracle["t_s"], set(self.oracle["survivors"]),
                                       set(self.oracle["cleared_before"]))
         ratio = after / self.oracle["priority"] if self.oracle["priority"] > 0 else 1.0
-        return {"oracle": {**{k: v for k, v in self.oracle.items() if k != "cleared_before"},
-                           "collected": round(after, 2), "ratio": round(ratio, 4)}}
+        out["oracle"] = {**{k: v for k, v in self.oracle.items() if k != "cleared_before"},
+                         "collected": round(after, 2), "ratio": round(ratio, 4)}
+        return out
 
     def close(self) -> None:
         pass  # nothing outlives a Python object graph
@@ -166,7 +186,9 @@ class InProcessBackend:
         agent = Agent(self.fleet, index, self.config, now, journal.records)
         seat.driver = AgentDriver(agent, _SeatTransport(self, seat), journal,
                                   tap=None if self.tap is None else
-                                  lambda outputs, vid=vid: self.tap(vid, outputs))
+                                  lambda outputs, vid=vid: self.tap(vid, outputs),
+                                  world=None if self.reef is None else
+                                  World(self.reef, self.seed, index))
         self._step(seat, lambda d: d.tick(now))
 
     def _deliver(self, vid: str, data: bytes, t_s: float) -> None:
@@ -239,7 +261,10 @@ class InProcessBackend:
 
     def _snapshot_oracle(self, vid: str, now: float) -> None:
         """Centralized replan with perfect information at the moment ``vid`` dies: the true
-        positions, batteries and routes of the survivors and the true cleared set."""
+        positions, batteries and routes of the survivors and the true cleared set. (Not in a
+        dynamic mission: there the clairvoyant plan on the truth is the reference.)"""
+        if self.reef is not None:
+            return
         agents = {v: s.agent for v, s in self.seats.items()}
         survivors = [a for v, a in agents.items() if v != vid and a is not None
                      and not a.vehicle.done and not a.vehicle.aborted]
@@ -265,7 +290,8 @@ class InProcessBackend:
         spots = {t for e in self.ledger.events if e.kind == "cleared" and e.id in survivors
                  and e.t_s > t0 for t in e.tasks}
         idx = self.problem.task_index
-        return sum(float(self.problem.priority[idx[t]]) for t in spots if idx[t] not in before)
+        return sum(float(self.problem.priority[idx[t]]) for t in spots
+                   if t in idx and idx[t] not in before)
 
 
 @dataclass
@@ -299,5 +325,5 @@ def simulate(problem: Problem, config: AgentConfig | None = None, *,
     backend = InProcessBackend(problem, config or AgentConfig(), **kw)
     outcome: Outcome = run_mission(problem, backend, faults, seed=backend.seed, step_s=STEP_S,
                                    horizon_s=horizon_s or horizon_of(problem),
-                                   progress=progress)
+                                   progress=progress, reef=backend.reef)
     return SimResult(outcome.report, outcome.wall_s, backend, backend.ledger)

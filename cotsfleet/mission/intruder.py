@@ -44,7 +44,7 @@ class Intruder:
             return rng.bytes(int(rng.integers(1, 65)))
         if kind == "replay" and self.captured:
             return self.captured[int(rng.integers(len(self.captured)))]
-        codec = Codec.for_problem(self.problem, rng.bytes(16))
+        codec = Codec.for_problem(self.problem, rng.bytes(16), "intruder")
         sender = int(rng.integers(self.problem.n_vehicles))
         return codec.encode(Pose(sender, int(now_s) + 10**6, (0.0, 0.0, 0.0), 0, "home",
                                  Digest(0, 0)))

@@ -12,10 +12,17 @@ Lifecycle: every child dies with its parent (`fleet_bus.process.die_with_parent`
 the launcher, SIGKILL included, ends the children within seconds. A child that exits on its own ends the mission (`ChildExited`),
 and the report says which and why.
 
+Credentials (`fleet_bus.credentials`, `docs/security.md`): each run gets fresh ones under
+``RUN_DIR/credentials`` (or ``credentials``, made beforehand with ``cotsfleet credentials``):
+the operator's signing key stays in this process; every child is started with its own
+directory (``--credentials DIR/<id>``) and nothing else. The router takes only the run's
+Zenoh logins, each with its rights; every message is signed and checked
+(`fleet_bus.auth`), and what the operator refuses is counted in the report's ``security``.
+
 Across machines: ``listen`` on a reachable address and ``remote`` vehicles: no agent is
-started for those; the launcher waits for their liveliness tokens like for its own agents and
-ends them with a ``stop`` command. They must share the fleet key, so it comes from the agent
-config.
+started for those; the launcher waits for their ready announcements like for its own agents
+and ends them with a ``stop`` command. They need the credentials made beforehand (their own
+directory copied to their host) and the fleet key of the agent config.
 """
 
 from __future__ import annotations
@@ -41,17 +48,30 @@ from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.runner import MissionStopped
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_bus import keys
+from fleet_bus import values as v
+from fleet_bus.auth import BusAuth
 from fleet_bus.clock import WarpClock
 from fleet_bus.commands import ABORT, STOP, encode_command
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition, decode_stats
 from fleet_bus.mission import ClockRecord, Mission
+from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID, load_auth,
+                                   load_ring, new_run_id, write_run_credentials)
 from fleet_bus.process import RELAY_READY, ROUTER_READY
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
-from fleet_bus.telemetry import Event, Status
+from fleet_agent.beliefs import find_ids
+from fleet_bus.telemetry import STATES, Event, Status
 from hfc_core.problem import Problem
 
 POLL_WALL_S = 0.05
+# The clock never outruns the fleet: when a vehicle's process reports it ran more than half
+# a TDMA slot behind the mission clock (its frame would spill into the next slot), the
+# operator slows the shared clock by SLOW_FACTOR, at most once per SLOW_HOLD_WALL_S (the
+# statuses must show the new pace first), never below MIN_WARP.
+SLOW_FACTOR = 0.7
+SLOW_HOLD_WALL_S = 2.0
+MIN_WARP = 1.0
+ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
 
 
 @contextmanager
@@ -90,6 +110,7 @@ class ProcessOptions:
     listen: str | None = None  # router endpoint (default: a free loopback port)
     remote: tuple[str, ...] = ()  # vehicles whose agents run elsewhere (not started here)
     startup_timeout_s: float = 90.0
+    credentials: Path | None = None  # made beforehand (`cotsfleet credentials`); else fresh
 
     def __post_init__(self) -> None:
         if not self.warp > 0:
@@ -126,7 +147,19 @@ class ProcessBackend:
         if opts.remote and not opts.agent_config.fleet_key_hex:
             raise ValueError("remote agents need the fleet key they share with this launcher: "
                              "set fleet_key_hex in the agent config (--config)")
-        self.run_id = time.strftime("%Y%m%d-%H%M%S") + f"-{secrets.token_hex(2)}"
+        if opts.remote and opts.credentials is None:
+            raise ValueError("remote agents need their credentials before the mission: make "
+                             "them with `cotsfleet credentials DIR`, copy DIR/<id> to each "
+                             "remote host and pass --credentials DIR")
+        # A run's id is its credentials' (signatures bind it): fresh unless made beforehand.
+        self.run_id = new_run_id()
+        if opts.credentials is not None:
+            ring = load_ring(opts.credentials)
+            signers = {sid for sid, m in ring.ring.items() if m.role == "vehicle"}
+            if signers != set(self.ids):
+                raise ValueError(f"{opts.credentials} is for vehicles {sorted(signers)}, the "
+                                 f"scenario has {self.ids}")
+            self.run_id = ring.run_id
         self.run_dir = opts.run_dir or Path(os.environ.get("TMPDIR", "/tmp")) / \
             "cotsfleet-runs" / self.run_id
         self.ledger = FleetLedger()
@@ -145,9 +178,20 @@ class ProcessBackend:
         self._session: zenoh.Session | None = None
         self._closers: list[Any] = []
         self.intruder = Intruder(problem, intruder_rng(seed))
+        self.refused: dict[str, int] = {}  # what the operator refused, by reason
+        self.auth: BusAuth | None = None  # the operator's key and the run's ring (start)
+        self._relay_extra: dict[str, Any] = {}
         self._wall0 = time.monotonic()
+        self._clock_payload = b""  # the operator's current clock record (signed), served
+        self._epoch0 = 0.0  # wall time of mission time 0 at the start (effective warp)
+        self.slowdowns: list[dict[str, float]] = []
+        self.max_lag_s = 0.0
+        self._next_slow_wall = 0.0
         self._next_progress = 0.0
         self._closed = False
+        # Dynamic missions: finds are named by ids past the scenario's (`beliefs.find_ids`).
+        self._find_ids = find_ids(problem, opts.agent_config) if "truth" in scenario \
+            else range(0)
 
     # -- the runner's interface --------------------------------------------------------------
 
@@ -167,43 +211,47 @@ class ProcessBackend:
         cfg_path.touch(mode=0o600)
         cfg_path.write_text(dump_config(config), encoding="utf-8")
         (self.run_dir / "scenario.json").write_text(json.dumps(self.scenario), encoding="utf-8")
-        listen = opts.listen or free_tcp_endpoint()
-        self.endpoint = local_endpoint(listen)
-        router = self._spawn("router", ["-m", "comms_sim.router", "--listen", listen],
-                             ROUTER_READY)
-        self._wait_ready(router)
-        session = self._session = zenoh.open(client_config([self.endpoint]))
+        creds = self.creds = opts.credentials or self.run_dir / "credentials"
+        if opts.credentials is None:
+            write_run_credentials(creds, self.ids, self.run_id)
+        auth = self.auth = load_auth(creds / OPERATOR_ID, OPERATOR_ID)
+        listen = self._start_router(creds)
+        session = self._session = zenoh.open(client_config([self.endpoint],
+                                                           credentials=creds / OPERATOR_ID))
+        if any(f.kind == "replay" for f in faults):  # the modem intruder's material only
+            self._closers.append(session.declare_subscriber(keys.RX_ALL, self._on_rx))
         self._closers += [
-            session.declare_subscriber(keys.RX_ALL,
-                                       lambda x: self.intruder.overhear(x.payload.to_bytes())),
             session.declare_subscriber(keys.STATUS_ALL, self._on_status),
             session.declare_subscriber(keys.EVENT_ALL, self._on_event),
-            session.liveliness().declare_subscriber(keys.ALIVE_ALL, self._on_alive,
-                                                    history=True)]
+            session.declare_subscriber(keys.ALIVE_ALL, self._on_alive)]
         mission = Mission(self.scenario, self.seed, self.run_id).encode()
         self._closers.append(session.declare_queryable(
-            keys.MISSION, lambda q: q.reply(keys.MISSION, mission)))
+            keys.MISSION, lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission))))
         relay = self._spawn("relay", ["-m", "comms_sim", "--connect", self.endpoint,
+                                      "--credentials", str(creds / RELAY_ID),
                                       "--mission-from-bus",
                                       "--mission-timeout", str(2 * opts.startup_timeout_s)]
                             + (["--loss", str(opts.loss)] if opts.loss else []), RELAY_READY)
         if opts.viewer != "none" or opts.rrd is not None:
             gs = ["-m", "ground_station", "--connect", self.endpoint, "--viewer", opts.viewer,
-                  "--web-port", str(opts.web_port)]
+                  "--web-port", str(opts.web_port), "--credentials", str(creds / STATION_ID)]
             self._spawn("ground_station", gs + (["--rrd", str(opts.rrd)] if opts.rrd else []),
                         echo=True)
         for vid in self.ids:
             if vid in opts.remote:
                 self.out(f"waiting for {vid} elsewhere: python -m fleet_agent --id {vid} "
-                         f"--config AGENT.toml --connect <a router linked to {listen}>")
+                         f"--config AGENT.toml --credentials {creds / vid} "
+                         f"--connect <a router linked to {listen}>")
             else:
                 self._spawn(vid, self._agent_argv(vid))
         self._wait_agents()
         epoch = time.time() + 1.0
         self.clock = WarpClock(epoch, opts.warp)
-        clock = ClockRecord(epoch, opts.warp).encode()
-        self._closers.append(session.declare_queryable(
-            keys.CLOCK, lambda q: q.reply(keys.CLOCK, clock)))
+        self._epoch0 = epoch
+        self._clock_payload = ClockRecord(epoch, opts.warp).encode()
+        self._closers.append(session.declare_queryable(  # always the newest record
+            keys.CLOCK, lambda q: q.reply(keys.CLOCK,
+                                          auth.seal(keys.CLOCK, self._clock_payload))))
         self._wait_ready(relay)
         for f in sorted(faults, key=lambda f: f.t_s):
             steps = int(f.value) if f.kind in ATTACKS else 1
@@ -215,12 +263,32 @@ class ProcessBackend:
         self.out(f"mission {self.run_id}: {len(self.ids)} vehicles, warp {opts.warp:g}, "
                  f"loss {opts.loss:g}, run dir {self.run_dir}")
 
+    def _start_router(self, creds: Path) -> str:
+        """Start the router; returns where it listens. Without ``listen`` it takes a free
+        loopback port, and another if that one was taken meanwhile (a port is only free
+        until someone binds it); a port asked for is checked by the command line first."""
+        for attempt in range(ROUTER_ATTEMPTS):
+            listen = self.opts.listen or free_tcp_endpoint()
+            self.endpoint = local_endpoint(listen)
+            router = self._spawn("router", ["-m", "comms_sim.router", "--listen", listen,
+                                            "--credentials", str(creds / ROUTER_ID)],
+                                 ROUTER_READY)
+            try:
+                self._wait_ready(router)
+                return listen
+            except ChildExited:
+                router.expected_exit = True
+                if self.opts.listen or attempt == ROUTER_ATTEMPTS - 1:
+                    raise
+        raise AssertionError("unreachable")
+
     def now(self) -> float:
         return self.clock.now() if self.clock is not None else 0.0
 
     def advance(self, t_s: float) -> None:
         while self.now() < t_s:
             self._apply_due()
+            self._pace()
             self._watch_children()
             self._progress()
             time.sleep(POLL_WALL_S)
@@ -235,13 +303,69 @@ class ProcessBackend:
     def link_counts(self) -> LinkCounts | None:
         return self._link
 
+    def _pace(self) -> None:
+        """Slow the shared clock down when a vehicle's process lags behind it (see
+        `SLOW_FACTOR`): a slow machine gives a slower mission, not a different one."""
+        clock = self.clock
+        if clock is None or self._session is None or self.auth is None:
+            return
+        since = self.slowdowns[-1]["t_s"] if self.slowdowns else -1.0
+        with self._lock:
+            lags = [s.lag_s for s in self.ledger.statuses.values() if s.t_s > since]
+        lag = max(lags, default=0.0)
+        self.max_lag_s = max(self.max_lag_s, lag)
+        bound = 0.5 * self.opts.agent_config.slot_s
+        if lag <= bound or clock.warp <= MIN_WARP or time.monotonic() < self._next_slow_wall:
+            return
+        epoch, warp, seq = clock.slowed(max(MIN_WARP, clock.warp * SLOW_FACTOR))
+        clock.follow(epoch, warp, seq)
+        self._clock_payload = ClockRecord(epoch, warp, seq).encode()
+        self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, self._clock_payload))
+        self._next_slow_wall = time.monotonic() + SLOW_HOLD_WALL_S
+        self.slowdowns.append({"t_s": round(clock.now(), 1), "warp": round(warp, 2),
+                               "lag_s": round(lag, 2)})
+        self.out(f"t={clock.now():.0f} s: a vehicle ran {lag:.1f} s behind the mission clock; "
+                 f"warp slowed to {warp:.1f}")
+
+    def _clock_report(self) -> dict[str, Any]:
+        """Requested and effective warp (mission seconds per wall second over the whole
+        mission), the slowdowns and the worst lag any vehicle reported."""
+        clock = self.clock
+        if clock is None:
+            return {"warp": self.opts.warp}
+        wall = time.time() - self._epoch0
+        return {"warp": self.opts.warp, "final_warp": round(clock.warp, 2),
+                "effective_warp": round(clock.now() / wall, 2) if wall > 0 else None,
+                "slowdowns": self.slowdowns, "max_lag_s": round(self.max_lag_s, 2)}
+
     def extra(self) -> dict[str, Any]:
         return {"run_id": self.run_id, "run_dir": str(self.run_dir), "warp": self.opts.warp,
                 "loss": self.opts.loss, "wall_s": round(time.monotonic() - self._wall0, 2),
-                "interrupted": self.interrupted,
+                "interrupted": self.interrupted, "clock": self._clock_report(),
                 "exit_codes": {n: c.popen.returncode for n, c in self.children.items()},
                 "exited": {n: c.tail() for n, c in self.children.items()
-                           if c.popen.returncode not in (None, 0) and not c.expected_exit}}
+                           if c.popen.returncode not in (None, 0) and not c.expected_exit},
+                "security": self._security()}
+
+    def _security(self) -> dict[str, Any]:
+        """What each part of the fleet refused, by reason: the operator (telemetry, ready
+        announcements, deliveries it overheard), the relay (its ``auth_*`` and malformed
+        counters) and each agent (its ``drop_auth_*`` counters, from its last status)."""
+        with self._lock:
+            operator = dict(self.refused)
+            statuses = dict(self.ledger.statuses)
+        for reason, n in self.auth.verifier.refused.items() if self.auth is not None else ():
+            operator[reason] = operator.get(reason, 0) + n
+        relay_counts = self._relay_extra.get("relay", {})
+        relay = {k: n for k, n in relay_counts.items() if isinstance(n, int) and n and (
+            k.startswith(("auth_", "malformed_", "unknown_", "ctl_too")))}
+        agents = {vid: row for vid, row in (
+            (vid, {k[len("drop_auth_"):]: n for k, n in s.counters.items()
+                   if k.startswith("drop_auth_")}) for vid, s in sorted(statuses.items())) if row}
+        total = sum(operator.values()) + sum(relay.values()) + sum(
+            sum(a.values()) for a in agents.values())
+        return {"refused_total": total, "operator": operator, "relay": relay,
+                "agents": agents}
 
     def close(self) -> None:
         """Stop the fleet (agents first: their final statuses), fetch the link counters, stop
@@ -257,7 +381,7 @@ class ProcessBackend:
             self._stop(self.ids)
             if self._session is not None:
                 for vid in self.opts.remote:  # not ours to signal: ask them to stop
-                    self._session.put(keys.ctl_key(vid), encode_command(STOP))
+                    self._command(vid, STOP)
                 time.sleep(0.3)  # the agents' final statuses
                 self._link = self._fetch_link_stats()
         finally:
@@ -292,7 +416,8 @@ class ProcessBackend:
 
     def _agent_argv(self, vid: str) -> list[str]:
         return ["-m", "fleet_agent", "--id", vid, "--config", str(self.run_dir / "agent.toml"),
-                "--connect", self.endpoint, "--journal", str(self.run_dir / f"{vid}.journal")]
+                "--connect", self.endpoint, "--journal", str(self.run_dir / f"{vid}.journal"),
+                "--credentials", str(self.creds / vid)]
 
     def _spawn(self, name: str, argv: Sequence[str], ready_prefix: str | None = None,
                echo: bool = False) -> Child:
@@ -391,8 +516,7 @@ class ProcessBackend:
         self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value))
         self.out(f"t={now:6.0f} s  fault: {f.describe()}")
         if f.kind == "abort":
-            assert self._session is not None
-            self._session.put(keys.ctl_key(f.vid), encode_command(ABORT))
+            self._command(f.vid, ABORT)
         elif f.kind == "kill":
             child = self.children.get(f.vid)
             if child is not None:
@@ -415,47 +539,93 @@ class ProcessBackend:
         self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
 
     def _put_link(self, control: LinkControl) -> None:
-        assert self._session is not None
-        self._session.put(keys.LINK_CTL, control.encode())
+        assert self._session is not None and self.auth is not None
+        self._session.put(keys.LINK_CTL, self.auth.seal(keys.LINK_CTL, control.encode()))
+
+    def _command(self, vid: str, name: str) -> None:
+        assert self._session is not None and self.auth is not None
+        key = keys.ctl_key(vid)
+        self._session.put(key, self.auth.seal(key, encode_command(name)))
 
     # -- telemetry ---------------------------------------------------------------------------
 
+    def _open(self, sample: zenoh.Sample) -> tuple[str, bytes] | None:
+        """(key, payload) of a sample signed by its key's rightful sender, else None (the
+        refusal is counted by the verifier)."""
+        assert self.auth is not None
+        key = str(sample.key_expr)
+        payload = self.auth.open_payload(key, sample.payload.to_bytes())
+        return None if payload is None else (key, payload)
+
+    def _invalid(self, why: str) -> None:
+        with self._lock:
+            self.refused[why] = self.refused.get(why, 0) + 1
+
+    def _known_tasks(self, *lists: list[int]) -> bool:
+        index, finds = self.problem.task_index, self._find_ids
+        return all(t in index or t in finds for ids in lists for t in ids)
+
+    def _on_rx(self, sample: zenoh.Sample) -> None:
+        opened = self._open(sample)
+        if opened is not None:
+            self.intruder.overhear(opened[1])  # the attack faults' replay material
+
     def _on_status(self, sample: zenoh.Sample) -> None:
+        opened = self._open(sample)
+        if opened is None:
+            return
         try:
-            s = Status.decode(sample.payload.to_bytes())
+            s = Status.decode(opened[1])
         except ValueError:
-            return
-        if s.id != keys.vid_of(str(sample.key_expr)) or s.id not in self.ids:
-            return
+            return self._invalid("invalid")
+        # Signed by the vehicle itself, and still checked: one unknown spot id must not cost
+        # the report (a vehicle's bug is not a reason to lose the mission's record).
+        if s.id != keys.vid_of(opened[0]) or s.id not in self.ids or s.state not in STATES \
+                or not self._known_tasks(s.route, s.treated, s.claims):
+            return self._invalid("invalid")
         with self._lock:
             self.ledger.add_status(s)
 
     def _on_event(self, sample: zenoh.Sample) -> None:
+        opened = self._open(sample)
+        if opened is None:
+            return
         try:
-            e = Event.decode(sample.payload.to_bytes())
+            e = Event.decode(opened[1])
         except ValueError:
-            return
-        if e.id != keys.vid_of(str(sample.key_expr)) or e.id not in self.ids:
-            return
+            return self._invalid("invalid")
+        if e.id != keys.vid_of(opened[0]) or e.id not in self.ids \
+                or not self._known_tasks(e.tasks):
+            return self._invalid("invalid")
         with self._lock:
             self.ledger.add_event(e)
 
     def _on_alive(self, sample: zenoh.Sample) -> None:
-        vid = keys.vid_of(str(sample.key_expr))
+        """A vehicle's signed ready announcement (its initial plan is computed)."""
+        opened = self._open(sample)
+        if opened is None:
+            return
+        vid = keys.vid_of(opened[0])
+        try:
+            doc = v.unpack_map(opened[1], "ready")
+            if doc.get("id") != vid or doc.get("run_id") != self.run_id or vid not in self.ids:
+                raise ValueError("ready announcement of another vehicle or run")
+        except ValueError:
+            return self._invalid("invalid")
         with self._lock:
-            if sample.kind == zenoh.SampleKind.PUT:
-                self._alive.add(vid)
-            else:
-                self._alive.discard(vid)
+            self._alive.add(vid)
 
     def _fetch_link_stats(self) -> LinkCounts | None:
-        assert self._session is not None
+        assert self._session is not None and self.auth is not None
         for reply in self._session.get(keys.LINK_STATS, timeout=3.0):
-            if reply.ok is not None:
-                try:
-                    return decode_stats(reply.ok.payload.to_bytes())[0]
-                except ValueError:
-                    continue
+            if reply.ok is None:
+                continue
+            try:
+                _, payload = self.auth.open(keys.LINK_STATS, reply.ok.payload.to_bytes())
+                counts, self._relay_extra = decode_stats(payload)
+                return counts
+            except ValueError:  # a refused envelope (`Refused`) too
+                continue
         return None
 
     def _write_events(self) -> None:

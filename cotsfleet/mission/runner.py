@@ -19,6 +19,7 @@ from cotsfleet.mission.faults import Fault, check_schedule
 from cotsfleet.mission.report import build_report
 from fleet_bus.ledger import FleetLedger
 from hfc_core.problem import Problem
+from hfc_core.truth import Reef
 
 HORIZON_MARGIN_S = 120.0
 Progress = Callable[[float], None]
@@ -71,7 +72,7 @@ class Outcome:
 
 def run_mission(problem: Problem, backend: Backend, faults: Sequence[Fault], *, seed: int,
                 step_s: float, horizon_s: float | None = None,
-                progress: Progress | None = None) -> Outcome:
+                progress: Progress | None = None, reef: Reef | None = None) -> Outcome:
     """Run ``backend``'s fleet through ``faults`` to the end of the mission and report."""
     horizon = horizon_s if horizon_s is not None else horizon_of(problem)
     check_schedule(faults, [v.id for v in problem.vehicles], horizon)
@@ -99,5 +100,5 @@ def run_mission(problem: Problem, backend: Backend, faults: Sequence[Fault], *, 
     if failure:
         extra["failure"] = failure
     report = build_report(problem, backend.ledger, backend.link_counts(), backend.applied,
-                          mode=backend.mode, seed=seed, end_s=end, extra=extra)
+                          mode=backend.mode, seed=seed, end_s=end, extra=extra, reef=reef)
     return Outcome(report, time.perf_counter() - wall)

@@ -15,7 +15,7 @@ from cotsfleet.reporting.timeline import ACTIVITIES, Segment, Spots, time_shares
 
 KNOWN = {"mode", "scenario", "seed", "end_s", "faults", "vehicles", "fleet", "messages",
          "oracle", "run_id", "run_dir", "warp", "loss", "wall_s", "interrupted", "exit_codes",
-         "link_timeline", "dynamic"}
+         "link_timeline", "dynamic", "security"}
 KNOWN_FLEET = {"spots_total", "spots_cleared", "priority", "priority_total", "treatments",
                "duplicate_treatments", "duplicate_share", "vehicles_home", "detection_delay_s",
                "false_alarms", "spots_taken_over", "claims", "claims_lost"}
@@ -82,6 +82,8 @@ def render(report: Mapping[str, Any], segments: Mapping[str, Sequence[Segment]] 
     lines += _radio(report, figures)
     if isinstance(report.get("dynamic"), Mapping):
         lines += ["## Dynamic mission", "", *_generic(report["dynamic"]), ""]
+    if isinstance(report.get("security"), Mapping):
+        lines += _security(report["security"])
     extra = {k: v for k, v in report.items() if k not in KNOWN}
     if extra:
         lines += ["## Other fields", "", *_generic(extra), ""]
@@ -247,6 +249,21 @@ def _radio(report: Mapping[str, Any], figures: Mapping[str, str]) -> list[str]:
     if "link" in figures:
         lines += [f"![Acoustic link deliveries and drops]({figures['link']})", ""]
     return lines
+
+
+def _security(sec: Mapping[str, Any]) -> list[str]:
+    """What the fleet refused on the bus (not signed by the key expression's rightful
+    sender, replayed, malformed, invalid values), by who refused it and why."""
+    def reasons(row: Any) -> str:
+        return ", ".join(f"{k} {n:,}" for k, n in dict(row).items() if n) or "none"
+
+    lines = ["## Security", "",
+             f"- **Refused on the bus:** {_num(sec.get('refused_total'))} message(s)",
+             f"- **By the operator:** {reasons(sec.get('operator') or {})}",
+             f"- **By the relay:** {reasons(sec.get('relay') or {})}"]
+    for vid, row in (sec.get("agents") or {}).items():
+        lines.append(f"- **By {vid}:** {reasons(row)}")
+    return lines + [""]
 
 
 def _generic(doc: Mapping[str, Any], prefix: str = "") -> list[str]:

@@ -41,7 +41,9 @@ class Spots:
             service_s={t["id"]: float(t.get("service_s", DEFAULT_SERVICE_S)) for t in tasks},
             battery_s={v["id"]: float(v["battery_s"]) for v in doc.get("vehicles", [])
                        if isinstance(v, Mapping) and "id" in v and "battery_s" in v},
-            inspect_s=float(truth.get("inspect_s", DEFAULT_INSPECT_S)),
+            # Without a truth section the map is exact and nothing is inspected
+            # (`hfc_core.truth.exact_reef`); with one, its camera's figure.
+            inspect_s=float(truth.get("inspect_s", DEFAULT_INSPECT_S)) if truth else 0.0,
         )
 
 
@@ -106,7 +108,7 @@ def vehicle_segments(report: Mapping[str, Any], events: Sequence[Mapping[str, An
                 service = spots.service_s.get(task, DEFAULT_SERVICE_S)
                 busy.append(Segment(max(0.0, t - service), t, "inject"))
         for e in (x for x in events if x.get("id") == vid
-                  and str(x.get("kind", "")).startswith("inspect")):
+                  and (str(x.get("kind", "")).startswith("inspect") or x.get("kind") == "empty")):
             t = float(e["t_s"])
             busy.append(Segment(max(0.0, t - spots.inspect_s), t, "inspect"))
         home = home_time(report, events, vehicle)

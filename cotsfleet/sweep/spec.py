@@ -53,9 +53,11 @@ def build_mission(spec: SweepSpec, seed: int) -> "MissionArgs":
     from cotsfleet.mission.faults import check_schedule
     from cotsfleet.mission.runner import horizon_of
     from hfc_core.scenario import problem_from_dict
+    from hfc_core.truth import reef_from_doc
 
     doc = dict(spec.scenario) if spec.scenario is not None else scenario_doc(
         None, spec.vehicles, seed)
     problem = problem_from_dict(doc)
     check_schedule(spec.faults, [v.id for v in problem.vehicles], horizon_of(problem))
-    return MissionArgs(problem, doc, seed, spec.config, spec.faults, spec.loss)
+    return MissionArgs(problem, doc, seed, spec.config, spec.faults, spec.loss,
+                       reef_from_doc(doc, problem))

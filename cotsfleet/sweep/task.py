@@ -27,7 +27,8 @@ def run_seed(spec: SweepSpec, seed: int) -> dict[str, Any]:
         from cotsfleet.sweep.spec import build_mission
 
         m = build_mission(spec, seed)
-        result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults)
+        result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
+                          reef=m.reef)
     except Exception as exc:  # noqa: BLE001 - whatever a run raises is that run's result
         text = "".join(traceback.format_exception(exc))
         return {"seed": seed, "error": repr(exc), "traceback": text[-TRACEBACK_CHARS:],
