@@ -10,6 +10,7 @@ statistics of screenshots, that the map shows the fleet. The figures are printed
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -19,12 +20,15 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from fleet_bus.mission import fetch_clock
+from fleet_bus.clock import WarpClock
+from fleet_bus.credentials import STATION_ID, load_auth
+from fleet_bus.mission import fetch_clock, follow_clock
 from fleet_bus.session import client_config, open_session
 from ground_station import palette
 from ground_station.viewer import free_port
@@ -109,12 +113,21 @@ def wait_for(path: Path, pattern: str, proc: subprocess.Popen, timeout_s: float)
     raise AssertionError(f"{pattern!r} not in {path} within {timeout_s} s")
 
 
-def mission_clock(endpoint: str) -> tuple[float, float]:
-    """(epoch, warp) of the mission clock, asked on the bus like every fleet process does."""
-    with open_session(client_config([endpoint])) as session:
-        clock = fetch_clock(session, threading.Event(), 120.0)
-    assert clock is not None, "no fleet/clock record"
-    return clock.epoch_unix, clock.warp
+@contextlib.contextmanager
+def mission_clock(endpoint: str, creds: Path) -> Iterator[WarpClock]:
+    """The mission clock, asked on the bus and followed like every fleet process does (the
+    operator slows it when the machine falls behind): the router admits only the run's
+    logins, so this logs in as the ground station and checks the operator's signature."""
+    auth = load_auth(creds)
+    with open_session(client_config([endpoint], credentials=creds)) as session:
+        record = fetch_clock(session, threading.Event(), 120.0, auth=auth)
+        assert record is not None, "no fleet/clock record"
+        clock = WarpClock(record.epoch_unix, record.warp, seq=record.seq)
+        follower = follow_clock(session, clock, auth=auth)
+        try:
+            yield clock
+        finally:
+            follower.undeclare()
 
 
 def latency_summary(samples: list[dict], end_s: float) -> dict:
@@ -173,7 +186,7 @@ def test_web_viewer_keeps_up_with_a_live_warp_60_mission(tmp_path):
     try:
         url = wait_for(run_dir / "ground_station.log", r"web viewer at (\S+)", mission, 120)
         assert url.startswith(f"http://127.0.0.1:{web_port}/") and "renderer=webgl" in url
-        with sync_playwright() as pw:
+        with sync_playwright() as pw, contextlib.ExitStack() as stack:
             browser = pw.chromium.launch_persistent_context(
                 str(profile), executable_path=str(CHROMIUM), headless=True,
                 args=CHROMIUM_ARGS, viewport=VIEWPORT)
@@ -182,18 +195,20 @@ def test_web_viewer_keeps_up_with_a_live_warp_60_mission(tmp_path):
                 page = browser.new_page()
                 opened = time.monotonic()
                 page.goto(url)
-                epoch, warp = mission_clock(bus)  # served once every agent is ready
-                assert warp == WARP
+                # served once every agent is ready
+                clock = stack.enter_context(
+                    mission_clock(bus, run_dir / "credentials" / STATION_ID))
+                assert clock.warp == WARP
                 next_shot = time.monotonic() + 6.0
                 while "mission over" not in out.read_text(errors="replace"):
                     assert mission.poll() is None, "cotsfleet run ended before the mission did"
                     assert time.monotonic() - opened < 240, "the mission took too long"
                     time.sleep(1.0)
                     shown = cursor_s(page.evaluate(READ_STATE_JS))
-                    now = (time.time() - epoch) * warp
+                    now, warp = clock.now(), clock.warp
                     samples.append({"wall_s": time.monotonic() - opened, "mission_s": now,
-                                    "viewer_s": shown, "latency_s": None if shown is None
-                                    else (now - shown) / warp})
+                                    "warp": warp, "viewer_s": shown,
+                                    "latency_s": None if shown is None else (now - shown) / warp})
                     if time.monotonic() >= next_shot and shown is not None:
                         next_shot = time.monotonic() + 6.0
                         page.screenshot(path=str(shot))

@@ -1,0 +1,86 @@
+"""The clock never outruns the fleet: a real multi-process mission in which one agent's
+process is frozen for a moment (SIGSTOP, as a machine too busy to schedule it). It reports how
+far behind the mission clock it ran, the operator slows the shared clock down, every process
+follows the new clock record, and the mission is the same mission: no false alarm, no
+duplicate, everyone home; the report and the launcher say what the clock did."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cotsfleet.commands.run import run_warnings
+from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
+from cotsfleet.mission.runner import run_mission
+from hfc_core.generate import GeneratorParams, generate_doc
+from hfc_core.scenario import problem_from_dict
+from leftovers import kill_children
+
+pytestmark = pytest.mark.integration
+WARP = 100.0
+
+
+@pytest.fixture(scope="module")
+def paced(tmp_path_factory):
+    run_dir: Path = tmp_path_factory.mktemp("paced")
+    doc = generate_doc(GeneratorParams(name="paced", n_tasks=30, n_vehicles=3, size_m=600.0,
+                                       battery_s=1500.0, service_s=60.0),
+                       np.random.default_rng(5))
+    problem = problem_from_dict(doc)
+    launcher = ProcessBackend(problem, doc, 5, ProcessOptions(warp=WARP, run_dir=run_dir,
+                                                              progress_every_s=0),
+                              out=lambda line: None)
+    result: dict = {}
+    thread = threading.Thread(target=lambda: result.update(report=run_mission(
+        problem, launcher, (), seed=5, step_s=25.0).report), daemon=True)
+    thread.start()
+    try:
+        assert launcher.started.wait(120), "mission never started"
+        while launcher.now() < 300.0:
+            time.sleep(0.05)
+        pid = launcher.children["auv1"].popen.pid
+        os.kill(pid, signal.SIGSTOP)  # 0.2 s of wall: 20 mission seconds behind at warp 100
+        time.sleep(0.2)
+        os.kill(pid, signal.SIGCONT)
+        thread.join(timeout=180)
+    finally:
+        if thread.is_alive():
+            kill_children(launcher)
+    assert not thread.is_alive(), "the launcher did not finish"
+    for name, p in launcher.children.items():
+        assert p.popen.poll() is not None, f"{name} still running"
+    return result["report"], launcher
+
+
+def test_the_lagging_process_slowed_the_clock(paced):
+    paced, _ = paced
+    clock = paced["clock"]
+    assert clock["warp"] == WARP
+    assert clock["max_lag_s"] > 10.0  # the frozen agent said how far behind it ran
+    assert clock["slowdowns"] and clock["final_warp"] < WARP
+    assert clock["effective_warp"] < WARP
+    assert any("slowed" in line for line in run_warnings(paced))
+
+
+def test_every_process_followed_the_slower_clock(paced):
+    # Final statuses are stamped with each agent's own clock when the operator stops it: an
+    # agent still on the old warp would be tens of mission seconds ahead of the operator.
+    report, launcher = paced
+    assert report["fleet"]["vehicles_home"] == 3
+    stopped_at = launcher.now()
+    for vid, status in launcher.ledger.statuses.items():
+        assert status.t_s <= stopped_at + 5.0, (vid, status.t_s, stopped_at)
+
+
+def test_the_same_mission_no_false_alarm_no_duplicate(paced):
+    paced, _ = paced
+    f = paced["fleet"]
+    assert f["duplicate_treatments"] == 0
+    assert f["false_alarms"] == 0
+    assert all(code == 0 for code in paced["exit_codes"].values()), paced["exit_codes"]
