@@ -28,9 +28,13 @@ $(BENCH): $(BASE)
 	$(PY) -m pip install --quiet -e '.[bench]'
 	touch $@
 
-# The main job: an emulated mission with the live dashboard, on embedded defaults.
+# The main job: a dynamic mission (the map is a prior, the fleet finds the reef) emulated with
+# the live dashboard and an abort; each run in a fresh directory under runs/ (its scenario,
+# journals, logs and report).
 demo: $(BASE)
-	$(VENV)/bin/cotsfleet run --abort auv2@1200
+	@dir=runs/demo-$$(date +%Y%m%d-%H%M%S) && mkdir -p $$dir && \
+	$(VENV)/bin/cotsfleet scenario --paper --dynamic --seed 0 -o $$dir/dyn.json && \
+	$(VENV)/bin/cotsfleet run --scenario $$dir/dyn.json --run-dir $$dir --abort auv2@1200
 
 test: $(TESTS)
 	$(PY) -m pytest -q
