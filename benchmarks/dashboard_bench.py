@@ -20,6 +20,7 @@ same script: its ``cotsfleet`` and ``ground_station`` run, this script measures.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import re
@@ -93,12 +94,33 @@ def _wait_for(path: Path, pattern: str, proc: subprocess.Popen, timeout_s: float
     raise RuntimeError(f"{pattern!r} not in {path} within {timeout_s} s")
 
 
+def followed_clock(bus: str, run_dir: Path, stack: contextlib.ExitStack):
+    """The mission clock as the fleet follows it (slowed when the machine falls behind). The
+    router admits only the run's logins; a checkout from before them has none."""
+    from fleet_bus.clock import WarpClock
+    from fleet_bus.mission import fetch_clock, follow_clock
+    from fleet_bus.session import client_config, open_session
+
+    creds = run_dir / "credentials" / "station"
+    auth = None
+    if creds.is_dir():
+        from fleet_bus.credentials import load_auth
+        auth = load_auth(creds)
+    session = stack.enter_context(open_session(
+        client_config([bus], credentials=creds if auth else None)))
+    record = fetch_clock(session, threading.Event(), 180.0, auth=auth)
+    if record is None:
+        raise RuntimeError("no fleet/clock record")
+    clock = WarpClock(record.epoch_unix, record.warp, seq=getattr(record, "seq", 0))
+    if hasattr(record, "seq"):
+        stack.callback(follow_clock(session, clock, auth=auth).undeclare)
+    return clock
+
+
 def browser_latency(repo: Path, warp: float, work: Path) -> dict:
     """The web viewer's latency during a live mission, and a late page's catch-up."""
     from playwright.sync_api import sync_playwright
 
-    from fleet_bus.mission import fetch_clock
-    from fleet_bus.session import client_config, open_session
     from ground_station.viewer_state import READ_STATE_JS, cursor_s
 
     run_dir, out = work / f"run-web-{warp:g}", work / f"web-{warp:g}.out"
@@ -110,31 +132,28 @@ def browser_latency(repo: Path, warp: float, work: Path) -> dict:
              "--listen", bus, "--hold-viewer"],
             cwd=repo, env=run_env(repo), stdout=log, stderr=subprocess.STDOUT,
             start_new_session=True)
-    samples: list[tuple[float, float, float | None]] = []  # wall since open, mission, shown
+    # wall since open, mission, shown, warp
+    samples: list[tuple[float, float, float | None, float]] = []
     result: dict = {"warp": warp}
     try:
         url = _wait_for(run_dir / "ground_station.log", r"web viewer at (\S+)", mission, 180)
-        with sync_playwright() as pw:
+        with sync_playwright() as pw, contextlib.ExitStack() as stack:
             browser = pw.chromium.launch(executable_path=str(CHROMIUM), headless=True,
                                          args=CHROMIUM_ARGS)
             try:
                 page = browser.new_page(viewport=VIEWPORT)
                 opened = time.monotonic()
                 page.goto(url)
-                with open_session(client_config([bus])) as session:
-                    clock = fetch_clock(session, threading.Event(), 180.0)
-                if clock is None:
-                    raise RuntimeError("no fleet/clock record")
+                clock = followed_clock(bus, run_dir, stack)
                 while "mission over" not in out.read_text(errors="replace"):
                     if mission.poll() is not None or time.monotonic() - opened > 600:
                         raise RuntimeError("the mission did not end normally")
                     time.sleep(1.0)
                     shown = cursor_s(page.evaluate(READ_STATE_JS))
-                    samples.append((time.monotonic() - opened,
-                                    (time.time() - clock.epoch_unix) * clock.warp, shown))
+                    samples.append((time.monotonic() - opened, clock.now(), shown, clock.warp))
                 end = json.loads((run_dir / "report.json").read_text())["end_s"]
-                result |= _summary(samples, end, clock.warp)
-                last = max(s for _, _, s in samples if s is not None)
+                result |= _summary(samples, end)
+                last = max(s for _, _, s, _ in samples if s is not None)
                 late = browser.new_page(viewport=VIEWPORT)
                 page.close()
                 late_opened = time.monotonic()
@@ -158,10 +177,10 @@ def browser_latency(repo: Path, warp: float, work: Path) -> dict:
     return result
 
 
-def _summary(samples: list[tuple[float, float, float | None]], end_s: float,
-             warp: float) -> dict:
-    shown = [(wall, now, s) for wall, now, s in samples if s is not None and now <= end_s]
-    lat = [(wall, (now - s) / warp) for wall, now, s in shown]
+def _summary(samples: list[tuple[float, float, float | None, float]], end_s: float) -> dict:
+    """Latency in wall seconds at the warp of the moment (the operator may slow the clock)."""
+    shown = [x for x in samples if x[2] is not None and x[1] <= end_s]
+    lat = [(wall, (now - s) / w) for wall, now, s, w in shown]
     caught = next((i for i, (_, x) in enumerate(lat) if x < CAUGHT_UP_S), None)
     steady = [x for _, x in lat[caught:]] if caught is not None else []
     return {

@@ -19,10 +19,18 @@ BENCHMARKS: list[tuple[str, list[str]]] = [
     ("benchmarks.top_bench", ["--jobs", "2"]),
     ("benchmarks.paper_best", ["--jobs", "2"]),
     ("benchmarks.planner_speed", []),
+    ("benchmarks.planner_scale", []),
+    ("benchmarks.currents", []),
     ("benchmarks.channel_physics", []),
     ("benchmarks.relay_bench", []),
     ("benchmarks.fleet_mission", []),
     ("benchmarks.fleet_loss", []),
+    ("benchmarks.fleet_silence", []),
+    ("benchmarks.fleet_scale", []),
+    ("benchmarks.security", []),
+    ("benchmarks.dynamic", ["--jobs", "2"]),
+    ("benchmarks.sweep_bench", []),
+    ("benchmarks.dashboard_bench", []),
 ]
 
 
