@@ -45,6 +45,7 @@ import zenoh
 from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
 from cotsfleet.mission.intruder import Intruder, intruder_rng
+from cotsfleet.mission.pacing import LagWatch
 from cotsfleet.mission.runner import MissionStopped
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_bus import keys
@@ -64,8 +65,8 @@ from fleet_bus.telemetry import STATES, Event, Status
 from hfc_core.problem import Problem
 
 POLL_WALL_S = 0.05
-# The clock never outruns the fleet: when a vehicle's process reports it ran more than half
-# a TDMA slot behind the mission clock (its frame would spill into the next slot), the
+# The clock never outruns the fleet: when a vehicle's process stays more than half a TDMA
+# slot behind the mission clock (`pacing.LagWatch`: its frames spill into the next slot), the
 # operator slows the shared clock by SLOW_FACTOR, at most once per SLOW_HOLD_WALL_S (the
 # statuses must show the new pace first), never below MIN_WARP.
 SLOW_FACTOR = 0.7
@@ -185,7 +186,8 @@ class ProcessBackend:
         self._clock_payload = b""  # the operator's current clock record (signed), served
         self._epoch0 = 0.0  # wall time of mission time 0 at the start (effective warp)
         self.slowdowns: list[dict[str, float]] = []
-        self.max_lag_s = 0.0
+        # half a TDMA slot: a frame sent later spills into the next vehicle's slot
+        self.lag_watch = LagWatch(0.5 * opts.agent_config.slot_s)
         self._next_slow_wall = 0.0
         self._next_progress = 0.0
         self._closed = False
@@ -304,24 +306,23 @@ class ProcessBackend:
         return self._link
 
     def _pace(self) -> None:
-        """Slow the shared clock down when a vehicle's process lags behind it (see
+        """Slow the shared clock down when a vehicle's process stays behind it (`LagWatch`,
         `SLOW_FACTOR`): a slow machine gives a slower mission, not a different one."""
         clock = self.clock
         if clock is None or self._session is None or self.auth is None:
             return
-        since = self.slowdowns[-1]["t_s"] if self.slowdowns else -1.0
         with self._lock:
-            lags = [s.lag_s for s in self.ledger.statuses.values() if s.t_s > since]
-        lag = max(lags, default=0.0)
-        self.max_lag_s = max(self.max_lag_s, lag)
-        bound = 0.5 * self.opts.agent_config.slot_s
-        if lag <= bound or clock.warp <= MIN_WARP or time.monotonic() < self._next_slow_wall:
+            for vid, s in self.ledger.statuses.items():
+                self.lag_watch.see(vid, s.t_s, s.lag_s)
+        lag = self.lag_watch.behind()
+        if lag <= 0.0 or clock.warp <= MIN_WARP or time.monotonic() < self._next_slow_wall:
             return
         epoch, warp, seq = clock.slowed(max(MIN_WARP, clock.warp * SLOW_FACTOR))
         clock.follow(epoch, warp, seq)
         self._clock_payload = ClockRecord(epoch, warp, seq).encode()
         self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, self._clock_payload))
         self._next_slow_wall = time.monotonic() + SLOW_HOLD_WALL_S
+        self.lag_watch.restart()
         self.slowdowns.append({"t_s": round(clock.now(), 1), "warp": round(warp, 2),
                                "lag_s": round(lag, 2)})
         self.out(f"t={clock.now():.0f} s: a vehicle ran {lag:.1f} s behind the mission clock; "
@@ -336,7 +337,7 @@ class ProcessBackend:
         wall = time.time() - self._epoch0
         return {"warp": self.opts.warp, "final_warp": round(clock.warp, 2),
                 "effective_warp": round(clock.now() / wall, 2) if wall > 0 else None,
-                "slowdowns": self.slowdowns, "max_lag_s": round(self.max_lag_s, 2)}
+                "slowdowns": self.slowdowns, "max_lag_s": round(self.lag_watch.max_lag_s, 2)}
 
     def extra(self) -> dict[str, Any]:
         return {"run_id": self.run_id, "run_dir": str(self.run_dir), "warp": self.opts.warp,

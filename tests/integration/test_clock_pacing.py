@@ -1,8 +1,9 @@
 """The clock never outruns the fleet: a real multi-process mission in which one agent's
-process is frozen for a moment (SIGSTOP, as a machine too busy to schedule it). It reports how
-far behind the mission clock it ran, the operator slows the shared clock down, every process
-follows the new clock record, and the mission is the same mission: no false alarm, no
-duplicate, everyone home; the report and the launcher say what the clock did."""
+process is starved for a few seconds (frozen with SIGSTOP half of the time, as on a
+machine too busy to schedule it). It reports status after status how far behind the mission
+clock it runs, the operator slows the shared clock down, every process follows the new clock
+record, and the mission is the same mission: no false alarm, no duplicate, everyone home; the
+report and the launcher say what the clock did."""
 
 from __future__ import annotations
 
@@ -45,9 +46,12 @@ def paced(tmp_path_factory):
         while launcher.now() < 300.0:
             time.sleep(0.05)
         pid = launcher.children["auv1"].popen.pid
-        os.kill(pid, signal.SIGSTOP)  # 0.2 s of wall: 20 mission seconds behind at warp 100
-        time.sleep(0.2)
-        os.kill(pid, signal.SIGCONT)
+        starve_until = time.monotonic() + 3.0
+        while time.monotonic() < starve_until:  # half of its time taken, 3 s long
+            os.kill(pid, signal.SIGSTOP)  # 40 ms of wall: 4 mission seconds at warp 100
+            time.sleep(0.04)
+            os.kill(pid, signal.SIGCONT)
+            time.sleep(0.04)
         thread.join(timeout=180)
     finally:
         if thread.is_alive():
@@ -62,7 +66,7 @@ def test_the_lagging_process_slowed_the_clock(paced):
     paced, _ = paced
     clock = paced["clock"]
     assert clock["warp"] == WARP
-    assert clock["max_lag_s"] > 10.0  # the frozen agent said how far behind it ran
+    assert clock["max_lag_s"] > 2.0  # the starved agent said how far behind it ran
     assert clock["slowdowns"] and clock["final_warp"] < WARP
     assert clock["effective_warp"] < WARP
     assert any("slowed" in line for line in run_warnings(paced))

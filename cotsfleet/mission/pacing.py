@@ -1,0 +1,53 @@
+"""When the operator slows the shared clock: a vehicle's process that stays behind it.
+
+Every agent reports in each status the worst lateness of its host since the previous one
+(`Status.lag_s`, mission seconds). A single late step is a burst (a replan of a few hundred
+wall milliseconds is tens of mission seconds at warp 60): slowing the clock afterwards would
+not undo it, and since silence is not death (`docs/fleet_agent.md`) it costs no spot and no
+false alarm. A host that stays late, status after status, is one the machine cannot keep up
+with at this warp: its frames spill into the next TDMA slot and its decisions come late,
+which a slower clock does fix. So the clock is slowed when one vehicle has reported more
+than ``bound_s`` in ``sustained`` consecutive statuses. Pure logic: the launcher feeds it the
+statuses it sees and acts on `behind`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+SUSTAINED_STATUSES = 3  # consecutive late statuses (15 mission s at the default period)
+
+
+@dataclass
+class LagWatch:
+    """Per vehicle, how many of its latest statuses in a row reported a lag over ``bound_s``."""
+
+    bound_s: float
+    sustained: int = SUSTAINED_STATUSES
+    _last_t: dict[str, float] = field(default_factory=dict)
+    _late_run: dict[str, int] = field(default_factory=dict)
+    _worst: dict[str, float] = field(default_factory=dict)
+    max_lag_s: float = 0.0
+
+    def see(self, vid: str, t_s: float, lag_s: float) -> None:
+        """A status of ``vid`` stamped ``t_s``; one already seen (same or older) is ignored."""
+        if t_s <= self._last_t.get(vid, float("-inf")):
+            return
+        self._last_t[vid] = t_s
+        self.max_lag_s = max(self.max_lag_s, lag_s)
+        if lag_s > self.bound_s:
+            self._late_run[vid] = self._late_run.get(vid, 0) + 1
+            self._worst[vid] = max(self._worst.get(vid, 0.0), lag_s)
+        else:
+            self._late_run[vid] = 0
+            self._worst[vid] = 0.0
+
+    def behind(self) -> float:
+        """The worst lag of a vehicle that stayed behind (0.0 if none did)."""
+        return max((self._worst[v] for v, n in self._late_run.items() if n >= self.sustained),
+                   default=0.0)
+
+    def restart(self) -> None:
+        """After a slowdown: the statuses must show the new pace before the next one."""
+        self._late_run.clear()
+        self._worst.clear()

@@ -1,0 +1,47 @@
+"""The operator slows the clock for a host that stays behind it, not for one late step."""
+
+from __future__ import annotations
+
+from cotsfleet.mission.pacing import LagWatch
+
+
+def feed(watch: LagWatch, vid: str, lags: list[float], t0: float = 0.0) -> None:
+    for i, lag in enumerate(lags):
+        watch.see(vid, t0 + 5.0 * (i + 1), lag)
+
+
+def test_a_burst_is_not_a_host_that_stays_behind():
+    watch = LagWatch(bound_s=1.25)
+    feed(watch, "auv1", [0.1, 40.0, 0.2, 0.1, 30.0, 0.0])  # two replans, each one status late
+    assert watch.behind() == 0.0
+    assert watch.max_lag_s == 40.0  # still reported
+
+
+def test_three_late_statuses_in_a_row_are():
+    watch = LagWatch(bound_s=1.25)
+    feed(watch, "auv1", [2.0, 3.0])
+    feed(watch, "auv2", [0.0, 0.0, 0.0])
+    assert watch.behind() == 0.0
+    feed(watch, "auv1", [2.5], t0=10.0)
+    assert watch.behind() == 3.0  # the worst of the run
+
+
+def test_the_same_status_seen_twice_counts_once():
+    watch = LagWatch(bound_s=1.0)
+    for _ in range(5):  # the launcher polls faster than statuses come
+        watch.see("auv1", 5.0, 9.0)
+    assert watch.behind() == 0.0
+    watch.see("auv1", 4.0, 9.0)  # older: ignored
+    watch.see("auv1", 10.0, 9.0)
+    watch.see("auv1", 15.0, 9.0)
+    assert watch.behind() == 9.0
+
+
+def test_after_a_slowdown_the_new_pace_must_show_first():
+    watch = LagWatch(bound_s=1.0, sustained=2)
+    feed(watch, "auv3", [5.0, 5.0])
+    assert watch.behind() == 5.0
+    watch.restart()
+    assert watch.behind() == 0.0
+    feed(watch, "auv3", [0.5, 2.0, 2.0], t0=10.0)
+    assert watch.behind() == 2.0
