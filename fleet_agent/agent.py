@@ -228,6 +228,8 @@ class Agent:
         is_claim, know = isinstance(msg, Claim), self.know
         mine_before = set(self.vehicle.route)
         changed = know.holdings.apply(msg.sender, msg.t_s, msg.tasks, is_claim)
+        if is_claim:
+            self._contest(msg.tasks)
         if changed:
             self.decide.dirty = True
             out.record(Hold(msg.sender, msg.t_s, tuple(changed), is_claim))
@@ -236,6 +238,23 @@ class Agent:
             if lost:
                 out.event(now, "claim_lost", lost, peer=know.vid(msg.sender))
                 self.decide.coop_soon = True
+
+    def _contest(self, tasks: tuple[int, ...]) -> None:
+        """A peer claims spots it cannot have: answer at once, not at the next refresh. A
+        claim on a spot we hold by an earlier claim means the peer missed ours (we re-send
+        it); on a spot we know is cleared, that it missed the clear (we push that segment).
+        Unanswered, it would fly there and treat the spot again (a claim race under loss)."""
+        know = self.know
+        ours = [t for t in tasks if t not in know.cleared and know.holder(t) == self.index
+                and (know.holdings.claim_time(t, self.index) or 0) > 0]
+        by_time: dict[int, list[int]] = {}
+        for t in ours:
+            by_time.setdefault(know.holdings.claim_time(t, self.index) or 0, []).append(t)
+        for c, group in sorted(by_time.items()):
+            self.radio.answer_claim(c, group)
+        done = [t for t in tasks if t in know.cleared]
+        if done:
+            self.radio.answer_cleared({know.cleared.segment_of(t) for t in done})
 
     def _on_command(self, name: str, now: float, out: Outputs) -> None:
         if name != "abort" or not self.decide.active:

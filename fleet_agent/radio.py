@@ -14,8 +14,10 @@ order. `Radio.choose` picks one message per slot, most urgent first:
 3. an ABORT it passes on (news of another vehicle's abort, once);
 4. a POSE if the last one is ``pose_every_cycles`` slots old (the heartbeat);
 5. a new find of this vehicle (dynamic missions): FOUND, ``find_repeats`` times;
-6. pending CLAIM/RELEASE entries, oldest first, each ``claim_repeats`` times (spots cleared
-   meanwhile are left out; an entry with nothing left is dropped);
+6. a segment of the cleared set owed to a peer that claimed a spot in it we know is cleared,
+   then pending CLAIM/RELEASE entries, oldest first, each ``claim_repeats`` times (spots
+   cleared meanwhile are left out; an entry with nothing left is dropped); a claim a peer
+   contests by claiming the spot later is queued again (`Agent._contest`);
 6b. the finds' anti-entropy (dynamic missions; ahead of 6 when it has waited two refresh
    periods, so claims cannot starve it): every known find once when a peer's FOUND shows a
    digest unlike ours and a count not above ours (it may lack some), one find when its count
@@ -108,6 +110,7 @@ class Radio:
         self._last_refresh_slot = 0
         self._last_claim_refresh_slot = 0
         self._segment_turn = 0  # rotation over the cleared set's segments, one per push
+        self.segments_owed: deque[int] = deque()  # segments a claimant showed it lacks
         self.finds_new: deque[int] = deque()  # slots of new own finds, one entry per send
         self.finds_owed: deque[int] = deque()  # finds a peer may lack, to push once each
         self.finds_mismatch = False  # a peer's finds digest differs from ours
@@ -129,6 +132,27 @@ class Radio:
         for i in range(0, len(tasks), self.max_ids):
             self.holdings.append(PendingHolding(cls, t_s, tuple(tasks[i:i + self.max_ids]),
                                                 self.config.claim_repeats))
+
+    def answer_claim(self, t_s: int, tasks: list[int]) -> None:
+        """Our claim of ``tasks`` (made at ``t_s``) goes out next: a peer claimed them later,
+        so it missed ours and is on its way. Pending sends of it move to the front of the
+        buffer (older entries can hold it back for minutes); if none is left, it is owed
+        again."""
+        wanted = set(tasks)
+        front = [e for e in self.holdings if e.cls is Claim and e.t_s == t_s
+                 and wanted & set(e.tasks)]
+        for e in front:
+            self.holdings.remove(e)
+        covered = {t for e in front for t in e.tasks}
+        rest = [t for t in tasks if t not in covered]
+        for i in range(0, len(rest), self.max_ids):
+            front.append(PendingHolding(Claim, t_s, tuple(rest[i:i + self.max_ids]),
+                                        self.config.claim_repeats))
+        self.holdings.extendleft(reversed(front))
+
+    def answer_cleared(self, segments: set[int]) -> None:
+        """Owe the fleet these segments of the cleared set (a peer claimed a cleared spot)."""
+        self.segments_owed.extend(s for s in sorted(segments) if s not in self.segments_owed)
 
     def take_slot(self, now: float) -> bool:
         """True if ``now`` is in this vehicle's slot and not too late to use it; moves on to
@@ -178,6 +202,8 @@ class Radio:
         starving = self.slot_no - self._last_found_refresh_slot >= 2 * cfg.find_refresh_cycles
         if beliefs is not None and beliefs.finds and starving:
             return self._found_refresh(now, know, heard)
+        if self.segments_owed:  # as urgent as a claim: the claimant is on its way
+            return self._cleared(now, know, heard, self.segments_owed.popleft())
         if self.holdings:
             entry = self.holdings[0]
             tasks = tuple(t for t in entry.tasks if t not in know.cleared)
@@ -258,14 +284,15 @@ class Radio:
         return Found(know.index, self.next_seq(now), know.beliefs.digest(), slot, f.pos,
                      f.priority, f.service_s, heard)
 
-    def _cleared(self, now: float, know: Knowledge, heard: Heard) -> ClearedSegment:
+    def _cleared(self, now: float, know: Knowledge, heard: Heard,
+                 seg: int | None = None) -> ClearedSegment:
         # Rotate over segments; the one holding our latest clear goes first. The rotation
         # counts pushes, not slots: poses take every other slot, so a slot-number rotation
         # over two segments would push the same one forever.
         cleared = know.cleared
-        if know.treated and self.push_cleared:
+        if seg is None and know.treated and self.push_cleared:
             seg = cleared.segment_of(know.treated[-1][0])
-        else:
+        elif seg is None:
             seg = self._segment_turn % cleared.n_segments
             self._segment_turn += 1
         return ClearedSegment(know.index, self.next_seq(now), cleared.digest(), seg,

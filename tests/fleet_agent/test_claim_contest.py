@@ -1,0 +1,69 @@
+"""A peer that claims a spot we hold by an earlier claim, or one we know is cleared, missed
+our claim or our clear and is on its way: we answer at once (`Agent._contest`), not at the
+next refresh. The case that made a duplicate: a find's claim waited behind older claims and
+releases for two minutes while a peer, which had missed it, flew there."""
+
+from __future__ import annotations
+
+from fleet_agent.agent import Agent
+from fleet_agent.io_types import Outputs
+from fleet_agent.wire import Claim, ClearedSegment, Release
+from test_agent_logic import World
+
+
+def free_spot(agent: Agent) -> int:
+    """A spot no vehicle's initial plan holds."""
+    know = agent.know
+    return next(t for t in range(know.holdings.n_tasks) if know.holder(t) is None
+                and t not in know.cleared)
+
+
+def claimed_by_auv1() -> tuple[World, Agent, int]:
+    world = World()
+    world.run_until(300.0)
+    agent = world.agent("auv1")
+    spot = free_spot(agent)
+    agent.know.holdings.apply(agent.know.index, 250, [spot], True)  # our claim, made at 250
+    agent.radio.holdings.clear()
+    agent.radio.queue_holding(False, 200, [1, 2])  # older business ahead of it
+    agent.radio.queue_holding(True, 250, [spot])
+    return world, agent, spot
+
+
+def hear(agent: Agent, msg: Claim) -> None:
+    agent._on_holding(msg, 300.0, Outputs(agent.id, agent.know.tids))
+
+
+def test_a_later_claim_on_our_spot_puts_our_claim_first() -> None:
+    _, agent, spot = claimed_by_auv1()
+    hear(agent, Claim(1, 301, 280, (spot,)))  # auv2 claims it at 280: it missed ours
+    first = agent.radio.holdings[0]
+    assert (first.cls, first.t_s, first.tasks) == (Claim, 250, (spot,))
+    assert [e.cls for e in agent.radio.holdings] == [Claim, Release]  # moved, not copied
+    assert agent.know.holder(spot) == agent.know.index  # the earlier claim still holds it
+
+
+def test_our_claim_is_owed_again_once_its_sends_are_done() -> None:
+    _, agent, spot = claimed_by_auv1()
+    agent.radio.holdings.clear()
+    hear(agent, Claim(1, 301, 280, (spot,)))
+    first = agent.radio.holdings[0]
+    assert (first.tasks, first.repeats) == ((spot,), agent.config.claim_repeats)
+
+
+def test_an_earlier_claim_wins_and_is_not_answered() -> None:
+    _, agent, spot = claimed_by_auv1()
+    hear(agent, Claim(1, 301, 240, (spot,)))  # auv2 claimed first: the spot is its own
+    assert agent.know.holder(spot) == 1
+    assert [e.cls for e in agent.radio.holdings] == [Release, Claim]  # order untouched
+
+
+def test_a_claim_on_a_spot_we_cleared_gets_that_segment_of_the_cleared_set() -> None:
+    _, agent, spot = claimed_by_auv1()
+    agent.know.cleared.add(spot)
+    hear(agent, Claim(1, 301, 280, (spot,)))
+    assert list(agent.radio.segments_owed) == [agent.know.cleared.segment_of(spot)]
+    agent.radio.since_pose = 0  # not the heartbeat's turn
+    msg = agent.radio.choose(301.0, agent.vehicle, agent.know)
+    assert isinstance(msg, ClearedSegment) and msg.segment == agent.know.cleared.segment_of(spot)
+    assert not agent.radio.segments_owed
