@@ -7,15 +7,27 @@ not undo it, and since silence is not death (`docs/fleet_agent.md`) it costs no 
 false alarm. A host that stays late, status after status, is one the machine cannot keep up
 with at this warp: its frames spill into the next TDMA slot and its decisions come late,
 which a slower clock does fix. So the clock is slowed when one vehicle has reported more
-than ``bound_s`` in ``sustained`` consecutive statuses. Pure logic: the launcher feeds it the
-statuses it sees and acts on `behind`.
+than ``bound_s`` in ``sustained`` consecutive statuses, at once to the warp that host can keep
+(`slower_warp`). Pure logic: the launcher feeds it the statuses it sees and acts on `behind`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-SUSTAINED_STATUSES = 3  # consecutive late statuses (15 mission s at the default period)
+SUSTAINED_STATUSES = 2  # consecutive late statuses (10 mission s at the default period)
+# One slowdown divides the warp by at most 1 / MIN_FACTOR and at least 1 / MAX_FACTOR.
+MIN_FACTOR, MAX_FACTOR = 0.2, 0.7
+
+
+def slower_warp(warp: float, lag_s: float, bound_s: float) -> float:
+    """The warp at which a host ``lag_s`` mission seconds behind at ``warp`` would be half of
+    ``bound_s`` behind: its lateness in wall seconds (``lag_s / warp``) stays what it is, so
+    mission lateness scales with the warp. In one step, not many: a host that stays behind
+    while the clock is eased down a step every few wall seconds misses slot after slot, and
+    enough missed slots in a row look like a silent vehicle to its peers."""
+    factor = 0.5 * bound_s / lag_s if lag_s > 0 else MAX_FACTOR
+    return warp * min(MAX_FACTOR, max(MIN_FACTOR, factor))
 
 
 @dataclass

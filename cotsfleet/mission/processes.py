@@ -45,7 +45,7 @@ import zenoh
 from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
 from cotsfleet.mission.intruder import Intruder, intruder_rng
-from cotsfleet.mission.pacing import LagWatch
+from cotsfleet.mission.pacing import LagWatch, slower_warp
 from cotsfleet.mission.runner import MissionStopped
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_bus import keys
@@ -67,9 +67,9 @@ from hfc_core.problem import Problem
 POLL_WALL_S = 0.05
 # The clock never outruns the fleet: when a vehicle's process stays more than half a TDMA
 # slot behind the mission clock (`pacing.LagWatch`: its frames spill into the next slot), the
-# operator slows the shared clock by SLOW_FACTOR, at most once per SLOW_HOLD_WALL_S (the
-# statuses must show the new pace first), never below MIN_WARP.
-SLOW_FACTOR = 0.7
+# operator slows the shared clock to the warp that host can keep (`pacing.slower_warp`), at
+# most once per SLOW_HOLD_WALL_S (the statuses must show the new pace first), never below
+# MIN_WARP.
 SLOW_HOLD_WALL_S = 2.0
 MIN_WARP = 1.0
 ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
@@ -307,7 +307,7 @@ class ProcessBackend:
 
     def _pace(self) -> None:
         """Slow the shared clock down when a vehicle's process stays behind it (`LagWatch`,
-        `SLOW_FACTOR`): a slow machine gives a slower mission, not a different one."""
+        `slower_warp`): a slow machine gives a slower mission, not a different one."""
         clock = self.clock
         if clock is None or self._session is None or self.auth is None:
             return
@@ -317,7 +317,8 @@ class ProcessBackend:
         lag = self.lag_watch.behind()
         if lag <= 0.0 or clock.warp <= MIN_WARP or time.monotonic() < self._next_slow_wall:
             return
-        epoch, warp, seq = clock.slowed(max(MIN_WARP, clock.warp * SLOW_FACTOR))
+        epoch, warp, seq = clock.slowed(
+            max(MIN_WARP, slower_warp(clock.warp, lag, self.lag_watch.bound_s)))
         clock.follow(epoch, warp, seq)
         self._clock_payload = ClockRecord(epoch, warp, seq).encode()
         self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, self._clock_payload))

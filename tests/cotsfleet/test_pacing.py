@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from cotsfleet.mission.pacing import LagWatch
+import pytest
+
+from cotsfleet.mission.pacing import MAX_FACTOR, MIN_FACTOR, LagWatch, slower_warp
 
 
 def feed(watch: LagWatch, vid: str, lags: list[float], t0: float = 0.0) -> None:
@@ -17,13 +19,14 @@ def test_a_burst_is_not_a_host_that_stays_behind():
     assert watch.max_lag_s == 40.0  # still reported
 
 
-def test_three_late_statuses_in_a_row_are():
-    watch = LagWatch(bound_s=1.25)
+def test_late_statuses_in_a_row_are():
+    watch = LagWatch(bound_s=1.25, sustained=3)
     feed(watch, "auv1", [2.0, 3.0])
     feed(watch, "auv2", [0.0, 0.0, 0.0])
     assert watch.behind() == 0.0
     feed(watch, "auv1", [2.5], t0=10.0)
     assert watch.behind() == 3.0  # the worst of the run
+    assert LagWatch(bound_s=1.25).sustained == 2  # the default: 10 mission s of statuses
 
 
 def test_the_same_status_seen_twice_counts_once():
@@ -33,7 +36,6 @@ def test_the_same_status_seen_twice_counts_once():
     assert watch.behind() == 0.0
     watch.see("auv1", 4.0, 9.0)  # older: ignored
     watch.see("auv1", 10.0, 9.0)
-    watch.see("auv1", 15.0, 9.0)
     assert watch.behind() == 9.0
 
 
@@ -45,3 +47,15 @@ def test_after_a_slowdown_the_new_pace_must_show_first():
     assert watch.behind() == 0.0
     feed(watch, "auv3", [0.5, 2.0, 2.0], t0=10.0)
     assert watch.behind() == 2.0
+
+
+def test_one_slowdown_brings_the_host_to_half_the_bound():
+    # 2.5 mission s behind at warp 100 is 25 ms of wall; at warp 25 those 25 ms are 0.625 s,
+    # half of the 1.25 s bound.
+    assert slower_warp(100.0, 2.5, 1.25) == pytest.approx(25.0)
+    assert 2.5 / 100.0 * slower_warp(100.0, 2.5, 1.25) == pytest.approx(0.5 * 1.25)
+
+
+def test_a_slowdown_is_bounded_both_ways():
+    assert slower_warp(60.0, 0.8, 1.25) == pytest.approx(60.0 * MAX_FACTOR)  # barely late
+    assert slower_warp(60.0, 500.0, 1.25) == pytest.approx(60.0 * MIN_FACTOR)  # frozen
