@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-SUSTAINED_STATUSES = 2  # consecutive late statuses (10 mission s at the default period)
+SUSTAINED_STATUSES = 3  # consecutive late statuses (15 mission s at the default period)
 # One slowdown divides the warp by at most 1 / MIN_FACTOR and at least 1 / MAX_FACTOR.
 MIN_FACTOR, MAX_FACTOR = 0.2, 0.7
 

@@ -26,7 +26,7 @@ def test_late_statuses_in_a_row_are():
     assert watch.behind() == 0.0
     feed(watch, "auv1", [2.5], t0=10.0)
     assert watch.behind() == 3.0  # the worst of the run
-    assert LagWatch(bound_s=1.25).sustained == 2  # the default: 10 mission s of statuses
+    assert LagWatch(bound_s=1.25).sustained == 3  # the default: 15 mission s of statuses
 
 
 def test_the_same_status_seen_twice_counts_once():
@@ -36,6 +36,7 @@ def test_the_same_status_seen_twice_counts_once():
     assert watch.behind() == 0.0
     watch.see("auv1", 4.0, 9.0)  # older: ignored
     watch.see("auv1", 10.0, 9.0)
+    watch.see("auv1", 15.0, 9.0)
     assert watch.behind() == 9.0
 
 

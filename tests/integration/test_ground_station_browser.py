@@ -45,6 +45,9 @@ VIEWPORT = {"width": 1400, "height": 900}
 WARP = 60.0
 LATENCY_LIMIT_S = 5.0  # wall seconds behind the mission, once the page has loaded
 LATE_PAGE_LIMIT_S = 60.0  # for a page opened after the mission to show all of it
+# About 70 s at warp 60; a browser's stall on a busy machine may make the operator slow the
+# clock (docs/fleet_agent.md, "The clock never outruns the fleet"): the rest then runs slower.
+MISSION_LIMIT_S = 420.0
 SCREENSHOT_AT_S = 2400.0  # the screenshot kept: the fleet at work, after auv2's abort
 
 pytestmark = [
@@ -202,7 +205,7 @@ def test_web_viewer_keeps_up_with_a_live_warp_60_mission(tmp_path):
                 next_shot = time.monotonic() + 6.0
                 while "mission over" not in out.read_text(errors="replace"):
                     assert mission.poll() is None, "cotsfleet run ended before the mission did"
-                    assert time.monotonic() - opened < 240, "the mission took too long"
+                    assert time.monotonic() - opened < MISSION_LIMIT_S, "the mission took too long"
                     time.sleep(1.0)
                     shown = cursor_s(page.evaluate(READ_STATE_JS))
                     now, warp = clock.now(), clock.warp
