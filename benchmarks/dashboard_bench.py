@@ -97,8 +97,7 @@ def _wait_for(path: Path, pattern: str, proc: subprocess.Popen, timeout_s: float
 def followed_clock(bus: str, run_dir: Path, stack: contextlib.ExitStack):
     """The mission clock as the fleet follows it (slowed when the machine falls behind). The
     router admits only the run's logins; a checkout from before them has none."""
-    from fleet_bus.clock import WarpClock
-    from fleet_bus.mission import fetch_clock, follow_clock
+    from fleet_bus.mission import clock_of, fetch_clock
     from fleet_bus.session import client_config, open_session
 
     creds = run_dir / "credentials" / "station"
@@ -111,9 +110,8 @@ def followed_clock(bus: str, run_dir: Path, stack: contextlib.ExitStack):
     record = fetch_clock(session, threading.Event(), 180.0, auth=auth)
     if record is None:
         raise RuntimeError("no fleet/clock record")
-    clock = WarpClock(record.epoch_unix, record.warp, seq=getattr(record, "seq", 0))
-    if hasattr(record, "seq"):
-        stack.callback(follow_clock(session, clock, auth=auth).undeclare)
+    clock, follower = clock_of(session, record, auth)
+    stack.callback(follower.undeclare)
     return clock
 
 

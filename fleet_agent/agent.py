@@ -245,11 +245,11 @@ class Agent:
         it); on a spot we know is cleared, that it missed the clear (we push that segment).
         Unanswered, it would fly there and treat the spot again (a claim race under loss)."""
         know = self.know
-        ours = [t for t in tasks if t not in know.cleared and know.holder(t) == self.index
-                and (know.holdings.claim_time(t, self.index) or 0) > 0]
         by_time: dict[int, list[int]] = {}
-        for t in ours:
-            by_time.setdefault(know.holdings.claim_time(t, self.index) or 0, []).append(t)
+        for t in tasks:
+            since = know.holdings.claim_time(t, self.index)
+            if since and t not in know.cleared and know.holder(t) == self.index:
+                by_time.setdefault(since, []).append(t)
         for c, group in sorted(by_time.items()):
             self.radio.answer_claim(c, group)
         done = [t for t in tasks if t in know.cleared]

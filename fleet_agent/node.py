@@ -41,7 +41,7 @@ from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
 from fleet_bus.clock import WarpClock
 from fleet_bus.commands import STOP, decode_command
-from fleet_bus.mission import fetch_clock, fetch_mission, follow_clock
+from fleet_bus.mission import clock_of, fetch_clock, fetch_mission
 from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth
 from hfc_core.problem import ScenarioError
@@ -154,8 +154,7 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
                 clocked.set()
             if record is None:
                 return 0 if stop.is_set() else 3
-            clock = WarpClock(record.epoch_unix, record.warp, seq=record.seq)
-            follower = follow_clock(session, clock, auth)  # noqa: F841  (kept alive)
+            clock, follower = clock_of(session, record, auth)  # noqa: F841  (kept alive)
             while clock.now() < 0 and not stop.is_set():
                 stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
             now = clock.now()

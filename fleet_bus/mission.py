@@ -125,6 +125,14 @@ def fetch_clock(session: zenoh.Session, stop: threading.Event,
     return fetch(session, keys.CLOCK, ClockRecord.decode, stop, timeout_s, auth=auth)
 
 
+def clock_of(session: zenoh.Session, record: ClockRecord,
+             auth: BusAuth | None = None) -> tuple[WarpClock, Any]:
+    """The mission clock from ``record``, following the operator's later records (a
+    slowdown); returns it and the subscriber, to be kept alive."""
+    clock = WarpClock(record.epoch_unix, record.warp, seq=record.seq)
+    return clock, follow_clock(session, clock, auth)
+
+
 def follow_clock(session: zenoh.Session, clock: WarpClock,
                  auth: BusAuth | None = None) -> Any:
     """Keep ``clock`` on the newest clock record the operator puts (a slowdown); returns the

@@ -28,7 +28,7 @@ import pytest
 
 from fleet_bus.clock import WarpClock
 from fleet_bus.credentials import STATION_ID, load_auth
-from fleet_bus.mission import fetch_clock, follow_clock
+from fleet_bus.mission import clock_of, fetch_clock
 from fleet_bus.session import client_config, open_session
 from ground_station import palette
 from ground_station.viewer import free_port
@@ -125,8 +125,7 @@ def mission_clock(endpoint: str, creds: Path) -> Iterator[WarpClock]:
     with open_session(client_config([endpoint], credentials=creds)) as session:
         record = fetch_clock(session, threading.Event(), 120.0, auth=auth)
         assert record is not None, "no fleet/clock record"
-        clock = WarpClock(record.epoch_unix, record.warp, seq=record.seq)
-        follower = follow_clock(session, clock, auth=auth)
+        clock, follower = clock_of(session, record, auth)
         try:
             yield clock
         finally:
