@@ -179,12 +179,23 @@ class Channel:
 
     # -- traffic ---------------------------------------------------------------------------
 
-    def submit(self, src: str, frame: bytes, t_s: float, kind: str = "data") -> list[LinkEvent]:
+    def submit(self, src: str, frame: bytes, t_s: float, kind: str = "data", *,
+               keep_time: bool = False) -> list[LinkEvent]:
         """Queue ``frame`` for transmission by ``src`` from ``t_s`` on. Returns the immediate
-        refusal (oversize) if any; everything else settles in later `advance` calls."""
+        refusal (oversize) if any; everything else settles in later `advance` calls.
+
+        A ``t_s`` the channel has already moved past is clamped to its time, unless
+        ``keep_time``: a frame an emulated sender handed over late (its host lagged behind the
+        mission clock) keeps its place. Receptions still pending interfere with it as ever;
+        those already settled are history: they neither hurt it nor are hurt by it."""
+        if keep_time and t_s < self._now_s:
+            return self._queue(src, frame, t_s, kind)
         self._catch_up(t_s)
         t_s = max(t_s, self._now_s)
         self._now_s = t_s
+        return self._queue(src, frame, t_s, kind)
+
+    def _queue(self, src: str, frame: bytes, t_s: float, kind: str) -> list[LinkEvent]:
         node = self._node(src)
         frame = bytes(frame)
         if len(frame) > self.config.max_frame_bytes:

@@ -112,10 +112,16 @@ class InProcessNetwork:
     def set_position(self, node_id: str, pos_xyz: Sequence[float]) -> None:
         self.channel.set_position(node_id, pos_xyz, self.loop.now())
 
-    def send(self, src: str, frame: bytes, kind: str = "data") -> list[LinkEvent]:
-        """Transmit ``frame`` from ``src`` now. Returns an immediate refusal, if any."""
+    def send(self, src: str, frame: bytes, kind: str = "data",
+             sent_s: float | None = None) -> list[LinkEvent]:
+        """Transmit ``frame`` from ``src`` now, or at the earlier ``sent_s`` its sender dated
+        it (`Channel.submit` ``keep_time``). Returns an immediate refusal, if any."""
         self._refresh_positions()
-        refused = self.channel.submit(src, frame, self.loop.now(), kind)
+        now = self.loop.now()
+        if sent_s is not None and sent_s < now:
+            refused = self.channel.submit(src, frame, sent_s, kind, keep_time=True)
+        else:
+            refused = self.channel.submit(src, frame, now, kind)
         self._publish(refused)
         self._reschedule()
         return refused

@@ -34,7 +34,7 @@ from comms_sim.seeds import channel_rng
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, Refused, seal
 from fleet_bus.clock import WarpClock
-from fleet_bus.link import INTRUDER, LinkControl, LinkRecord, encode_stats
+from fleet_bus.link import INTRUDER, LinkControl, LinkRecord, TxTag, encode_stats
 from fleet_bus.mission import fetch_clock, fetch_mission, follow_clock
 from fleet_bus.process import RELAY_READY, ready
 from fleet_bus.telemetry import Truth
@@ -43,8 +43,12 @@ Put = Callable[[str, bytes, "bytes | None"], None]  # key, payload, attachment
 READY = RELAY_READY
 # What the relay drops before the channel: garbage on its keys, or ids it cannot place.
 RELAY_COUNTERS = ("tx", "truth", "ctl", "malformed_tx", "malformed_truth", "malformed_ctl",
-                  "unknown_tx", "unknown_truth", "late_tx", "ctl_too_many_partitions")
+                  "unknown_tx", "unknown_truth", "late_tx", "misdated_tx",
+                  "ctl_too_many_partitions")
 MAX_PARTITIONS = 64  # scheduled partitions the channel holds; more link control is refused
+# How far back a late frame may be dated (TxTag.sent_s), in mission seconds: an agent dates
+# a late frame at most one TDMA cycle back (24 vehicles x 2.5 s slots = 60 s).
+MAX_LATE_S = 60.0
 
 
 class SimClock(Protocol):
@@ -78,6 +82,7 @@ class Relay:
         self._wakeup = threading.Condition(self._lock)
         self._dirty = False
         self.counters = dict.fromkeys(RELAY_COUNTERS, 0)
+        self.max_late_s = 0.0  # the most a frame was placed back from its arrival (late_tx)
 
     # -- inputs (any thread) ---------------------------------------------------------------
 
@@ -94,7 +99,12 @@ class Relay:
                 self.counters[name] = self.counters.get(name, 0) + 1
             return None
 
-    def on_tx(self, vid: str, envelope: bytes, kind: str = "data") -> None:
+    def on_tx(self, vid: str, envelope: bytes, kind: str = "data",
+              sent_s: float | None = None) -> None:
+        """A frame from ``vid``, sent at ``sent_s`` on its sender's clock (`TxTag`): placed
+        there in the channel if the relay's clock has passed it (bus latency, a host that ran
+        late: counted ``late_tx``), at the relay's time if not yet or if undated; dated more
+        than `MAX_LATE_S` back, it is sent now and counted ``misdated_tx``."""
         frame = self._open(keys.tx_key(vid), envelope) if vid else envelope
         with self._lock:
             self.counters["tx"] += 1
@@ -108,9 +118,15 @@ class Relay:
                 self.counters["unknown_tx"] += 1
                 return
             now = self.clock.now()
-            if now < self.channel.now_s:
-                self.counters["late_tx"] += 1  # the channel clamps it to its own time
-            refused = self.channel.submit(vid, frame, now, kind)
+            t_s, keep = now, False
+            if sent_s is not None and sent_s < now:
+                if sent_s >= now - MAX_LATE_S:
+                    t_s, keep = sent_s, True
+                    self.counters["late_tx"] += 1
+                    self.max_late_s = max(self.max_late_s, now - sent_s)
+                else:
+                    self.counters["misdated_tx"] += 1
+            refused = self.channel.submit(vid, frame, t_s, kind, keep_time=keep)
             self._dirty = True
             self._wakeup.notify()
         self._publish(refused)
@@ -161,6 +177,7 @@ class Relay:
         with self._lock:
             return encode_stats(self.channel.stats(), {
                 "relay": dict(self.counters), "t_s": self.clock.now(),
+                "max_late_s": round(self.max_late_s, 3),
                 "refused": dict(self.auth.verifier.refused) if self.auth else {},
                 "extra_loss": self.channel.extra_loss,
                 "partitions": [p.to_dict() for p in self.channel.partitions]})
@@ -230,8 +247,10 @@ def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threa
 
     def on_tx(sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
-            kind = _kind_of(sample)
-            relay.on_tx(keys.vid_of(str(sample.key_expr)), sample.payload.to_bytes(), kind)
+            att = sample.attachment
+            tag = TxTag.decode(None if att is None else att.to_bytes())
+            relay.on_tx(keys.vid_of(str(sample.key_expr)), sample.payload.to_bytes(), tag.kind,
+                        tag.sent_s)
 
     def on_truth(sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
@@ -256,18 +275,6 @@ def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threa
         for publisher in list(publishers.values()):
             publisher.undeclare()
     return relay
-
-
-def _kind_of(sample: zenoh.Sample) -> str:
-    """The frame kind an agent may attach to its tx put (``b"pose"``): lets the TDMA queue
-    replace an older pose. No attachment means "data", never replaced."""
-    att = sample.attachment
-    if att is None:
-        return "data"
-    try:
-        return att.to_bytes().decode("ascii")[:16] or "data"
-    except UnicodeDecodeError:
-        return "data"
 
 
 def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,

@@ -20,6 +20,45 @@ BROADCAST = "*"  # dst of records that concern no particular receiver (oversize 
 LinkCounts = dict[tuple[str, str], dict[str, int]]
 
 
+MAX_KIND_CHARS = 16
+
+
+@dataclass(frozen=True)
+class TxTag:
+    """The attachment of an agent's put on ``fleet/tx/<id>`` (the frame itself stays raw):
+    ``kind``, the relay queue's class (a newer "pose" replaces a queued one; anything else is
+    "data"), and ``sent_s``, when the vehicle sent it on the mission clock: the relay's
+    channel places the frame there, not when the bus happened to deliver it, so neither bus
+    latency nor a host that ran late (the frame of a slot that went by is dated at the
+    slot's opening) shows in the water. Encoded ``b"pose"`` or ``b"pose@1234.500"``;
+    anything malformed is plain "data", sent at the relay's time."""
+
+    kind: str = "data"
+    sent_s: float | None = None
+
+    def encode(self) -> bytes:
+        kind = self.kind[:MAX_KIND_CHARS]
+        return (kind if self.sent_s is None else f"{kind}@{self.sent_s:.3f}").encode("ascii")
+
+    @classmethod
+    def decode(cls, raw: bytes | None) -> "TxTag":
+        if not raw:
+            return cls()
+        try:
+            text = raw[:64].decode("ascii")
+        except UnicodeDecodeError:
+            return cls()
+        kind, _, when = text.partition("@")
+        kind = kind[:MAX_KIND_CHARS] or "data"
+        if not when:
+            return cls(kind)
+        try:
+            sent_s = float(when)
+        except ValueError:
+            return cls(kind)
+        return cls(kind, sent_s if math.isfinite(sent_s) else None)
+
+
 @dataclass(frozen=True)
 class LinkRecord:
     """A delivery or a drop. ``t_sent_s``: transmission start; ``t_s``: when the outcome

@@ -310,6 +310,22 @@ def test_late_calls_are_clamped_to_channel_time() -> None:
     assert event.t_sent_s == 10.0
 
 
+def test_a_frame_kept_at_its_time_is_placed_in_the_past() -> None:
+    """`keep_time`: a frame an emulated host handed over late keeps its send time; receptions
+    still pending meet it as ever, settled ones are history and stay as they were."""
+    ch = channel(a=0.0, b=1000.0, c=2000.0)
+    ch.submit("a", b"a" * 30, 0.0)  # at b during [0.667, 1.207), at c during [1.333, 1.873)
+    events = ch.advance(1.5)  # a's frame at b has settled
+    ch.submit("b", b"b" * 30, 0.5, keep_time=True)  # b sends over a frame it already got
+    ch.submit("c", b"c" * 30, 1.0, keep_time=True)  # c sends while a's frame reaches it
+    events += run(ch)
+    sent = {(e.src, e.dst): e for e in events}
+    assert outcome(events, "a", "b") == [None]  # history
+    assert outcome(events, "a", "c") == ["half_duplex"]  # pending: c was transmitting
+    assert sent[("b", "a")].t_sent_s == 0.5 and sent[("b", "a")].delivered
+    assert sent[("c", "a")].t_sent_s == 1.0 and sent[("c", "a")].delivered
+
+
 def test_tdma_frames_start_only_in_own_slot() -> None:
     tdma = TdmaConfig(slot_s=3.0, order=("a", "b"), guard_s=2.0)
     ch = channel(replace(LOSSLESS, tdma=tdma), a=0.0, b=1000.0)

@@ -99,3 +99,23 @@ def test_link_control_applies_from_now() -> None:
     assert [p for k, p, _ in sent if k == "fleet/rx/b"] == [b"healed"]
     _, extra = decode_stats(relay.stats_payload())
     assert extra["partitions"] == [{"start_s": 10.0, "end_s": 60.0, "groups": [["a"]]}]
+
+
+def test_a_late_frame_keeps_its_slot_and_a_misdated_one_is_sent_now() -> None:
+    # A lagging agent hands its frame over after the channel moved on: the frame is placed
+    # at the time it is dated (within MAX_LATE_S), so the water never sees the host's lag.
+    clock, relay, sent = make_relay()
+    relay.on_truth("auv0", truth(0.0))
+    relay.on_truth("auv1", truth(1500.0))
+    clock.advance_to(20.0)
+    relay.step()
+    relay.on_tx("auv0", b"late", "data", sent_s=16.5)
+    relay.on_tx("auv0", b"ancient", "data", sent_s=20.0 - 61.0)  # beyond MAX_LATE_S: now
+    relay.on_tx("auv0", b"future", "data", sent_s=25.0)  # not yet on the relay's clock: now
+    clock.advance_to(40.0)
+    relay.step()
+    delivered = {msgpack.unpackb(a)["t_sent_s"]: f for k, f, a in sent if k == "fleet/rx/auv1"}
+    assert delivered[16.5] == b"late"
+    assert sorted(f for t, f in delivered.items() if t >= 20.0) == [b"ancient", b"future"]
+    assert relay.counters["late_tx"] == 1 and relay.counters["misdated_tx"] == 1
+    assert relay.max_late_s == pytest.approx(3.5)

@@ -9,7 +9,8 @@ import pytest
 
 from comms_sim.channel import Channel, ChannelConfig
 from comms_sim.control import apply_control
-from fleet_bus.link import LinkControl, LinkRecord, Partition, decode_stats, encode_stats
+from fleet_bus.link import (LinkControl, LinkRecord, Partition, TxTag, decode_stats,
+                            encode_stats)
 
 
 def test_round_trip_and_apply() -> None:
@@ -70,3 +71,16 @@ def test_stats_round_trip_and_refuse_garbage() -> None:
                 msgpack.packb({"links": [{"src": "a", "dst": "b", "sent": -1}]})):
         with pytest.raises(ValueError):
             decode_stats(bad)
+
+
+@pytest.mark.parametrize("tag", [TxTag(), TxTag("pose"), TxTag("data", 1234.5),
+                                 TxTag("pose", 0.0)])
+def test_tx_tag_round_trips(tag: TxTag) -> None:
+    assert TxTag.decode(tag.encode()) == tag
+
+
+@pytest.mark.parametrize("raw", [None, b"", b"\xff\xfe", b"pose@nan", b"pose@inf",
+                                 b"pose@soon", b"@", b"x" * 500])
+def test_a_malformed_tx_tag_is_a_frame_sent_now(raw: bytes | None) -> None:
+    tag = TxTag.decode(raw)
+    assert tag.sent_s is None and 0 < len(tag.kind) <= 16
