@@ -304,9 +304,11 @@ class Agent:
     def _transmit(self, now: float, out: Outputs) -> None:
         if now < self.radio.next_slot_s():
             return
-        if not self.radio.take_slot(now):
-            self.count("slots_missed")
-            return
+        sent_s, skipped = self.radio.take_slot(now)
+        if skipped:
+            self.count("slots_missed", skipped)
+        if sent_s < now:
+            self.count("slots_late")
         msg = self.radio.choose(now, self.vehicle, self.know)
         if msg is None:
             return
@@ -315,7 +317,7 @@ class Agent:
         self.count(f"tx_{name}")
         self.count("tx_bytes", len(frame))
         self.largest_frame = max(self.largest_frame, len(frame))
-        out.append(Send(frame, radio_kind(msg), name))
+        out.append(Send(frame, radio_kind(msg), name, sent_s))
         out.record(self.checkpoint(now))
 
     # -- telemetry and checkpoints ---------------------------------------------------------

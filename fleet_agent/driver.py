@@ -25,8 +25,9 @@ from fleet_bus.telemetry import Event, Status, Truth
 
 
 class Transport(Protocol):
-    def send(self, frame: bytes, kind: str) -> None:
-        """Put ``frame`` on the radio (``kind``: the relay's queue class)."""
+    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
+        """Put ``frame`` on the radio (``kind``: the relay's queue class; ``sent_s``: the
+        slot a late host's frame belongs to, `fleet_bus.link.TxTag`)."""
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
         """Telemetry for the ground station and the mission runner."""
@@ -85,7 +86,7 @@ class AgentDriver:
                 self.journal.append(o.doc, o.durable)
         for o in outputs:
             if isinstance(o, Send):
-                self.transport.send(o.frame, o.kind)
+                self.transport.send(o.frame, o.kind, o.sent_s)
             elif isinstance(o, Publish):
                 self.transport.publish(o.topic, o.payload)
 

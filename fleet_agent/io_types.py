@@ -54,6 +54,9 @@ class Send:
     frame: bytes
     kind: str  # the relay's queue class: "pose" (may be superseded) or "data"
     message: str  # wire kind name, for counters
+    # When the vehicle sends it, on its own clock: its slot's opening if the host ran late
+    # (`Radio.take_slot`); the channel places the frame there, not when the bus delivers it.
+    sent_s: float | None = None
 
 
 @dataclass(frozen=True)

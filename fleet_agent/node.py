@@ -41,6 +41,7 @@ from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
 from fleet_bus.clock import WarpClock
 from fleet_bus.commands import STOP, decode_command
+from fleet_bus.link import TxTag
 from fleet_bus.mission import clock_of, fetch_clock, fetch_mission
 from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth
@@ -90,8 +91,9 @@ class ZenohTransport:
         self._telemetry = {topic: (key, session.declare_publisher(key)) for topic, key in
                            ((t, f"{keys.PREFIX}/{t}/{vid}") for t in keys.TELEMETRY_KINDS)}
 
-    def send(self, frame: bytes, kind: str) -> None:
-        self._tx.put(seal(self._auth, self._tx_key, frame), attachment=kind.encode())
+    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
+        self._tx.put(seal(self._auth, self._tx_key, frame),
+                     attachment=TxTag(kind, sent_s).encode())
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
         key, publisher = self._telemetry[topic]

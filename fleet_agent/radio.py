@@ -70,8 +70,8 @@ class Slots:
         return self.schedule.first_cycle(self.index, t_s, SLOT_OFFSET)
 
     def missed(self, n: int, now_s: float) -> bool:
-        """Too late to start slot ``n``'s frame (a slow host): it would spill into the next
-        vehicle's slot."""
+        """Too late to start slot ``n``'s frame now (a slow host): sent now it would spill into
+        the next vehicle's slot, so it is dated at the slot's opening instead."""
         return now_s - self.time(n) > 0.5 * self.slot_s
 
 
@@ -154,14 +154,18 @@ class Radio:
         """Owe the fleet these segments of the cleared set (a peer claimed a cleared spot)."""
         self.segments_owed.extend(s for s in sorted(segments) if s not in self.segments_owed)
 
-    def take_slot(self, now: float) -> bool:
-        """True if ``now`` is in this vehicle's slot and not too late to use it; moves on to
-        the next slot either way once the current one has begun."""
-        if now < self.slots.time(self.slot_no):
-            return False
-        late = self.slots.missed(self.slot_no, now)
-        self.slot_no = self.slots.first_from(now + 1e-9)
-        return not late
+    def take_slot(self, now: float) -> tuple[float, int]:
+        """Take the latest of this vehicle's slots opened by ``now`` (call once ``now`` has
+        reached `next_slot_s`). Returns the frame's send time and how many older slots went
+        by unused. The send time is ``now`` in time; a host that ran late (frozen, starved of
+        CPU) sends at once but dates the frame at the slot's opening, and the emulated channel
+        puts it there (`fleet_bus.link.TxTag`): the water never sees the host's lag, and a
+        late host is not heard as a silent vehicle (docs/fleet_agent.md)."""
+        latest = self.slots.first_from(now + 1e-9) - 1  # its opening is at or before now
+        skipped = max(0, latest - self.slot_no)
+        self.slot_no = latest + 1
+        late = self.slots.missed(latest, now)
+        return (self.slots.time(latest) if late else now), skipped
 
     def next_seq(self, now: float) -> int:
         """Sequence numbers are send times in whole seconds, strictly increasing."""

@@ -52,6 +52,11 @@ class Seat:
     journal: MemoryJournal
     driver: AgentDriver | None = None
     handle: Handle | None = None
+    stall: Fault | None = None  # its host is starved of CPU (a "stall" fault)
+
+    def thaw_at(self, t_s: float) -> float | None:
+        """When this seat's stalled host runs again if frozen at ``t_s``, else None."""
+        return None if self.stall is None else self.stall.thaw_at(t_s)
 
     @property
     def agent(self) -> Agent | None:
@@ -64,8 +69,8 @@ class _SeatTransport:
     def __init__(self, backend: "InProcessBackend", seat: Seat) -> None:
         self.backend, self.seat = backend, seat
 
-    def send(self, frame: bytes, kind: str) -> None:
-        self.backend.net.send(self.seat.vid, frame, kind)
+    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
+        self.backend.net.send(self.seat.vid, frame, kind, sent_s)
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
         if topic == "truth":  # where the vehicle is, for the channel: as the relay learns it
@@ -193,12 +198,18 @@ class InProcessBackend:
 
     def _deliver(self, vid: str, data: bytes, t_s: float) -> None:
         seat = self.seats[vid]
-        if seat.driver is not None:
+        thaw = seat.thaw_at(self.loop.now())
+        if thaw is not None:  # a frozen host reads its modem's frames when it runs again,
+            self.loop.call_at(thaw, lambda: self._deliver(vid, data, t_s))  # dated as they came
+        elif seat.driver is not None:
             self._step(seat, lambda d: d.frame(data, t_s), tick=False)
 
     def _wake(self, seat: Seat) -> None:
         seat.handle = None
-        if seat.driver is not None:
+        thaw = seat.thaw_at(self.loop.now())
+        if thaw is not None:
+            seat.handle = self.loop.call_at(thaw, lambda: self._wake(seat))
+        elif seat.driver is not None:
             now = self.loop.now()
             self._step(seat, lambda d: d.tick(now))
 
@@ -242,6 +253,8 @@ class InProcessBackend:
         elif f.kind == "partition":
             apply_control(LinkControl(partition=Partition(now, now + f.value, ((f.vid,),))),
                           self.channel)
+        elif f.kind == "stall" and seat is not None:
+            seat.stall = f
         elif f.kind == "loss":
             apply_control(LinkControl(extra_loss=f.value), self.channel)
         elif f.kind in ATTACKS:

@@ -83,7 +83,11 @@ def test_every_process_followed_the_slower_clock(paced):
 
 
 def test_the_same_mission_no_false_alarm_no_duplicate(paced):
+    # Before the first slowdown the starved agent may wake after its slot went by: it sends
+    # at once, dated at the slot, and the relay places the frame there (whether a slot falls
+    # in a frozen half is luck here; tests/cotsfleet/test_stall.py makes it certain).
     paced, _ = paced
+    assert paced["clock"]["max_frame_late_s"] is not None
     f = paced["fleet"]
     assert f["duplicate_treatments"] == 0
     assert f["false_alarms"] == 0
