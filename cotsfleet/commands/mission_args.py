@@ -46,6 +46,9 @@ def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> 
                         help="start a killed agent again from its journal at S (repeatable)")
     faults.add_argument("--partition", action="append", default=[], metavar="ID@S+D",
                         help="cut the vehicle off from everyone from S for D seconds")
+    faults.add_argument("--stall", action="append", default=[], metavar="ID@S+D",
+                        help="starve the vehicle's host of CPU from S for D seconds (its agent "
+                             "frozen half of every 8 s): a slow computer, not a silent vehicle")
     faults.add_argument("--loss-at", action="append", default=[], metavar="P@S",
                         help="extra uniform link loss P (0..1) from S on")
     faults.add_argument("--attack", action="append", default=[], metavar="KIND@S[*N]",
@@ -121,7 +124,7 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
         check_wire_limits(problem)
         faults = parse_faults(aborts=args.abort, kills=args.kill, restarts=args.restart,
                               partitions=args.partition, losses=args.loss_at,
-                              attacks=args.attack)
+                              attacks=args.attack, stalls=args.stall)
         check_schedule(faults, [v.id for v in problem.vehicles], horizon_of(problem))
     except FaultError as exc:
         raise UsageError(str(exc)) from None

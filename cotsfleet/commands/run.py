@@ -122,4 +122,7 @@ def run_warnings(report: dict) -> list[str]:
         out.append(f"the machine could not keep up with warp {clock['warp']:g}: the clock "
                    f"slowed to {clock['final_warp']:g} (effective {clock['effective_warp']}); "
                    f"worst lag {clock['max_lag_s']} s")
+    if clock.get("slots_late"):
+        out.append(f"{clock['slots_late']} frame(s) left a host after their TDMA slot; they "
+                   "were dated at the slot and the relay placed them there")
     return out

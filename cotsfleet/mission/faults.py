@@ -6,6 +6,11 @@ Kinds and their ``value``:
 - ``kill``: its agent dies silently (the vehicle is dead in the water where it stopped);
 - ``restart``: a killed agent comes back from its journal;
 - ``partition``: the vehicle is cut off from everyone for ``value`` seconds;
+- ``stall``: the vehicle's host is starved of CPU for ``value`` seconds: its agent is frozen
+  for the first half of every `STALL_PERIOD_S`. The vehicle is fine; only its computer runs
+  late. In process its steps are deferred (mission time: the worst case, no pacing); with the
+  processes it gets SIGSTOP and SIGCONT in wall time at the requested warp, as a busy
+  machine would, so a clock the pacing rule slows shortens the stall in mission time;
 - ``loss``: extra uniform link loss ``value`` (0..1) from then on;
 - ``forge``, ``replay``, ``garbage``: an intruder's modem transmits ``value`` hostile frames
   (forged under a wrong key, replays of overheard frames, random bytes), one every 3.7 s.
@@ -20,11 +25,14 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
-VEHICLE_FAULTS = ("abort", "kill", "restart", "partition")
+VEHICLE_FAULTS = ("abort", "kill", "restart", "partition", "stall")
 ATTACKS = ("forge", "replay", "garbage")
 FAULT_KINDS = (*VEHICLE_FAULTS, "loss", *ATTACKS)
+VEHICLE_FLAGS = ("aborted", "killed", "restarted", "stalled")  # a report's per-vehicle marks
 ATTACK_SPACING_S = 3.7  # between two hostile frames of one attack
 DEFAULT_PARTITION_S = 300.0
+DEFAULT_STALL_S = 300.0
+STALL_PERIOD_S = 8.0  # a stalled host: frozen for the first half of each period, then runs
 DEFAULT_ATTACK_FRAMES = 10
 
 
@@ -52,16 +60,25 @@ class Fault:
             raise FaultError(f"a {self.kind} names a vehicle")
         if self.kind == "loss" and not 0.0 <= self.value <= 1.0:
             raise FaultError(f"loss must be in [0, 1], got {self.value}")
-        if self.kind == "partition" and not self.value > 0:
-            raise FaultError(f"a partition lasts > 0 s, got {self.value}")
+        if self.kind in ("partition", "stall") and not self.value > 0:
+            raise FaultError(f"a {self.kind} lasts > 0 s, got {self.value}")
         if self.kind in ATTACKS and not (self.value >= 1 and float(self.value).is_integer()):
             raise FaultError(f"an attack sends a whole number >= 1 of frames, got {self.value}")
 
     def describe(self) -> str:
-        what = {"partition": f" for {self.value:g} s", "loss": f" {self.value:g}",
+        what = {"partition": f" for {self.value:g} s", "stall": f" for {self.value:g} s",
+                "loss": f" {self.value:g}",
                 **{a: f" x{int(self.value)}" for a in ATTACKS}}.get(self.kind, "")
         who = f" {self.vid}" if self.vid else ""
         return f"{self.kind}{who}{what} at t={self.t_s:g} s"
+
+    def thaw_at(self, t_s: float) -> float | None:
+        """For a stall: when a host frozen at ``t_s`` runs again, or None if it runs then."""
+        if self.kind != "stall" or not self.t_s <= t_s < self.t_s + self.value:
+            return None
+        k = math.floor((t_s - self.t_s) / STALL_PERIOD_S)
+        thaw = self.t_s + k * STALL_PERIOD_S + STALL_PERIOD_S / 2
+        return min(thaw, self.t_s + self.value) if t_s < thaw else None
 
 
 def parse_at(spec: str) -> tuple[str, float]:
@@ -80,20 +97,22 @@ def parse_at(spec: str) -> tuple[str, float]:
 
 def parse_faults(*, aborts: Iterable[str] = (), kills: Iterable[str] = (),
                  restarts: Iterable[str] = (), partitions: Iterable[str] = (),
-                 losses: Iterable[str] = (), attacks: Iterable[str] = ()) -> list[Fault]:
+                 losses: Iterable[str] = (), attacks: Iterable[str] = (),
+                 stalls: Iterable[str] = ()) -> list[Fault]:
     """Faults from command-line specs: ``ID@S`` (abort, kill, restart), ``ID@S+D``
-    (partition for D seconds), ``P@S`` (loss P from S), ``KIND@S`` or ``KIND@S*N``
-    (attack: N frames, default 10)."""
+    (partition or stall for D seconds), ``P@S`` (loss P from S), ``KIND@S`` or
+    ``KIND@S*N`` (attack: N frames, default 10)."""
     faults = []
     for kind, specs in (("abort", aborts), ("kill", kills), ("restart", restarts)):
         for spec in specs:
             vid, t = parse_at(spec)
             faults.append(Fault(kind, t, vid))
-    for spec in partitions:
-        head, _, dur = spec.partition("+")
-        vid, t = parse_at(head)
-        faults.append(Fault("partition", t, vid, _number(dur, spec) if dur
-                            else DEFAULT_PARTITION_S))
+    for kind, specs, default_s in (("partition", partitions, DEFAULT_PARTITION_S),
+                                   ("stall", stalls, DEFAULT_STALL_S)):
+        for spec in specs:
+            head, _, dur = spec.partition("+")
+            vid, t = parse_at(head)
+            faults.append(Fault(kind, t, vid, _number(dur, spec) if dur else default_s))
     for spec in losses:
         p, t = parse_at(spec)
         faults.append(Fault("loss", t, "", _number(p, spec)))
@@ -132,5 +151,5 @@ def check_schedule(faults: Sequence[Fault], vehicles: Sequence[str], horizon_s: 
                 raise FaultError(f"{f.describe()}: {f.vid} is not dead then (a restart needs "
                                  "an earlier --kill)")
             dead.discard(f.vid)
-        elif f.kind in ("abort", "partition") and f.vid in dead:
+        elif f.kind in ("abort", "partition", "stall") and f.vid in dead:
             raise FaultError(f"{f.describe()}: {f.vid} is dead then")

@@ -4,13 +4,14 @@ Router -> relay (comms_sim) -> one agent per vehicle -> ground station, each in 
 process group. The operator (this backend, in the launcher's process) serves the mission
 record (scenario, seed, run id) from the start and the clock record (epoch, warp) once every
 agent has computed its initial plan; it applies faults at their mission times (abort: a
-command; kill: SIGKILL; restart: the agent again on its journal; partition, loss and attacks:
-link control to the relay), watches the fleet's telemetry, and collects the relay's counters.
+command; kill: SIGKILL; restart: the agent again on its journal; stall: SIGSTOP and SIGCONT
+in wall time; partition, loss and attacks: link control to the relay), watches the fleet's
+telemetry, and collects the relay's counters.
 
 Lifecycle: every child dies with its parent (`fleet_bus.process.die_with_parent`:
 ``PR_SET_PDEATHSIG`` on Linux, and a watch on the parent's pid everywhere), so whatever ends
-the launcher, SIGKILL included, ends the children within seconds. A child that exits on its own ends the mission (`ChildExited`),
-and the report says which and why.
+the launcher, SIGKILL included, ends the children within seconds. A child that exits on its
+own ends the mission (`ChildExited`), and the report says which and why.
 
 Credentials (`fleet_bus.credentials`, `docs/security.md`): each run gets fresh ones under
 ``RUN_DIR/credentials`` (or ``credentials``, made beforehand with ``cotsfleet credentials``):
@@ -28,6 +29,7 @@ directory copied to their host) and the fleet key of the agent config.
 from __future__ import annotations
 
 import json
+import math
 import os
 import secrets
 import signal
@@ -43,7 +45,8 @@ from typing import Any, Callable, Iterator, Sequence
 import zenoh
 
 from comms_sim.stats import LinkCounts
-from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
+from cotsfleet.mission.faults import (ATTACK_SPACING_S, ATTACKS, STALL_PERIOD_S, Fault,
+                                      FaultError)
 from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.pacing import LagWatch, slower_warp
 from cotsfleet.mission.runner import MissionStopped
@@ -191,6 +194,8 @@ class ProcessBackend:
         self._next_slow_wall = 0.0
         self._next_progress = 0.0
         self._closed = False
+        self._closing = threading.Event()  # ends stall threads (they SIGCONT on the way out)
+        self._stallers: list[threading.Thread] = []
         # Dynamic missions: finds are named by ids past the scenario's (`beliefs.find_ids`).
         self._find_ids = find_ids(problem, opts.agent_config) if "truth" in scenario \
             else range(0)
@@ -199,8 +204,8 @@ class ProcessBackend:
 
     def check(self, faults: Sequence[Fault]) -> None:
         for f in faults:
-            if f.kind in ("kill", "restart") and f.vid in self.opts.remote:
-                raise FaultError(f"{f.describe()}: a kill or restart needs the agent's process "
+            if f.kind in ("kill", "restart", "stall") and f.vid in self.opts.remote:
+                raise FaultError(f"{f.describe()}: a {f.kind} needs the agent's process "
                                  "here; not for --remote vehicles")
 
     def start(self, faults: Sequence[Fault]) -> None:
@@ -331,14 +336,20 @@ class ProcessBackend:
 
     def _clock_report(self) -> dict[str, Any]:
         """Requested and effective warp (mission seconds per wall second over the whole
-        mission), the slowdowns and the worst lag any vehicle reported."""
+        mission), the slowdowns, the worst lag any vehicle reported, the slots hosts ran late
+        for (their frames dated back: `Radio.take_slot`) and the most the relay placed a frame
+        back from its arrival."""
         clock = self.clock
         if clock is None:
             return {"warp": self.opts.warp}
         wall = time.time() - self._epoch0
+        with self._lock:
+            statuses = list(self.ledger.statuses.values())
         return {"warp": self.opts.warp, "final_warp": round(clock.warp, 2),
                 "effective_warp": round(clock.now() / wall, 2) if wall > 0 else None,
-                "slowdowns": self.slowdowns, "max_lag_s": round(self.lag_watch.max_lag_s, 2)}
+                "slowdowns": self.slowdowns, "max_lag_s": round(self.lag_watch.max_lag_s, 2),
+                "slots_late": sum(s.counters.get("slots_late", 0) for s in statuses),
+                "max_frame_late_s": self._relay_extra.get("max_late_s")}
 
     def extra(self) -> dict[str, Any]:
         return {"run_id": self.run_id, "run_dir": str(self.run_dir), "warp": self.opts.warp,
@@ -375,6 +386,9 @@ class ProcessBackend:
         if self._closed:
             return
         self._closed = True
+        self._closing.set()
+        for t in self._stallers:  # no agent is left frozen: SIGTERM must reach it
+            t.join(5.0)
         with _signals_deferred():
             self._close()
 
@@ -476,10 +490,7 @@ class ProcessBackend:
 
     def _signal(self, child: Child, sig: int) -> None:
         child.expected_exit = True
-        try:
-            os.killpg(child.popen.pid, sig)
-        except (ProcessLookupError, PermissionError):
-            pass
+        _group_signal(child, sig)
 
     def _stop(self, names: Sequence[str], grace_s: float = 5.0) -> None:
         children = [self.children[n] for n in names if n in self.children
@@ -528,12 +539,42 @@ class ProcessBackend:
         elif f.kind == "restart":
             self._spawn(f.vid, self._agent_argv(f.vid))
             self.dead.discard(f.vid)
+        elif f.kind == "stall":
+            child = self.children.get(f.vid)
+            if child is not None and child.popen.poll() is None:
+                t = threading.Thread(target=self._stall, args=(child, f), daemon=True,
+                                     name=f"stall-{f.vid}")
+                self._stallers.append(t)
+                t.start()
         elif f.kind == "partition":
             self._put_link(LinkControl(partition=Partition(now, now + f.value, ((f.vid,),))))
         elif f.kind == "loss":
             self._put_link(LinkControl(extra_loss=f.value))
         elif f.kind in ATTACKS:
             self._inject(f.kind, now)
+
+    def _stall(self, child: Child, f: Fault) -> None:
+        """Freeze and thaw ``child`` as `Fault.thaw_at` says, in wall time at the requested
+        warp (a 4 s frozen half is 40 ms at warp 100): a busy computer's stalls last wall
+        time, so a clock the pacing rule slows makes them shorter in mission time. The child
+        always runs again at the end, or when the mission closes."""
+        t0, scale = time.monotonic(), 1.0 / self.opts.warp
+        try:
+            while not self._closing.is_set() and child.popen.poll() is None:
+                t = f.t_s + (time.monotonic() - t0) / scale  # mission time, requested warp
+                if t >= f.t_s + f.value:
+                    return
+                thaw = f.thaw_at(t)
+                if thaw is None:  # running: until the next period's frozen half
+                    k = math.floor((t - f.t_s) / STALL_PERIOD_S) + 1
+                    self._closing.wait((min(f.t_s + k * STALL_PERIOD_S, f.t_s + f.value) - t)
+                                       * scale)
+                    continue
+                _group_signal(child, signal.SIGSTOP)
+                self._closing.wait((thaw - t) * scale)
+                _group_signal(child, signal.SIGCONT)
+        finally:
+            _group_signal(child, signal.SIGCONT)
 
     def _inject(self, kind: str, now: float) -> None:
         """The intruder's modem transmits one hostile frame into the water (via the relay)."""
@@ -654,3 +695,11 @@ class ProcessBackend:
             parts.append(f"{vid} {state} {len(s.treated) if s else 0}")
         self.out(f"t={now:6.0f} s  cleared {len(cleared)}/{self.problem.n_tasks}  "
                  f"priority {prio:.0f}  | " + " | ".join(parts))
+
+
+def _group_signal(child: Child, sig: int) -> None:
+    """``sig`` to the child's process group, if it still exists."""
+    try:
+        os.killpg(child.popen.pid, sig)
+    except (ProcessLookupError, PermissionError):
+        pass

@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any, Mapping, Sequence
 
 from comms_sim.stats import COUNTERS, LinkCounts, totals, totals_by_sender
-from cotsfleet.mission.faults import Fault
+from cotsfleet.mission.faults import VEHICLE_FLAGS, Fault
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.telemetry import Event
 from fleet_bus.telemetry import detail_position as _fix
@@ -94,6 +94,7 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
     killed = {f.vid: f.t_s for f in faults if f.kind == "kill"}
     aborted = {f.vid: f.t_s for f in faults if f.kind == "abort"}
     restarted = {f.vid for f in faults if f.kind == "restart"}
+    stalled = {f.vid for f in faults if f.kind == "stall"}
     treated = ledger.treated_by
     vehicles = []
     for v in problem.vehicles:
@@ -114,6 +115,7 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
             "aborted": v.id in aborted,
             "killed": v.id in killed,
             "restarted": v.id in restarted,
+            "stalled": v.id in stalled,
             "counters": dict(s.counters) if s else {},
         })
     distinct, n_treatments, duplicates = ledger.cleared, ledger.treatments, ledger.duplicates()
@@ -205,7 +207,7 @@ def format_report(report: Mapping[str, Any]) -> str:
     lines.append(f"{'vehicle':<8} {'state':<9} {'tasks':>5} {'priority':>9} {'dist m':>8} "
                  f"{'batt used':>9} {'T_diff':>7}  faults")
     for v in report["vehicles"]:
-        flags = [k for k in ("aborted", "killed", "restarted") if v[k]]
+        flags = [k for k in VEHICLE_FLAGS if v.get(k)]
         tdiff = f"{v['t_diff_s']:.0f}" if v["t_diff_s"] is not None else "-"
         lines.append(f"{v['id']:<8} {v['state']:<9} {v['tasks_treated']:>5} "
                      f"{v['priority']:>9.1f} {v['distance_m']:>8.0f} {v['battery_used_s']:>9.0f} "

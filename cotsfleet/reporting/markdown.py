@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 from typing import Any, Mapping, Sequence
 
+from cotsfleet.mission.faults import VEHICLE_FLAGS
 from cotsfleet.reporting.plots import drop_reasons
 from cotsfleet.reporting.timeline import ACTIVITIES, Segment, Spots, time_shares
 
@@ -154,7 +155,7 @@ def _vehicles(report: Mapping[str, Any], segments: Mapping[str, Sequence[Segment
     fleet_priority = report.get("fleet", {}).get("priority")
     rows = []
     for v in vehicles:
-        flags = [k for k in ("aborted", "killed", "restarted") if v.get(k)]
+        flags = [k for k in VEHICLE_FLAGS if v.get(k)]
         battery = spots.battery_s.get(v.get("id"))
         used = _num(v.get("battery_used_s")) + (f" of {battery:,.0f}" if battery else "")
         rows.append([v.get("id"), v.get("state", "-"), _num(v.get("tasks_treated")),

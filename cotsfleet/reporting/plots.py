@@ -17,7 +17,8 @@ from cotsfleet.reporting.timeline import ACTIVITIES, Collected, Segment
 COLOURS = {"transit": "#9ecae1", "inspect": "#fdae6b", "inject": "#31a354", "idle": "#d9d9d9",
            "down": "#de2d26"}
 FAULT_MARKERS = {"kill": ("x", "#000000"), "abort": ("v", "#e6550d"),
-                 "restart": ("o", "#3182bd"), "partition": ("|", "#756bb1")}
+                 "restart": ("o", "#3182bd"), "partition": ("|", "#756bb1"),
+                 "stall": ("s", "#636363")}
 DPI = 110
 
 
