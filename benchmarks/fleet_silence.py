@@ -13,7 +13,9 @@ duplicates at most 1 % of treatments at every loss and none at 30 %.
 
 Part B, multi-process: ``cotsfleet run --viewer none`` (router, link emulator, one agent
 process per AUV) of the one-hour paper preset at warp 60, 120 and 240 while two CPU hogs keep
-both cores of the machine busy, against the in-process run of the same seed. Targets: priority
+both cores of the machine busy, against the in-process run of the same seed; then at warp 100
+with auv1's host stalled too (`STALL`: frozen half of every 8 s for 300 s), against the
+in-process run with the same stall. Targets: priority
 within 2 % of the in-process run, no duplicate, all vehicles home, no false alarm, the
 effective warp reported (``report["clock"]``). Every process the benchmark starts (hogs and the
 mission's processes) is checked gone at the end.
@@ -51,6 +53,10 @@ FAULT_ROWS = [
 DUP_TARGET = 0.01  # duplicates at most 1 % of treatments at every loss
 MP_PRIORITY_TOLERANCE = 0.02  # multi-process within 2 % of the in-process run
 HOGS = 2
+# A starved host on top of the hogs: auv1's agent frozen half of every 8 s for 300 s (the
+# `stall` fault), at warp 100 where a frozen half outlasts half a TDMA slot before any slowdown.
+STALL = Fault("stall", 300.0, "auv1", 300.0)
+STALL_WARP = 100.0
 
 
 def _median(xs: list[float]) -> float:
@@ -181,18 +187,21 @@ def _alive(seen: dict[int, float]) -> list[int]:
     return left
 
 
-def run_mission_processes(seed: int, warp: float, workdir: Path) -> dict[str, Any]:
-    """One ``cotsfleet run`` in its own session; every process it spawned is recorded and must
-    be gone when it returns."""
-    report_path = workdir / f"report-w{warp:g}-s{seed}.json"
-    run_dir = workdir / f"run-w{warp:g}-s{seed}"
+def run_mission_processes(seed: int, warp: float, workdir: Path,
+                          stall: bool = False) -> dict[str, Any]:
+    """One ``cotsfleet run`` in its own session (with ``stall``: `STALL` too); every process
+    it spawned is recorded and must be gone when it returns."""
+    tag = f"w{warp:g}-s{seed}{'-stall' if stall else ''}"
+    report_path = workdir / f"report-{tag}.json"
+    run_dir = workdir / f"run-{tag}"
     cli = Path(sys.executable).with_name("cotsfleet")
     argv = [str(cli) if cli.exists() else sys.executable,
             *([] if cli.exists() else ["-m", "cotsfleet"]),
             "run", "--warp", f"{warp:g}", "--viewer", "none", "--seed", str(seed),
-            "--report", str(report_path), "--run-dir", str(run_dir), "--no-hold-viewer"]
+            "--report", str(report_path), "--run-dir", str(run_dir), "--no-hold-viewer",
+            *(["--stall", f"{STALL.vid}@{STALL.t_s:g}+{STALL.value:g}"] if stall else [])]
     timeout = 4 * 3600 / warp + 300
-    log = open(workdir / f"log-w{warp:g}-s{seed}.txt", "w")
+    log = open(workdir / f"log-{tag}.txt", "w")
     t0 = time.perf_counter()
     launcher = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=log,
                                 stderr=subprocess.STDOUT, start_new_session=True)
@@ -245,10 +254,11 @@ def run_mission_processes(seed: int, warp: float, workdir: Path) -> dict[str, An
 def part_b(seeds: list[int], warps: list[float], config: AgentConfig,
            workdir: Path) -> tuple[str, list[str], str]:
     rows, misses = [], []
-    inproc: dict[int, dict[str, Any]] = {}
+    inproc: dict[tuple[int, bool], dict[str, Any]] = {}
     for seed in seeds:  # the reference, measured before the hogs start
         problem = problem_from_dict(scenario_doc(None, None, seed))
-        inproc[seed] = simulate(problem, config, seed=seed).report
+        inproc[(seed, False)] = simulate(problem, config, seed=seed).report
+        inproc[(seed, True)] = simulate(problem, config, seed=seed, faults=[STALL]).report
     me = psutil.Process()
     hogs: list[subprocess.Popen] = []
     spawned = 0
@@ -256,18 +266,19 @@ def part_b(seeds: list[int], warps: list[float], config: AgentConfig,
     try:
         hogs = _start_hogs()
         time.sleep(1.0)
-        for warp in warps:
+        for warp, stall in [(w, False) for w in warps] + [(STALL_WARP, True)]:
             for seed in seeds:
-                ref = inproc[seed]["fleet"]
-                res = run_mission_processes(seed, warp, workdir)
+                ref = inproc[(seed, stall)]["fleet"]
+                res = run_mission_processes(seed, warp, workdir, stall)
+                label = f"{warp:g} + stall" if stall else f"{warp:g}"
                 spawned += res["spawned"]
                 leftovers += res["leftovers"]
                 r = res["report"]
                 if r is None:
-                    rows.append([f"{warp:g}", seed, "-", "-", f"{res['wall_s']:.0f}",
+                    rows.append([label, seed, "-", "-", f"{res['wall_s']:.0f}",
                                  f"failed (rc {res['rc']}, log {res['log']})",
                                  *["-"] * 6])
-                    misses.append(f"warp {warp:g} seed {seed}: no report (rc {res['rc']}"
+                    misses.append(f"warp {label} seed {seed}: no report (rc {res['rc']}"
                                   f"{', timed out' if res['timed_out'] else ''})")
                     print(" | ".join(str(c) for c in rows[-1]), flush=True)
                     continue
@@ -282,14 +293,14 @@ def part_b(seeds: list[int], warps: list[float], config: AgentConfig,
                             f"{len(clock['slowdowns'])} slowdown(s))")
                 lag = (f"{clock['max_lag_s']:.1f}" if clock and
                        clock.get("max_lag_s") is not None else "-")
-                rows.append([f"{warp:g}", seed, eff, lag, f"{res['wall_s']:.0f}",
+                rows.append([label, seed, eff, lag, f"{res['wall_s']:.0f}",
                              f"{f['priority']:.0f} / {ref['priority']:.0f}", f"{ratio:.3f}",
                              f"{f['duplicate_treatments']} / {ref['duplicate_treatments']}",
                              f"{f['vehicles_home']}/{n}",
                              f"{f['false_alarms']} / {ref['false_alarms']}",
                              res["rc"], len(res["leftovers"])])
                 print(" | ".join(str(c) for c in rows[-1]), flush=True)
-                tag = f"warp {warp:g} seed {seed}"
+                tag = f"warp {label} seed {seed}"
                 if not abs(ratio - 1.0) <= MP_PRIORITY_TOLERANCE:
                     misses.append(f"{tag}: priority {100 * (ratio - 1):+.1f} % vs in-process "
                                   f"(target within 2 %)")
@@ -369,8 +380,10 @@ def main(runs: int, warps: list[float], mp_seeds: list[int], quick: bool,
         f"router, link emulator, one agent process per AUV) of the one-hour paper preset, while "
         f"{HOGS} CPU hogs (`python -c \"while True: pass\"`) keep both cores busy, against the "
         f"in-process run of the same seed (no extra loss, no fault). Effective warp and max lag "
-        f"come from the report's `clock` section (\"-\": the report has none). Targets: priority "
-        f"within 2 %, 0 duplicates, all home. {wall_b:.0f} s wall. {check} The machine may "
+        f"come from the report's `clock` section (\"-\": the report has none). The last rows "
+        f"add `--stall auv1@300+300` at warp {STALL_WARP:g} (that agent frozen the first half "
+        f"of every 8 mission s, SIGSTOP in wall time), against the in-process run with the "
+        f"same stall. Targets: priority within 2 %, 0 duplicates, all home, no false alarm. {wall_b:.0f} s wall. {check} The machine may "
         f"also have been loaded by another developer's work (load average at the end "
         f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}).\n\n{table_b}\n\n"
         + ("Missed targets:\n\n" + "\n".join(f"- {m}" for m in misses) if misses else
