@@ -26,8 +26,8 @@ from fleet_bus.telemetry import Event, Status, Truth
 
 class Transport(Protocol):
     def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
-        """Put ``frame`` on the radio (``kind``: the relay's queue class; ``sent_s``: the
-        slot a late host's frame belongs to, `fleet_bus.link.TxTag`)."""
+        """Put ``frame`` on the radio (``kind``: the relay's queue class; ``sent_s``: when
+        the vehicle sends it on the mission clock, `fleet_bus.link.TxTag`)."""
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
         """Telemetry for the ground station and the mission runner."""
