@@ -119,8 +119,11 @@ def run_warnings(report: dict) -> list[str]:
                    f"({report['fleet'].get('duplicate_treatments', 0)} duplicate treatment(s))")
     clock = report.get("clock") or {}
     if clock.get("slowdowns"):
+        slowest = min(s["warp"] for s in clock["slowdowns"])
+        back = (f", back up to {clock['final_warp']:g} once every host kept up"
+                if clock.get("speedups") else "")
         out.append(f"the machine could not keep up with warp {clock['warp']:g}: the clock "
-                   f"slowed to {clock['final_warp']:g} (effective {clock['effective_warp']}); "
+                   f"slowed to {slowest:g}{back} (effective {clock['effective_warp']}); "
                    f"worst lag {clock['max_lag_s']} s")
     if clock.get("slots_late"):
         out.append(f"{clock['slots_late']} frame(s) left a host after their TDMA slot; they "

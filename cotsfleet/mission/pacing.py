@@ -8,7 +8,13 @@ false alarm. A host that stays late, status after status, is one the machine can
 with at this warp: its frames spill into the next TDMA slot and its decisions come late,
 which a slower clock does fix. So the clock is slowed when one vehicle has reported more
 than ``bound_s`` in ``sustained`` consecutive statuses, at once to the warp that host can keep
-(`slower_warp`). Pure logic: the launcher feeds it the statuses it sees and acts on `behind`.
+(`slower_warp`). Once every vehicle has kept well within the bound (a quarter of it) for
+``recover`` statuses in a row (a minute at the default period), the busy spell is over and the
+clock speeds up again, a step at a time, up to the requested warp (`faster_warp`): a host
+starved for a few seconds costs a few slower minutes, not a slow mission. Correctness does
+not depend on any of this (a late host's frames are dated at their slots: `Radio.take_slot`);
+the pace only keeps decisions timely. Pure logic: the launcher feeds it the statuses it sees
+and acts on `behind` and `calm`.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 SUSTAINED_STATUSES = 3  # consecutive late statuses (15 mission s at the default period)
+RECOVER_STATUSES = 12  # consecutive calm statuses of every vehicle before speeding up again
 # One slowdown divides the warp by at most 1 / MIN_FACTOR and at least 1 / MAX_FACTOR.
 MIN_FACTOR, MAX_FACTOR = 0.2, 0.7
 
@@ -30,14 +37,23 @@ def slower_warp(warp: float, lag_s: float, bound_s: float) -> float:
     return warp * min(MAX_FACTOR, max(MIN_FACTOR, factor))
 
 
+def faster_warp(warp: float, requested: float) -> float:
+    """One step back up after a calm spell: the inverse of the gentlest slowdown, never past
+    the warp the operator asked for."""
+    return min(requested, warp / MAX_FACTOR)
+
+
 @dataclass
 class LagWatch:
-    """Per vehicle, how many of its latest statuses in a row reported a lag over ``bound_s``."""
+    """Per vehicle, how many of its latest statuses in a row reported a lag over ``bound_s``
+    (late), and how many at most a quarter of it (calm)."""
 
     bound_s: float
     sustained: int = SUSTAINED_STATUSES
+    recover: int = RECOVER_STATUSES
     _last_t: dict[str, float] = field(default_factory=dict)
     _late_run: dict[str, int] = field(default_factory=dict)
+    _calm_run: dict[str, int] = field(default_factory=dict)
     _worst: dict[str, float] = field(default_factory=dict)
     max_lag_s: float = 0.0
 
@@ -47,6 +63,8 @@ class LagWatch:
             return
         self._last_t[vid] = t_s
         self.max_lag_s = max(self.max_lag_s, lag_s)
+        self._calm_run[vid] = self._calm_run.get(vid, 0) + 1 if lag_s <= 0.25 * self.bound_s \
+            else 0
         if lag_s > self.bound_s:
             self._late_run[vid] = self._late_run.get(vid, 0) + 1
             self._worst[vid] = max(self._worst.get(vid, 0.0), lag_s)
@@ -59,7 +77,12 @@ class LagWatch:
         return max((self._worst[v] for v, n in self._late_run.items() if n >= self.sustained),
                    default=0.0)
 
+    def calm(self) -> bool:
+        """Every vehicle heard from kept well within the bound for ``recover`` statuses."""
+        return bool(self._calm_run) and min(self._calm_run.values()) >= self.recover
+
     def restart(self) -> None:
-        """After a slowdown: the statuses must show the new pace before the next one."""
+        """After a change of pace: the statuses must show the new pace before the next one."""
         self._late_run.clear()
         self._worst.clear()
+        self._calm_run.clear()

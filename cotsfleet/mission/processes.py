@@ -48,7 +48,7 @@ from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import (ATTACK_SPACING_S, ATTACKS, STALL_PERIOD_S, Fault,
                                       FaultError)
 from cotsfleet.mission.intruder import Intruder, intruder_rng
-from cotsfleet.mission.pacing import LagWatch, slower_warp
+from cotsfleet.mission.pacing import LagWatch, faster_warp, slower_warp
 from cotsfleet.mission.runner import MissionStopped
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_bus import keys
@@ -72,7 +72,7 @@ POLL_WALL_S = 0.05
 # slot behind the mission clock (`pacing.LagWatch`: its frames spill into the next slot), the
 # operator slows the shared clock to the warp that host can keep (`pacing.slower_warp`), at
 # most once per SLOW_HOLD_WALL_S (the statuses must show the new pace first), never below
-# MIN_WARP.
+# MIN_WARP; after a calm minute it speeds up again towards the requested warp.
 SLOW_HOLD_WALL_S = 2.0
 MIN_WARP = 1.0
 ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
@@ -189,6 +189,7 @@ class ProcessBackend:
         self._clock_payload = b""  # the operator's current clock record (signed), served
         self._epoch0 = 0.0  # wall time of mission time 0 at the start (effective warp)
         self.slowdowns: list[dict[str, float]] = []
+        self.speedups: list[dict[str, float]] = []  # back up after a calm spell
         # half a TDMA slot: a frame sent later spills into the next vehicle's slot
         self.lag_watch = LagWatch(0.5 * opts.agent_config.slot_s)
         self._next_slow_wall = 0.0
@@ -312,27 +313,35 @@ class ProcessBackend:
 
     def _pace(self) -> None:
         """Slow the shared clock down when a vehicle's process stays behind it (`LagWatch`,
-        `slower_warp`): a slow machine gives a slower mission, not a different one."""
+        `slower_warp`), and speed it up again once every process keeps up (`faster_warp`): a
+        slow machine gives a slower mission, not a different one."""
         clock = self.clock
         if clock is None or self._session is None or self.auth is None:
             return
         with self._lock:
             for vid, s in self.ledger.statuses.items():
                 self.lag_watch.see(vid, s.t_s, s.lag_s)
-        lag = self.lag_watch.behind()
-        if lag <= 0.0 or clock.warp <= MIN_WARP or time.monotonic() < self._next_slow_wall:
+        if time.monotonic() < self._next_slow_wall:
             return
-        epoch, warp, seq = clock.slowed(
-            max(MIN_WARP, slower_warp(clock.warp, lag, self.lag_watch.bound_s)))
+        lag = self.lag_watch.behind()
+        if lag > 0.0 and clock.warp > MIN_WARP:
+            warp = max(MIN_WARP, slower_warp(clock.warp, lag, self.lag_watch.bound_s))
+            self.slowdowns.append({"t_s": round(clock.now(), 1), "warp": round(warp, 2),
+                                   "lag_s": round(lag, 2)})
+            self.out(f"t={clock.now():.0f} s: a vehicle ran {lag:.1f} s behind the mission "
+                     f"clock; warp slowed to {warp:.1f}")
+        elif lag <= 0.0 and clock.warp < self.opts.warp and self.lag_watch.calm():
+            warp = faster_warp(clock.warp, self.opts.warp)
+            self.speedups.append({"t_s": round(clock.now(), 1), "warp": round(warp, 2)})
+            self.out(f"t={clock.now():.0f} s: every vehicle keeps up; warp back up to {warp:.1f}")
+        else:
+            return
+        epoch, warp, seq = clock.slowed(warp)
         clock.follow(epoch, warp, seq)
         self._clock_payload = ClockRecord(epoch, warp, seq).encode()
         self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, self._clock_payload))
         self._next_slow_wall = time.monotonic() + SLOW_HOLD_WALL_S
         self.lag_watch.restart()
-        self.slowdowns.append({"t_s": round(clock.now(), 1), "warp": round(warp, 2),
-                               "lag_s": round(lag, 2)})
-        self.out(f"t={clock.now():.0f} s: a vehicle ran {lag:.1f} s behind the mission clock; "
-                 f"warp slowed to {warp:.1f}")
 
     def _clock_report(self) -> dict[str, Any]:
         """Requested and effective warp (mission seconds per wall second over the whole
@@ -347,7 +356,8 @@ class ProcessBackend:
             statuses = list(self.ledger.statuses.values())
         return {"warp": self.opts.warp, "final_warp": round(clock.warp, 2),
                 "effective_warp": round(clock.now() / wall, 2) if wall > 0 else None,
-                "slowdowns": self.slowdowns, "max_lag_s": round(self.lag_watch.max_lag_s, 2),
+                "slowdowns": self.slowdowns, "speedups": self.speedups,
+                "max_lag_s": round(self.lag_watch.max_lag_s, 2),
                 "slots_late": sum(s.counters.get("slots_late", 0) for s in statuses),
                 "max_frame_late_s": self._relay_extra.get("max_late_s")}
 

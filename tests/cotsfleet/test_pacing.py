@@ -1,10 +1,12 @@
-"""The operator slows the clock for a host that stays behind it, not for one late step."""
+"""The operator slows the clock for a host that stays behind it, not for one late step, and
+speeds it up again once every host keeps up."""
 
 from __future__ import annotations
 
 import pytest
 
-from cotsfleet.mission.pacing import MAX_FACTOR, MIN_FACTOR, LagWatch, slower_warp
+from cotsfleet.mission.pacing import (MAX_FACTOR, MIN_FACTOR, LagWatch, faster_warp,
+                                      slower_warp)
 
 
 def feed(watch: LagWatch, vid: str, lags: list[float], t0: float = 0.0) -> None:
@@ -60,3 +62,25 @@ def test_one_slowdown_brings_the_host_to_half_the_bound():
 def test_a_slowdown_is_bounded_both_ways():
     assert slower_warp(60.0, 0.8, 1.25) == pytest.approx(60.0 * MAX_FACTOR)  # barely late
     assert slower_warp(60.0, 500.0, 1.25) == pytest.approx(60.0 * MIN_FACTOR)  # frozen
+
+
+def test_a_calm_minute_of_every_vehicle_brings_the_pace_back():
+    watch = LagWatch(bound_s=1.0, recover=12)
+    assert not watch.calm()  # nothing heard yet
+    feed(watch, "auv1", [0.1] * 12)
+    feed(watch, "auv2", [0.1] * 11)
+    assert not watch.calm()  # auv2 not yet a minute
+    feed(watch, "auv2", [0.25], t0=55.0)  # a quarter of the bound still counts as calm
+    assert watch.calm()
+    feed(watch, "auv1", [0.3], t0=60.0)  # over a quarter: a new minute must pass
+    assert not watch.calm()
+    watch.restart()  # after a change of pace too
+    feed(watch, "auv1", [0.0] * 12, t0=100.0)
+    feed(watch, "auv2", [0.0] * 12, t0=100.0)
+    assert watch.calm() and watch.behind() == 0.0
+
+
+def test_speeding_up_is_a_step_and_never_past_the_request():
+    assert faster_warp(20.0, 100.0) == pytest.approx(20.0 / MAX_FACTOR)
+    assert faster_warp(90.0, 100.0) == 100.0
+    assert faster_warp(100.0, 100.0) == 100.0

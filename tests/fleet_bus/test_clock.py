@@ -57,6 +57,11 @@ def test_the_launcher_warns_of_false_alarms_and_a_slowed_clock() -> None:
     assert run_warnings(quiet) == []
     loud = {"fleet": {"false_alarms": 2, "duplicate_treatments": 0},
             "clock": {"warp": 240.0, "final_warp": 117.6, "effective_warp": 131.2,
-                      "max_lag_s": 9.5, "slowdowns": [{"t_s": 300.0, "warp": 168.0}]}}
+                      "max_lag_s": 9.5, "slowdowns": [{"t_s": 300.0, "warp": 168.0},
+                                                       {"t_s": 330.0, "warp": 117.6}]}}
     lines = run_warnings(loud)
-    assert len(lines) == 2 and "2 false alarm" in lines[0] and "117.6" in lines[1]
+    assert len(lines) == 2 and "2 false alarm" in lines[0] and "slowed to 117.6" in lines[1]
+    eased = {"clock": {**loud["clock"], "final_warp": 240.0,
+                       "speedups": [{"t_s": 500.0, "warp": 240.0}], "slots_late": 3}}
+    lines = run_warnings(eased)
+    assert "slowed to 117.6, back up to 240" in lines[0] and "3 frame(s)" in lines[1]

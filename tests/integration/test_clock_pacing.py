@@ -67,7 +67,7 @@ def test_the_lagging_process_slowed_the_clock(paced):
     clock = paced["clock"]
     assert clock["warp"] == WARP
     assert clock["max_lag_s"] > 2.0  # the starved agent said how far behind it ran
-    assert clock["slowdowns"] and clock["final_warp"] < WARP
+    assert clock["slowdowns"] and min(s["warp"] for s in clock["slowdowns"]) < WARP
     assert clock["effective_warp"] < WARP
     assert any("slowed" in line for line in run_warnings(paced))
 
