@@ -5,8 +5,8 @@ Every agent reports in each status the worst lateness of its host since the prev
 wall milliseconds is tens of mission seconds at warp 60): slowing the clock afterwards would
 not undo it, and since silence is not death (`docs/fleet_agent.md`) it costs no spot and no
 false alarm. A host that stays late, status after status, is one the machine cannot keep up
-with at this warp: its frames spill into the next TDMA slot and its decisions come late,
-which a slower clock does fix. So the clock is slowed when one vehicle has reported more
+with at this warp: it wakes after its TDMA slots and its decisions come late, which a slower
+clock does fix. So the clock is slowed when one vehicle has reported more
 than ``bound_s`` in ``sustained`` consecutive statuses, at once to the warp that host can keep
 (`slower_warp`). Once every vehicle has kept well within the bound (a quarter of it) for
 ``recover`` statuses in a row (a minute at the default period), the busy spell is over and the
@@ -31,8 +31,8 @@ def slower_warp(warp: float, lag_s: float, bound_s: float) -> float:
     """The warp at which a host ``lag_s`` mission seconds behind at ``warp`` would be half of
     ``bound_s`` behind: its lateness in wall seconds (``lag_s / warp``) stays what it is, so
     mission lateness scales with the warp. In one step, not many: a host that stays behind
-    while the clock is eased down a step every few wall seconds misses slot after slot, and
-    enough missed slots in a row look like a silent vehicle to its peers."""
+    while the clock is eased down a step every few wall seconds runs late slot after slot
+    (its frames are dated at their slots, so this costs timeliness, not correctness)."""
     factor = 0.5 * bound_s / lag_s if lag_s > 0 else MAX_FACTOR
     return warp * min(MAX_FACTOR, max(MIN_FACTOR, factor))
 
