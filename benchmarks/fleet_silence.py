@@ -289,8 +289,10 @@ def part_b(seeds: list[int], warps: list[float], config: AgentConfig,
                 eff = (f"{clock['effective_warp']:.1f}" if clock and
                        clock.get("effective_warp") is not None else "-")
                 if clock and clock.get("slowdowns"):
-                    eff += (f" (final {clock.get('final_warp', '-')}, "
-                            f"{len(clock['slowdowns'])} slowdown(s))")
+                    ups = len(clock.get("speedups") or [])
+                    eff += (f" (lowest {min(s['warp'] for s in clock['slowdowns']):g}, final "
+                            f"{clock.get('final_warp', '-')}, {len(clock['slowdowns'])} "
+                            f"slowdown(s), {ups} speed-up(s))")
                 lag = (f"{clock['max_lag_s']:.1f}" if clock and
                        clock.get("max_lag_s") is not None else "-")
                 rows.append([label, seed, eff, lag, f"{res['wall_s']:.0f}",
