@@ -385,7 +385,8 @@ def main(runs: int, warps: list[float], mp_seeds: list[int], quick: bool,
         f"come from the report's `clock` section (\"-\": the report has none). The last rows "
         f"add `--stall auv1@300+300` at warp {STALL_WARP:g} (that agent frozen the first half "
         f"of every 8 mission s, SIGSTOP in wall time), against the in-process run with the "
-        f"same stall. Targets: priority within 2 %, 0 duplicates, all home, no false alarm. {wall_b:.0f} s wall. {check} The machine may "
+        f"same stall. Targets: priority within 2 %, 0 duplicates, all home, no false alarm. "
+        f"{wall_b:.0f} s wall. {check} The machine may "
         f"also have been loaded by another developer's work (load average at the end "
         f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}).\n\n{table_b}\n\n"
         + ("Missed targets:\n\n" + "\n".join(f"- {m}" for m in misses) if misses else

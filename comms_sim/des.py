@@ -118,10 +118,8 @@ class InProcessNetwork:
         it (`Channel.submit` ``keep_time``). Returns an immediate refusal, if any."""
         self._refresh_positions()
         now = self.loop.now()
-        if sent_s is not None and sent_s < now:
-            refused = self.channel.submit(src, frame, sent_s, kind, keep_time=True)
-        else:
-            refused = self.channel.submit(src, frame, now, kind)
+        refused = self.channel.submit(src, frame, now if sent_s is None else min(sent_s, now),
+                                      kind, keep_time=True)
         self._publish(refused)
         self._reschedule()
         return refused

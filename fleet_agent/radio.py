@@ -43,6 +43,9 @@ from fleet_agent.wire import (Abort, Claim, ClearedSegment, Digest, Found, Heard
 from fleet_bus.tdma import TdmaSchedule
 
 SLOT_OFFSET = 0.05  # start this far into the slot (share of it): room for clock skew
+# A host later than this share of a slot after its slot opened dates its frame back (a frame
+# started now would spill into the next vehicle's slot); the operator paces on it too.
+LATE_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -72,7 +75,7 @@ class Slots:
     def missed(self, n: int, now_s: float) -> bool:
         """Too late to start slot ``n``'s frame now (a slow host): sent now it would spill into
         the next vehicle's slot, so it is dated at the slot's opening instead."""
-        return now_s - self.time(n) > 0.5 * self.slot_s
+        return now_s - self.time(n) > LATE_SHARE * self.slot_s
 
 
 @dataclass

@@ -41,8 +41,8 @@ class ManualClock:
 class WarpClock:
     """``sim = (wall - epoch_unix) * warp``: a 1-hour mission at warp 60 takes one minute.
 
-    The operator may slow it down mid-mission (`slowed`, a new epoch and warp from the same
-    instant on, so mission time never jumps); every process then `follow`s the newest
+    The operator may change its pace mid-mission (`at_warp`, a new epoch and warp from the
+    same instant on, so mission time never jumps); every process then `follow`s the newest
     record. Epoch and warp are swapped together (one tuple), so a reader on another thread
     never sees one without the other."""
 
@@ -73,7 +73,7 @@ class WarpClock:
         self._seg, self.seq = (float(epoch_unix), float(warp)), seq
         return True
 
-    def slowed(self, warp: float) -> tuple[float, float, int]:
+    def at_warp(self, warp: float) -> tuple[float, float, int]:
         """The record that runs this clock at ``warp`` from now on without a jump: (epoch,
         warp, seq), to be put on the bus and followed (`follow`), by this process too."""
         at = self._wall()

@@ -57,9 +57,10 @@ class Mission:
 class ClockRecord:
     """The shared mission clock: simulation time ``(wall - epoch_unix) * warp``.
 
-    The operator may slow the clock down during a mission (a process lagging behind it):
-    it then puts a record with a higher ``seq``, whose epoch is chosen so that mission time
-    runs on without a jump (`WarpClock.slowed`). Every process follows the newest record."""
+    The operator may slow the clock down during a mission (a process lagging behind it) and
+    speed it up again: it then puts a record with a higher ``seq``, whose epoch is chosen so
+    that mission time runs on without a jump (`WarpClock.at_warp`). Every process follows the
+    newest record."""
 
     epoch_unix: float
     warp: float

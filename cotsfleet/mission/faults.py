@@ -72,13 +72,22 @@ class Fault:
         who = f" {self.vid}" if self.vid else ""
         return f"{self.kind}{who}{what} at t={self.t_s:g} s"
 
+    def stall_phase(self, t_s: float) -> tuple[bool, float] | None:
+        """For a stall under way at ``t_s``: whether the host is frozen then, and when that
+        half of the period ends (the stall's end at the latest); None outside it."""
+        end = self.t_s + self.value
+        if self.kind != "stall" or not self.t_s <= t_s < end:
+            return None
+        start = self.t_s + math.floor((t_s - self.t_s) / STALL_PERIOD_S) * STALL_PERIOD_S
+        thaw = start + STALL_PERIOD_S / 2
+        if t_s < thaw:
+            return True, min(thaw, end)
+        return False, min(start + STALL_PERIOD_S, end)
+
     def thaw_at(self, t_s: float) -> float | None:
         """For a stall: when a host frozen at ``t_s`` runs again, or None if it runs then."""
-        if self.kind != "stall" or not self.t_s <= t_s < self.t_s + self.value:
-            return None
-        k = math.floor((t_s - self.t_s) / STALL_PERIOD_S)
-        thaw = self.t_s + k * STALL_PERIOD_S + STALL_PERIOD_S / 2
-        return min(thaw, self.t_s + self.value) if t_s < thaw else None
+        phase = self.stall_phase(t_s)
+        return phase[1] if phase is not None and phase[0] else None
 
 
 def parse_at(spec: str) -> tuple[str, float]:

@@ -29,7 +29,6 @@ directory copied to their host) and the fleet key of the agent config.
 from __future__ import annotations
 
 import json
-import math
 import os
 import secrets
 import signal
@@ -45,12 +44,12 @@ from typing import Any, Callable, Iterator, Sequence
 import zenoh
 
 from comms_sim.stats import LinkCounts
-from cotsfleet.mission.faults import (ATTACK_SPACING_S, ATTACKS, STALL_PERIOD_S, Fault,
-                                      FaultError)
+from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
 from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.pacing import LagWatch, faster_warp, slower_warp
 from cotsfleet.mission.runner import MissionStopped
 from fleet_agent.config import AgentConfig, dump_config
+from fleet_agent.radio import LATE_SHARE
 from fleet_bus import keys
 from fleet_bus import values as v
 from fleet_bus.auth import BusAuth
@@ -69,7 +68,7 @@ from hfc_core.problem import Problem
 
 POLL_WALL_S = 0.05
 # The clock never outruns the fleet: when a vehicle's process stays more than half a TDMA
-# slot behind the mission clock (`pacing.LagWatch`: its frames spill into the next slot), the
+# slot behind the mission clock (`pacing.LagWatch`: its frames are being dated back), the
 # operator slows the shared clock to the warp that host can keep (`pacing.slower_warp`), at
 # most once per SLOW_HOLD_WALL_S (the statuses must show the new pace first), never below
 # MIN_WARP; after a calm minute it speeds up again towards the requested warp.
@@ -190,8 +189,8 @@ class ProcessBackend:
         self._epoch0 = 0.0  # wall time of mission time 0 at the start (effective warp)
         self.slowdowns: list[dict[str, float]] = []
         self.speedups: list[dict[str, float]] = []  # back up after a calm spell
-        # half a TDMA slot: a frame sent later spills into the next vehicle's slot
-        self.lag_watch = LagWatch(0.5 * opts.agent_config.slot_s)
+        # as late as a host may run before its frames are dated back (`Radio.take_slot`)
+        self.lag_watch = LagWatch(LATE_SHARE * opts.agent_config.slot_s)
         self._next_slow_wall = 0.0
         self._next_progress = 0.0
         self._closed = False
@@ -336,7 +335,7 @@ class ProcessBackend:
             self.out(f"t={clock.now():.0f} s: every vehicle keeps up; warp back up to {warp:.1f}")
         else:
             return
-        epoch, warp, seq = clock.slowed(warp)
+        epoch, warp, seq = clock.at_warp(warp)
         clock.follow(epoch, warp, seq)
         self._clock_payload = ClockRecord(epoch, warp, seq).encode()
         self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, self._clock_payload))
@@ -568,21 +567,16 @@ class ProcessBackend:
         warp (a 4 s frozen half is 40 ms at warp 100): a busy computer's stalls last wall
         time, so a clock the pacing rule slows makes them shorter in mission time. The child
         always runs again at the end, or when the mission closes."""
-        t0, scale = time.monotonic(), 1.0 / self.opts.warp
+        t0, warp = time.monotonic(), self.opts.warp
         try:
             while not self._closing.is_set() and child.popen.poll() is None:
-                t = f.t_s + (time.monotonic() - t0) / scale  # mission time, requested warp
-                if t >= f.t_s + f.value:
+                t = f.t_s + (time.monotonic() - t0) * warp  # mission time, requested warp
+                phase = f.stall_phase(t)
+                if phase is None:
                     return
-                thaw = f.thaw_at(t)
-                if thaw is None:  # running: until the next period's frozen half
-                    k = math.floor((t - f.t_s) / STALL_PERIOD_S) + 1
-                    self._closing.wait((min(f.t_s + k * STALL_PERIOD_S, f.t_s + f.value) - t)
-                                       * scale)
-                    continue
-                _group_signal(child, signal.SIGSTOP)
-                self._closing.wait((thaw - t) * scale)
-                _group_signal(child, signal.SIGCONT)
+                frozen, until = phase
+                _group_signal(child, signal.SIGSTOP if frozen else signal.SIGCONT)
+                self._closing.wait((until - t) / warp)
         finally:
             _group_signal(child, signal.SIGCONT)
 

@@ -27,6 +27,10 @@ def test_thaw_times_follow_the_period() -> None:
     assert f.thaw_at(118.5) == 120.0  # the last frozen half is cut at the end
     assert f.thaw_at(120.0) is None
     assert Fault("kill", 100.0, "auv1").thaw_at(100.0) is None
+    # the running half, as the process backend's SIGCONT/SIGSTOP thread reads it
+    assert f.stall_phase(100.0 + half) == (False, 100.0 + STALL_PERIOD_S)
+    assert f.stall_phase(119.0) == (True, 120.0)
+    assert f.stall_phase(120.0) is None
 
 
 def test_stall_specs_and_schedule() -> None:

@@ -21,7 +21,7 @@ def test_a_slowdown_continues_mission_time_without_a_jump() -> None:
     wall = Wall(1000.0)
     clock = WarpClock(990.0, 60.0, wall)
     assert clock.now() == pytest.approx(600.0)
-    epoch, warp, seq = clock.slowed(30.0)
+    epoch, warp, seq = clock.at_warp(30.0)
     assert seq == 1
     assert clock.follow(epoch, warp, seq)
     assert clock.now() == pytest.approx(600.0)  # the same instant, the same mission time
@@ -33,9 +33,9 @@ def test_a_slowdown_continues_mission_time_without_a_jump() -> None:
 def test_only_a_newer_record_is_followed() -> None:
     wall = Wall(1000.0)
     a, b = WarpClock(990.0, 60.0, wall), WarpClock(990.0, 60.0, wall)
-    first = a.slowed(40.0)
+    first = a.at_warp(40.0)
     a.follow(*first)
-    second = a.slowed(20.0)
+    second = a.at_warp(20.0)
     assert b.follow(*second) and not b.follow(*first)  # reordered: the older one is ignored
     assert b.warp == 20.0
     with pytest.raises(ValueError):

@@ -87,7 +87,7 @@ def test_the_same_mission_no_false_alarm_no_duplicate(paced):
     # at once, dated at the slot, and the relay places the frame there (whether a slot falls
     # in a frozen half is luck here; tests/cotsfleet/test_stall.py makes it certain).
     paced, _ = paced
-    assert paced["clock"]["max_frame_late_s"] is not None
+    assert paced["clock"]["max_frame_late_s"] > 0.0  # frames placed at their send time
     f = paced["fleet"]
     assert f["duplicate_treatments"] == 0
     assert f["false_alarms"] == 0
