@@ -2,7 +2,8 @@
 
 Each iteration ruins the current plan with one destroy operator (chosen by roulette over
 adaptive weights), repairs it by greedy insertion, shortens the changed routes (2-opt, or-opt)
-and inserts again into the time that frees. A candidate is kept if it is within a threshold
+and inserts again into the time that frees. A candidate close to acceptance is polished by
+moves between routes (tail exchange, relocate, swap) and searched again. A candidate is kept if it is within a threshold
 of the best plan's objective; the threshold shrinks to zero as the budget is spent, so the
 search wanders early and intensifies late. Acceptance uses no exp() or pow(): with an
 iteration budget the search is a pure function of its inputs on every IEEE machine.
@@ -17,6 +18,7 @@ import numpy as np
 
 from hfc_core.best.exchange import replace_improve
 from hfc_core.best.insert import EXPONENTS, fill
+from hfc_core.best.inter import improve_between
 from hfc_core.best.intra import improve_route
 from hfc_core.best.ruin import RUIN_OPERATORS
 from hfc_core.best.state import State
@@ -39,6 +41,9 @@ class SearchParams:
     restart: int = 300  # iterations without a better plan before a run ends
     explore: float = 0.7  # share of the budget in which a run ending starts a fresh one
     relocate: bool = True  # replace moves may move the task they take out to another route
+    # Candidates within this share of the run's best below the acceptance line are polished
+    # with inter-route moves (`inter`: 2-opt*, relocate, swap) and searched again; None: never.
+    polish: float | None = 0.01
 
     def __post_init__(self) -> None:
         if self.ruin_max < 1:
@@ -53,6 +58,8 @@ class SearchParams:
             raise ValueError(f"noise levels must be in [0, 1), got {self.noise_levels}")
         if self.segment < 1 or self.restart < 1:
             raise ValueError("segment and restart must be >= 1")
+        if self.polish is not None and not 0 <= self.polish <= 1:
+            raise ValueError(f"polish must be None or in [0, 1], got {self.polish}")
 
 
 def shorten(state: State, vehicles: list[int]) -> bool:
@@ -99,6 +106,17 @@ def local_search(
         if not changed:
             break
     return state
+
+
+def polish(state: State, rng: np.random.Generator, relocate: bool = False) -> State:
+    """Inter-route moves (`inter`) and, if any changed a route, search again from there."""
+    before = state.copy()
+    swapped = improve_between(state)
+    if not swapped:
+        return state
+    shorten(state, swapped)
+    fill(state, rng)
+    return local_search(state, before, rng, relocate=relocate)
 
 
 class _Roulette:
@@ -164,6 +182,10 @@ def search(
         candidate = recreate(destroyed, current, rng, params.noise_levels[level], params.relocate)
         cand_obj = candidate.objective(tie)
         spent = progress(stop, iteration)
+        line = run_obj - params.threshold * abs(run_obj) * (1.0 - spent)
+        if params.polish is not None and cand_obj >= line - params.polish * abs(run_obj):
+            candidate = polish(candidate, rng, params.relocate)
+            cand_obj = candidate.objective(tie)
         iteration, stale = iteration + 1, stale + 1
         if cand_obj > best_obj + 1e-12:
             best, best_obj = candidate.copy(), cand_obj
@@ -172,7 +194,7 @@ def search(
             outcome, run_obj, stale = 0, cand_obj, 0
         elif cand_obj > current_obj + 1e-12:
             outcome = 1
-        elif cand_obj >= run_obj - params.threshold * abs(run_obj) * (1.0 - spent):
+        elif cand_obj >= line:
             outcome = 2
         else:
             outcome = 3

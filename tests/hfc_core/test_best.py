@@ -88,7 +88,7 @@ def test_best_keeps_every_route_within_budget_under_a_time_limit():
 
 
 @pytest.mark.parametrize("bad", [{"ruin_max": 0}, {"threshold": 1.5}, {"noise_levels": (-0.1,)},
-                                 {"restart": 0}, {"ruin_share": 0.0}])
+                                 {"restart": 0}, {"ruin_share": 0.0}, {"polish": -0.1}])
 def test_search_params_validate_themselves(bad):
     with pytest.raises(ValueError):
         SearchParams(**bad)
