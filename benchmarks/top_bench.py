@@ -105,8 +105,9 @@ def main(time_limit_s: float, names: list[str] | None, solvers: list[str], seed:
     rows: list[list[object]] = []
     gaps: dict[str, list[float]] = {s: [] for s in solvers}
     repairs: dict[str, list[bool]] = {s: [] for s in solvers}
+    problems = {inst.name: inst.problem() for inst in chosen}
     for inst in chosen:
-        problem = inst.problem()
+        problem = problems[inst.name]
         row: list[object] = [inst.name, problem.n_tasks, problem.n_vehicles, inst.bks]
         for s in solvers:
             got, fixed = score(problem, raw[(s, inst.name)]["routes"])
@@ -133,7 +134,7 @@ def main(time_limit_s: float, names: list[str] | None, solvers: list[str], seed:
     if more and shared:
         per_seed = [[gaps["best"][j] for j in shared]]
         for k in range(1, best_seeds):
-            per_seed.append([gap_pct(score(chosen[j].problem(),
+            per_seed.append([gap_pct(score(problems[chosen[j].name],
                                            raw_more[("best", chosen[j].name, seed + k)]["routes"])[0],
                                      chosen[j].bks) for j in shared])
         means = [mean(g) for g in per_seed]

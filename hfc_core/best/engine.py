@@ -3,9 +3,9 @@
 Each iteration ruins the current plan with one destroy operator (chosen by roulette over
 adaptive weights), repairs it by greedy insertion, shortens the changed routes (2-opt, or-opt)
 and inserts again into the time that frees. A candidate close to acceptance is polished by
-moves between routes (tail exchange, relocate, swap) and searched again. A candidate is kept if it is within a threshold
-of the best plan's objective; the threshold shrinks to zero as the budget is spent, so the
-search wanders early and intensifies late. Acceptance uses no exp() or pow(): with an
+moves between routes (tail exchange, relocate, swap) and searched again. A candidate is kept
+if it is within a threshold of the best plan's objective; the threshold shrinks to zero as the
+budget is spent, so the search wanders early and intensifies late. Acceptance uses no exp() or pow(): with an
 iteration budget the search is a pure function of its inputs on every IEEE machine.
 """
 

@@ -47,15 +47,9 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
         return []
     state.refresh()
     stack, which = inst.stacked()
-    lengths = [len(r) for r in state.routes]
-    terms = [state.nodes(v) for v in range(inst.k)]
-    cur = np.concatenate([t[1:-1] for t in terms])
+    cur, owner, index, before, after = state.positions()
     row, w = _pairs(state, cur, free)
-    veh = np.repeat(np.arange(inst.k), lengths)[row]
-    idx = np.concatenate([np.arange(n) for n in lengths])[row]
-    prev = np.concatenate([t[:-2] for t in terms])[row]
-    nxt = np.concatenate([t[2:] for t in terms])[row]
-    u = cur[row]
+    veh, idx, prev, nxt, u = owner[row], index[row], before[row], after[row], cur[row]
     if len(stack) == 1:  # every vehicle the same travel times (the usual case): plain lookups
         time = stack[0]
         saving_s = time[prev, u] + time[u, nxt] - time[prev, nxt] + inst.service_s[u]
@@ -73,7 +67,6 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
     dest = np.full(len(u), -1, dtype=np.int64)
     if relocate and inst.k > 1:
         room = np.array([state.slack_s(v) for v in range(inst.k)])
-        owner = np.repeat(np.arange(inst.k), lengths)
         extra = state.ins_s[:, cur] + inst.service_s[cur]
         fit_into = (extra <= room[:, None]) & inst.allowed[:, cur]
         fit_into[owner, np.arange(len(cur))] = False  # elsewhere, not its own route

@@ -130,24 +130,13 @@ def _apply(state: State, routes: dict[int, list[int]], tie: float) -> bool:
     return False
 
 
-def _positions(state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Every routed task: (task, vehicle, index in its route, node before, node after)."""
-    terms = [state.nodes(v) for v in range(state.inst.k)]
-    lengths = [len(r) for r in state.routes]
-    return (np.concatenate([t[1:-1] for t in terms]),
-            np.repeat(np.arange(state.inst.k), lengths),
-            np.concatenate([np.arange(n) for n in lengths]),
-            np.concatenate([t[:-2] for t in terms]),
-            np.concatenate([t[2:] for t in terms]))
-
-
 def best_relocate(state: State, tie: float) -> tuple[float, int, int, int, int] | None:
     """The best improving move of one task to another route: (gain, task, from, to, at)."""
     inst = state.inst
     if sum(map(bool, state.routes)) == 0 or inst.clock is not None:
         return None
     state.refresh()
-    task, veh, _, prev, nxt = _positions(state)
+    task, veh, _, prev, nxt = state.positions()
     stack, which = inst.stacked()
     c = which[veh]
     saving = (stack[c, prev, task] + stack[c, task, nxt] - stack[c, prev, nxt]
@@ -171,13 +160,12 @@ def best_swap(state: State, tie: float) -> tuple[float, int, int, int, int] | No
     inst = state.inst
     if sum(map(bool, state.routes)) < 2 or inst.clock is not None:
         return None
-    task, veh, idx, prev, nxt = _positions(state)
+    task, veh, idx, prev, nxt = state.positions()
     stack, which = inst.stacked()
-    c = which[veh]
+    c = which[veh][:, None]  # the travel times of the route receiving
     # put[x, y]: time of route veh[x] with task y in task x's place, minus its time now
-    ca, cb = c[:, None], c[:, None]
-    put = (stack[ca, prev[:, None], task[None, :]] + stack[cb, task[None, :], nxt[:, None]]
-           - stack[ca, prev[:, None], task[:, None]] - stack[cb, task[:, None], nxt[:, None]]
+    put = (stack[c, prev[:, None], task[None, :]] + stack[c, task[None, :], nxt[:, None]]
+           - stack[c, prev[:, None], task[:, None]] - stack[c, task[:, None], nxt[:, None]]
            + inst.service_s[task][None, :] - inst.service_s[task][:, None])
     worth = inst.value[veh[:, None], task[None, :]] - inst.value[veh, task][:, None]
     times = np.array([state.time_s(v) for v in range(inst.k)])

@@ -100,6 +100,17 @@ class State:
     def feasible(self) -> bool:
         return all(self.fits(v) for v in range(self.inst.k))
 
+    def positions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Every routed task, route after route: (task, its vehicle, its index in the route,
+        the node before it, the node after it; terminals included)."""
+        terms = [self.nodes(v) for v in range(self.inst.k)]
+        lengths = [len(r) for r in self.routes]
+        return (np.concatenate([t[1:-1] for t in terms]),
+                np.repeat(np.arange(self.inst.k), lengths),
+                np.concatenate([np.arange(n) for n in lengths]),
+                np.concatenate([t[:-2] for t in terms]),
+                np.concatenate([t[2:] for t in terms]))
+
     # --- edits ---------------------------------------------------------------------------
     def set_route(self, v: int, route: list[int]) -> None:
         """Replace route ``v`` (its tasks must be unassigned or already its own)."""

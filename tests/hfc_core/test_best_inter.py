@@ -6,12 +6,21 @@ import numpy as np
 import pytest
 
 from hfc_core.best.instance import instance_from_problem
-from hfc_core.best.inter import (best_relocate, best_swap, best_tail_swap, improve_between,
-                                   swap_tails)
+from hfc_core.best.inter import (EPS_S, best_relocate, best_swap, best_tail_swap,
+                                   improve_between, swap_tails)
 from hfc_core.best.state import State
 from hfc_core.problem import Problem, Task, Vehicle
 
 from tests.hfc_core.test_best import random_problem
+
+
+def assert_best_move(move: tuple | None, best_gain: float, tie: float) -> None:
+    """``move`` (gain first) is the brute-force best, or None when nothing gains more than
+    rounding (`inter.EPS_S` seconds of tie-weighted time)."""
+    if best_gain <= tie * EPS_S:
+        assert move is None
+    else:
+        assert move is not None and move[0] == pytest.approx(best_gain, rel=1e-9, abs=1e-12)
 
 
 def brute_force(state: State, a: int, b: int, tie: float) -> float:
@@ -46,11 +55,7 @@ def test_the_numpy_evaluation_finds_the_brute_force_best_exchange(seed):
     assert state.feasible()
     tie = inst.tie_weight()
     expected = brute_force(state, 0, 1, tie)
-    move = best_tail_swap(state, 0, 1, tie)
-    if expected <= tie * 1e-6:
-        assert move is None
-    else:
-        assert move is not None and move[0] == pytest.approx(expected, rel=1e-9, abs=1e-12)
+    assert_best_move(best_tail_swap(state, 0, 1, tie), expected, tie)
 
 
 def test_crossing_routes_are_uncrossed_and_the_saving_kept():
@@ -128,11 +133,7 @@ def test_relocate_finds_the_brute_force_best_move(seed):
                     gain = _gain(state, routes, tie)
                     if gain is not None:
                         best = max(best, gain)
-    move = best_relocate(state, tie)
-    if best <= tie * 1e-6:
-        assert move is None
-    else:
-        assert move is not None and move[0] == pytest.approx(best, rel=1e-9)
+    assert_best_move(best_relocate(state, tie), best, tie)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -149,11 +150,7 @@ def test_swap_finds_the_brute_force_best_move(seed):
                     gain = _gain(state, routes, tie)
                     if gain is not None:
                         best = max(best, gain)
-    move = best_swap(state, tie)
-    if best <= tie * 1e-6:
-        assert move is None
-    else:
-        assert move is not None and move[0] == pytest.approx(best, rel=1e-9)
+    assert_best_move(best_swap(state, tie), best, tie)
 
 
 @pytest.mark.parametrize("seed", range(4))
