@@ -9,6 +9,8 @@
   ours) win and the taken spots leave the route at once (`sync_route`). Its own spots are
   never dropped to make room for taken ones;
 - cooperation, the paper's operator online: with spare battery, claim free spots that fit;
+  in a dynamic mission a free find is weighed against the route's predicted spots even
+  without spare battery;
 - the route kept true to what the vehicle knows: only spots it holds and nobody cleared,
   held spots folded in, within battery; whatever it holds but will not treat is released.
 
@@ -94,11 +96,17 @@ class Decisions:
         self.next_coop_s = now + cfg.coop_period_s
         if self.fleet.dynamic is not None and not cfg.discovery:
             return  # --no-discovery: the time empty spots free is not reallocated
-        slack = self.vehicle.slack_s(cfg.battery_reserve_s)
-        if slack < cfg.coop_min_slack_s:
-            return
         free = know.free_spots(now)
-        if not free or not detour_fits(self.vehicle, free, slack):
+        if not free:
+            return
+        # A find may be worth more than a predicted spot on the route (worth only what it is
+        # expected to hold): the replanner weighs it even when no detour fits the slack. A
+        # vehicle whose plan fills its battery would otherwise pass an aggregation it just saw.
+        beliefs = know.beliefs
+        finds = beliefs is not None and any(t >= beliefs.n for t in free)
+        slack = self.vehicle.slack_s(cfg.battery_reserve_s)
+        if not finds and (slack < cfg.coop_min_slack_s
+                          or not detour_fits(self.vehicle, free, slack)):
             return
         self.count("replans")
         mine = cooperation_route(know.planner, live_self(self.vehicle),

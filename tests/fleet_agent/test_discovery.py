@@ -185,6 +185,24 @@ def test_three_vehicles_seeing_one_aggregation_at_once_treat_it_once():
     assert r.report["fleet"]["duplicate_treatments"] == 0
 
 
+def test_a_rich_find_is_taken_even_by_vehicles_without_spare_battery():
+    # With a slack threshold no vehicle ever reaches, only a find can open the cooperation
+    # operator: a full plan must not make a vehicle pass the aggregation it has just seen.
+    doc = small_doc()
+    start = doc["vehicles"][0]["start"]
+    doc["truth"]["p_detect"] = 1.0
+    doc["truth"]["spots"].append({"pos": [start[0] + 10.0, start[1] + 5.0, 0.0],
+                                  "priority": 99.0, "service_s": 30.0, "task": None})
+    problem = problem_from_dict(doc)
+    reef = reef_from_doc(doc, problem)
+    r = simulate(problem, AgentConfig(coop_min_slack_s=1e9), seed=2, reef=reef)
+    new = len(reef.spots) - 1
+    assert [d["spot"] for d in r.report["dynamic"]["treated"]].count(new) == 1
+    first = next(e for e in r.events if e.kind == "claim")
+    assert first.t_s < 60.0  # at the first look after the find settled, not once slack frees
+    assert r.report["fleet"]["duplicate_treatments"] == 0
+
+
 def test_a_restarted_agent_gets_its_finds_back_and_heads_for_the_one_it_was_going_to(fleet):
     from fleet_agent.records import Checkpoint, FoundSpot, Start
 
