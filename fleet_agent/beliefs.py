@@ -270,7 +270,7 @@ class Beliefs:
         if self._planner is None:
             cfg = self.config
             self._planner = Planner(self.problem, self.seed, cfg.plan_iterations,
-                                    cfg.replan_iterations)
+                                    cfg.replan_iterations, cfg.battery_reserve_s)
         return self._planner
 
     def _build(self) -> Problem:

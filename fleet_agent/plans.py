@@ -29,9 +29,14 @@ class Live:
 
 
 class Planner:
+    """Plans for the battery less ``reserve_s`` (the agent's `battery_reserve_s`): every route
+    it returns reaches the rendezvous with that margin, so fitting a fresh plan to the battery
+    (`fleet_agent.vehicle.fit_route`) drops nothing."""
+
     def __init__(self, problem: Problem, seed: int, plan_iterations: int,
-                 replan_iterations: int) -> None:
+                 replan_iterations: int, reserve_s: float = 0.0) -> None:
         self.problem = problem
+        self.reserve_s = float(reserve_s)
         self.seed = seed
         self.plan_iterations = plan_iterations
         self.replan_iterations = replan_iterations
@@ -45,13 +50,8 @@ class Planner:
         if self._initial is None:
             from hfc_core.solve import solve
 
-            # Polishing (`SearchParams.polish`) stays off here. It packs routes tighter: on
-            # seed 0 of the paper preset auv2's polished route takes 3599.45 s of 3600, which
-            # the fleet's battery reserve (1 s) does not fit, because this plan is made for
-            # the whole battery. The mending is to plan for the battery less the reserve; that
-            # changes every fleet figure, so it waits (issue 16's note).
-            result = solve(self.problem, "best", max_iterations=self.plan_iterations,
-                           seed=self.seed, polish=None)
+            result = solve(self.problem.with_reserve(self.reserve_s), "best",
+                           max_iterations=self.plan_iterations, seed=self.seed)
             self._initial = tuple(tuple(int(t) for t in r) for r in result.plan.routes)
         return self._initial
 
@@ -68,7 +68,7 @@ class Planner:
         p = self.problem
         tid = [t.id for t in p.tasks]
         vid = [v.id for v in p.vehicles]
-        live = [LiveVehicle(vid[v.index], tuple(v.pos), float(v.battery_s),
+        live = [LiveVehicle(vid[v.index], tuple(v.pos), max(0.0, v.battery_s - self.reserve_s),
                             route=tuple(tid[t] for t in v.route),
                             locked=tuple(tid[t] for t in v.locked)) for v in vehicles]
         routes = replan(p, live, cleared=tuple(tid[t] for t in sorted(unavailable)),

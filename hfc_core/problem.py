@@ -15,7 +15,7 @@ during the mission). With forbidden polygons the matrix holds shortest paths aro
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
@@ -258,6 +258,21 @@ class Problem:
 
     def route_priority(self, route: Sequence[int]) -> float:
         return float(self.priority[list(route)].sum()) if len(route) else 0.0
+
+    def with_reserve(self, reserve_s: float) -> "Problem":
+        """This problem with ``reserve_s`` kept back from every vehicle's battery: what a
+        fleet that must reach the rendezvous with that margin plans for. The matrices are
+        shared (a smaller budget stays inside the current's time horizon)."""
+        reserve = _finite(reserve_s, "reserve_s")
+        if reserve < 0:
+            raise ScenarioError(f"reserve_s must be >= 0, got {reserve}")
+        if reserve == 0:
+            return self
+        short = [v.id for v in self.vehicles if v.battery_s <= reserve]
+        if short:
+            raise ScenarioError(f"reserve_s {reserve} leaves no battery to {', '.join(short)}")
+        vehicles = tuple(replace(v, battery_s=v.battery_s - reserve) for v in self.vehicles)
+        return replace(self, vehicles=vehicles)
 
 
 def _require_way_home(travel: "Travel", xyz: np.ndarray, n: int, vehicles: Sequence[Vehicle],

@@ -292,7 +292,8 @@ class InProcessBackend:
             locked = (v.injecting,) if v.injecting is not None else ()
             live.append(Live(a.index, tuple(v.pos), v.battery_left_s(now), tuple(v.route),
                              locked))
-        planner = Planner(self.problem, self.seed, 0, self.oracle_iterations)
+        planner = Planner(self.problem, self.seed, 0, self.oracle_iterations,
+                          self.config.battery_reserve_s)
         routes = planner.replan(live, cleared, {}, seed=self.seed) if live else {}
         priority = sum(float(self.problem.priority[t]) for r in routes.values() for t in r)
         self.oracle = {"vid": vid, "t_s": now, "priority": priority,

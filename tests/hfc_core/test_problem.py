@@ -99,3 +99,16 @@ def test_top_reader_maps_start_end_and_ids(top_dir):
 def test_top_reader_rejects_malformed_files(text, message):
     with pytest.raises(ScenarioError, match=message):
         parse_top(text)
+
+
+def test_with_reserve_keeps_the_margin_back_from_every_battery():
+    p = problem_from_dict(small_doc())
+    q = p.with_reserve(2.5)
+    assert [v.battery_s for v in q.vehicles] == [97.5, 47.5]
+    assert q.dist_m is p.dist_m and q.travel_s[0] is p.travel_s[0]  # matrices shared
+    assert p.vehicles[0].battery_s == 100  # the original is untouched
+    assert p.with_reserve(0.0) is p
+    with pytest.raises(ScenarioError, match="leaves no battery to b"):
+        p.with_reserve(50.0)
+    with pytest.raises(ScenarioError, match="reserve_s must be >= 0"):
+        p.with_reserve(-1.0)

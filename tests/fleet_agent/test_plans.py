@@ -1,0 +1,52 @@
+"""The agent's planner plans for the battery less the reserve the vehicle keeps."""
+
+import pytest
+
+from fleet_agent.config import AgentConfig
+from fleet_agent.plans import Live, Planner
+from fleet_agent.vehicle import Vehicle, fit_route, path_function
+from hfc_core.feasibility import fits
+from hfc_core.generate import paper_preset_doc
+from hfc_core.scenario import problem_from_dict
+
+RESERVE_S = AgentConfig().battery_reserve_s
+
+
+@pytest.fixture(scope="module")
+def problem():
+    # Seed 0 of the paper preset: planned for the whole battery, auv2's route takes
+    # 3599.45 s of 3600, which the 1 s reserve does not fit.
+    return problem_from_dict(paper_preset_doc(0))
+
+
+def test_the_initial_plan_fits_with_the_reserve_so_fitting_drops_nothing(problem) -> None:
+    cfg = AgentConfig()
+    planner = Planner(problem, 0, cfg.plan_iterations, cfg.replan_iterations, RESERVE_S)
+    paths = path_function(problem)
+    for v, route in enumerate(planner.initial_routes()):
+        battery = problem.vehicles[v].battery_s
+        assert fits(problem.route_time_s(v, route), battery - RESERVE_S), v
+        vehicle = Vehicle(problem, v, paths)
+        vehicle.set_route(list(route))
+        assert fit_route(vehicle, list(route), RESERVE_S) == list(route)
+
+
+def test_without_the_reserve_the_plan_is_tighter_than_the_vehicle_flies(problem) -> None:
+    # The case that made the fleet fit (and drop a spot from) its own fresh plan: planned for
+    # the whole battery, a route ends less than the reserve before it runs out.
+    cfg = AgentConfig()
+    planner = Planner(problem, 0, cfg.plan_iterations, cfg.replan_iterations)
+    slack = [problem.vehicles[v].battery_s - problem.route_time_s(v, r)
+             for v, r in enumerate(planner.initial_routes())]
+    assert min(slack) < RESERVE_S
+
+
+def test_replans_leave_the_reserve_too(problem) -> None:
+    live = [Live(v, problem.vehicles[v].start, 2000.0) for v in range(2)]
+    full = Planner(problem, 0, 0, 150).replan(live, frozenset(), {}, seed=3)
+    kept = Planner(problem, 0, 0, 150, reserve_s=60.0).replan(live, frozenset(), {}, seed=3)
+    # Planned for the whole 2000 s a route ends within the 60 s; with the reserve none does.
+    assert min(2000.0 - problem.route_time_s(v, r) for v, r in full.items()) < 60.0
+    assert all(kept.values())
+    for v, route in kept.items():
+        assert fits(problem.route_time_s(v, route), 2000.0 - 60.0), v
