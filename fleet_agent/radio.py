@@ -13,11 +13,14 @@ order. `Radio.choose` picks one message per slot, most urgent first:
    ``watch_every_cycles`` slots (keeping watch: its heard codes confirm silences) or silence;
 3. an ABORT it passes on (news of another vehicle's abort, once);
 4. a POSE if the last one is ``pose_every_cycles`` slots old (the heartbeat);
-5. a new find of this vehicle (dynamic missions): FOUND, ``find_repeats`` times;
+5. a new find of this vehicle (dynamic missions): its first FOUND;
 6. a segment of the cleared set owed to a peer that claimed a spot in it we know is cleared,
    then pending CLAIM/RELEASE entries, oldest first, each ``claim_repeats`` times (spots
    cleared meanwhile are left out; an entry with nothing left is dropped); a claim a peer
    contests by claiming the spot later is queued again (`Agent._contest`);
+6a. the repeats of new finds' FOUND (``find_repeats`` in all). After the first, a find's
+   repeats wait for the claims: two finds in a row once held a claim back for 90 s, time
+   enough for a peer to claim the same find and treat it too;
 6b. the finds' anti-entropy (dynamic missions; ahead of 6 when it has waited two refresh
    periods, so claims cannot starve it): every known find once when a peer's FOUND shows a
    digest unlike ours and a count not above ours (it may lack some), one find when its count
@@ -115,6 +118,7 @@ class Radio:
         self._segment_turn = 0  # rotation over the cleared set's segments, one per push
         self.segments_owed: deque[int] = deque()  # segments a claimant showed it lacks
         self.finds_new: deque[int] = deque()  # slots of new own finds, one entry per send
+        self._finds_sent: set[int] = set()  # new finds announced once (at most the own slots)
         self.finds_owed: deque[int] = deque()  # finds a peer may lack, to push once each
         self.finds_mismatch = False  # a peer's finds digest differs from ours
         self._last_found_refresh_slot = 0
@@ -200,10 +204,9 @@ class Radio:
         if self.since_pose >= cfg.pose_every_cycles:
             return self._pose(now, vehicle, know, heard)
         beliefs = know.beliefs
-        while beliefs is not None and self.finds_new:
-            slot_no = self.finds_new.popleft()
-            if slot_no in beliefs.finds:
-                return self._found(now, know, heard, slot_no)
+        first = self._new_find(now, know, heard, repeats=False)
+        if first is not None:
+            return first
         # Claims first (a late claim is how two vehicles come to treat one spot), unless the
         # finds' anti-entropy has waited two refresh periods: it must not starve either.
         starving = self.slot_no - self._last_found_refresh_slot >= 2 * cfg.find_refresh_cycles
@@ -219,6 +222,9 @@ class Radio:
                 self.holdings.popleft()
             if tasks:
                 return entry.cls(me, self.next_seq(now), entry.t_s, tasks, heard)
+        repeat = self._new_find(now, know, heard, repeats=True)
+        if repeat is not None:
+            return repeat
         slot = self.slot_no  # the slot after the one taken: rotation and refresh clocks
         if beliefs is not None and beliefs.finds and (
                 self.finds_owed or self.finds_mismatch
@@ -243,6 +249,22 @@ class Radio:
                 entry = self.holdings.popleft()
                 return entry.cls(me, self.next_seq(now), entry.t_s, entry.tasks, heard)
         return self._pose(now, vehicle, know, heard)
+
+    def _new_find(self, now: float, know: Knowledge, heard: Heard, repeats: bool
+                  ) -> Found | None:
+        """The next FOUND owed for a new own find: only a first announcement unless
+        ``repeats`` (the repeats come after pending claims)."""
+        beliefs = know.beliefs
+        if beliefs is None:
+            return None
+        for slot_no in list(self.finds_new):
+            if slot_no not in beliefs.finds:
+                self.finds_new.remove(slot_no)
+            elif repeats or slot_no not in self._finds_sent:
+                self.finds_new.remove(slot_no)
+                self._finds_sent.add(slot_no)
+                return self._found(now, know, heard, slot_no)
+        return None
 
     def _watch(self, now: float, vehicle: Vehicle, know: Knowledge, heard: Heard) -> Pose | None:
         """Out of the mission, announcements done: a pose now and then, if keeping watch."""

@@ -203,6 +203,32 @@ def test_a_rich_find_is_taken_even_by_vehicles_without_spare_battery():
     assert r.report["fleet"]["duplicate_treatments"] == 0
 
 
+def test_a_claim_goes_out_after_each_find_is_announced_once_and_before_the_repeats(fleet):
+    # Two finds in a row used to fill six slots with FOUND (three each) while the claim on the
+    # first waited: 90 s in which a peer claimed the same find, missed ours, and treated it too.
+    from fleet_agent.wire import Claim
+
+    agent = Agent(fleet, 1, CONFIG, now=100.0)
+    b, radio = agent.know.beliefs, agent.radio
+    slots = []
+    for k in range(2):
+        slot = b.own_slot()
+        assert b.add_find(slot, off_map(fleet, k), 50.0, 60.0, 100.0)
+        radio.finds_new.extend([slot] * CONFIG.find_repeats)
+        slots.append(slot)
+    radio.holdings.clear()
+    radio.queue_holding(True, 120, [slots[0]])
+    radio._last_found_refresh_slot = radio.slot_no  # the finds' anti-entropy is not due
+    sent = []
+    for i in range(2 * CONFIG.find_repeats + CONFIG.claim_repeats):
+        radio.since_pose = 0  # not the heartbeat's turn
+        msg = radio.choose(130.0 + i, agent.vehicle, agent.know)
+        sent.append(("claim", msg.tasks) if isinstance(msg, Claim) else ("found", msg.slot))
+    claims = [("claim", (slots[0],))] * CONFIG.claim_repeats
+    repeats = [("found", s) for s in slots for _ in range(CONFIG.find_repeats - 1)]
+    assert sent == [("found", slots[0]), ("found", slots[1]), *claims, *repeats]
+
+
 def test_a_restarted_agent_gets_its_finds_back_and_heads_for_the_one_it_was_going_to(fleet):
     from fleet_agent.records import Checkpoint, FoundSpot, Start
 
