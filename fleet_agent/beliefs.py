@@ -165,6 +165,10 @@ class Beliefs:
         self._changed()
         return True
 
+    def finder(self, slot: int) -> int:
+        """The vehicle that named find ``slot`` (slots are handed out per finder)."""
+        return (slot - self.n) // self.cap
+
     def own_slot(self) -> int | None:
         """The next slot this vehicle may name, or None (all used: counted)."""
         if self.own_found >= self.cap:

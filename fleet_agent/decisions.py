@@ -9,8 +9,8 @@
   ours) win and the taken spots leave the route at once (`sync_route`). Its own spots are
   never dropped to make room for taken ones;
 - cooperation, the paper's operator online: with spare battery, claim free spots that fit;
-  in a dynamic mission a free find is weighed against the route's predicted spots even
-  without spare battery;
+  in a dynamic mission its finder weighs a free find against the route's predicted spots
+  even without spare battery;
 - the route kept true to what the vehicle knows: only spots it holds and nobody cleared,
   held spots folded in, within battery; whatever it holds but will not treat is released.
 
@@ -100,10 +100,14 @@ class Decisions:
         if not free:
             return
         # A find may be worth more than a predicted spot on the route (worth only what it is
-        # expected to hold): the replanner weighs it even when no detour fits the slack. A
-        # vehicle whose plan fills its battery would otherwise pass an aggregation it just saw.
+        # expected to hold): its finder weighs it even when no detour fits the slack, or a
+        # vehicle whose plan fills its battery would pass an aggregation it has just seen.
+        # Only the finder: every vehicle that hears of a find is told to look when it has
+        # settled, and claims made in the same cycle race; under loss the loser may never
+        # hear it lost (duplicates in benchmarks/dynamic.py at 30 % loss when all looked).
         beliefs = know.beliefs
-        finds = beliefs is not None and any(t >= beliefs.n for t in free)
+        finds = beliefs is not None and any(
+            t >= beliefs.n and beliefs.finder(t) == know.index for t in free)
         slack = self.vehicle.slack_s(cfg.battery_reserve_s)
         if not finds and (slack < cfg.coop_min_slack_s
                           or not detour_fits(self.vehicle, free, slack)):
