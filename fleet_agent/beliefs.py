@@ -274,7 +274,8 @@ class Beliefs:
         if self._planner is None:
             cfg = self.config
             self._planner = Planner(self.problem, self.seed, cfg.plan_iterations,
-                                    cfg.replan_iterations, cfg.battery_reserve_s)
+                                    cfg.replan_iterations, cfg.battery_reserve_s,
+                                    cfg.plan_polish)
         return self._planner
 
     def _build(self) -> Problem:

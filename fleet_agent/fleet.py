@@ -46,7 +46,8 @@ class Fleet:
         if camera is not None:
             return Fleet._build_dynamic(problem, key, seed, config, run_id, camera)
         planner = planner or Planner(problem, seed, config.plan_iterations,
-                                     config.replan_iterations, config.battery_reserve_s)
+                                     config.replan_iterations, config.battery_reserve_s,
+                                     config.plan_polish)
         return Fleet(problem, Codec.for_problem(problem, key, run_id), planner, path_function(problem),
                      seed, planner.initial_routes())
 
@@ -58,10 +59,11 @@ class Fleet:
 
         expected = expected_problem(scenario, camera, config.p_cots)
         routes = Planner(expected, seed, config.plan_iterations,
-                         config.replan_iterations, config.battery_reserve_s).initial_routes()
+                         config.replan_iterations, config.battery_reserve_s,
+                         config.plan_polish).initial_routes()
         working = initial_working_problem(scenario, camera, config)
         planner = Planner(working, seed, config.plan_iterations, config.replan_iterations,
-                          config.battery_reserve_s)
+                          config.battery_reserve_s, config.plan_polish)
         codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
                                   found_from=scenario.n_tasks)
         return Fleet(working, codec, planner, path_function(working), seed, routes,

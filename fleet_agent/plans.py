@@ -34,9 +34,10 @@ class Planner:
     (`fleet_agent.vehicle.fit_route`) drops nothing."""
 
     def __init__(self, problem: Problem, seed: int, plan_iterations: int,
-                 replan_iterations: int, reserve_s: float = 0.0) -> None:
+                 replan_iterations: int, reserve_s: float = 0.0, polish: bool = True) -> None:
         self.problem = problem
         self.reserve_s = float(reserve_s)
+        self.polish = polish  # polish the initial plan (`AgentConfig.plan_polish`)
         self.seed = seed
         self.plan_iterations = plan_iterations
         self.replan_iterations = replan_iterations
@@ -51,7 +52,8 @@ class Planner:
             from hfc_core.solve import solve
 
             result = solve(self.problem.with_reserve(self.reserve_s), "best",
-                           max_iterations=self.plan_iterations, seed=self.seed)
+                           max_iterations=self.plan_iterations, seed=self.seed,
+                           **({} if self.polish else {"polish": None}))
             self._initial = tuple(tuple(int(t) for t in r) for r in result.plan.routes)
         return self._initial
 

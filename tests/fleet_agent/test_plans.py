@@ -50,3 +50,19 @@ def test_replans_leave_the_reserve_too(problem) -> None:
     assert all(kept.values())
     for v, route in kept.items():
         assert fits(problem.route_time_s(v, route), 2000.0 - 60.0), v
+
+
+def test_plan_polish_off_gives_the_unpolished_plan_within_the_reserve(problem) -> None:
+    cfg = AgentConfig()
+    polished = Planner(problem, 0, cfg.plan_iterations, cfg.replan_iterations, RESERVE_S)
+    plain = Planner(problem, 0, cfg.plan_iterations, cfg.replan_iterations, RESERVE_S,
+                    polish=False)
+    assert plain.initial_routes() != polished.initial_routes()
+    for v, route in enumerate(plain.initial_routes()):
+        assert fits(problem.route_time_s(v, route), problem.vehicles[v].battery_s - RESERVE_S)
+
+
+def test_plan_polish_must_be_a_boolean() -> None:
+    assert AgentConfig(plan_polish=False).plan_polish is False
+    with pytest.raises(ValueError, match="plan_polish must be true or false"):
+        AgentConfig(plan_polish="no")  # type: ignore[arg-type]
