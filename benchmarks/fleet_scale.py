@@ -182,6 +182,7 @@ def _sid(pid: int) -> int | None:
 
 
 def main(seed: int, quick: bool) -> int:
+    load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="fleet_scale-") as tmp:
         workdir = Path(tmp)
         a = in_process(workdir, seed, quick)
@@ -224,8 +225,11 @@ def main(seed: int, quick: bool) -> int:
          f"{len(b['left']) + len(b['left_in_session'])}", "- / 0"],
     ]
     head = ["figure", "measured", "target"]
-    body = (f"Seed {seed}, default agent and channel settings, measured while other developers' "
-            f"work loaded the same 2-core machine (wall times are upper bounds).\n\n"
+    load = os.getloadavg()
+    body = (f"Seed {seed}, default agent and channel settings. Load average (1 min) "
+            f"{load_before:.1f} before the benchmark; {load[0]:.1f} / {load[1]:.1f} / "
+            f"{load[2]:.1f} at its end, its own processes included (part (b) runs 15 on 2 "
+            f"cores).\n\n"
             f"**(a)** `cotsfleet scenario --vehicles 24 --spots 600 --area-m 3000 --battery-s "
             f"7200`, in process with `--kill auv7@3000` (the whole 7200 s mission); "
             f"centralized `cotsfleet plan --mode best --time-limit 20`. Detection counts "
