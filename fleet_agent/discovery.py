@@ -100,7 +100,7 @@ class Discovery:
         self.a.count("finds")
         self.a.decide.dirty = True
         out.record(FoundSpot(now, slot, pos, rho, service, durable=True))
-        self.a.radio.finds_new.extend([slot] * self.a.config.find_repeats)
+        self.a.radio.queue_find(slot)
         out.event(now, "found", [slot], detail=f"{self.where(slot)} rho {rho:g}")
 
     def on_found(self, msg: Found, now: float, out: Outputs) -> None:

@@ -118,7 +118,6 @@ class Radio:
         self._segment_turn = 0  # rotation over the cleared set's segments, one per push
         self.segments_owed: deque[int] = deque()  # segments a claimant showed it lacks
         self.finds_new: deque[int] = deque()  # slots of new own finds, one entry per send
-        self._finds_sent: set[int] = set()  # new finds announced once (at most the own slots)
         self.finds_owed: deque[int] = deque()  # finds a peer may lack, to push once each
         self.finds_mismatch = False  # a peer's finds digest differs from ours
         self._last_found_refresh_slot = 0
@@ -250,19 +249,22 @@ class Radio:
                 return entry.cls(me, self.next_seq(now), entry.t_s, entry.tasks, heard)
         return self._pose(now, vehicle, know, heard)
 
+    def queue_find(self, slot: int) -> None:
+        """Announce a new own find ``find_repeats`` times."""
+        self.finds_new.extend([slot] * self.config.find_repeats)
+
     def _new_find(self, now: float, know: Knowledge, heard: Heard, repeats: bool
                   ) -> Found | None:
-        """The next FOUND owed for a new own find: only a first announcement unless
-        ``repeats`` (the repeats come after pending claims)."""
+        """The next FOUND owed for a new own find: only a first announcement (a slot still
+        queued all ``find_repeats`` times) unless ``repeats`` (they come after claims)."""
         beliefs = know.beliefs
         if beliefs is None:
             return None
         for slot_no in list(self.finds_new):
             if slot_no not in beliefs.finds:
                 self.finds_new.remove(slot_no)
-            elif repeats or slot_no not in self._finds_sent:
+            elif repeats or self.finds_new.count(slot_no) == self.config.find_repeats:
                 self.finds_new.remove(slot_no)
-                self._finds_sent.add(slot_no)
                 return self._found(now, know, heard, slot_no)
         return None
 

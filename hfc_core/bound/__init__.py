@@ -118,11 +118,10 @@ def upper_bound(problem: Problem, time_limit_s: float = 90.0, *,
     best = math.fsum(priority[reachable]) + margin  # no plan collects more
     first = box * max(float(priority[reachable].mean()), 1e-9)
     delta = first
-    duals = master.solve()
     center = _time_prices(classes, priority, margin, ng_size, bound_ng, heuristic_pricing)
     center_bound = math.inf
     history: list[tuple[int, float, float, float]] = []
-    iteration, converged, lp = 0, False, duals.value
+    iteration, converged = 0, False
     while True:
         iteration += 1
         box_center, box_delta = center, delta

@@ -33,30 +33,32 @@ class Master:
     priority: np.ndarray
     columns: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
     _seen: set[tuple[int, tuple[int, ...]]] = field(default_factory=set)
+    # The coefficients of every column, made once when it is added (the LP is solved twice
+    # per iteration over thousands of columns): row, column, value triplets and priorities.
+    _rows: list[int] = field(default_factory=list)
+    _cols: list[int] = field(default_factory=list)
+    _vals: list[float] = field(default_factory=list)
+    _value: list[float] = field(default_factory=list)
 
     def add(self, cls: int, route: tuple[int, ...]) -> bool:
         key = (cls, tuple(int(t) for t in route))
         if not key[1] or key in self._seen:
             return False
         self._seen.add(key)
+        j = len(self.columns)
         self.columns.append(key)
+        tasks, counts = np.unique(np.asarray(key[1], dtype=np.int64), return_counts=True)
+        self._rows += [*tasks.tolist(), self.n + cls]
+        self._cols += [j] * (len(tasks) + 1)
+        self._vals += [*counts.astype(float).tolist(), 1.0]
+        self._value.append(float(self.priority[list(key[1])].sum()))
         return True
 
     def _matrix(self) -> tuple[csc_array, np.ndarray]:
         """(n + classes, columns) coefficients and the columns' priorities."""
-        n, k, m = self.n, len(self.sizes), len(self.columns)
-        rows, cols, vals = [], [], []
-        value = np.empty(m)
-        for j, (c, route) in enumerate(self.columns):
-            tasks, counts = np.unique(np.asarray(route, dtype=np.int64), return_counts=True)
-            rows.extend(tasks.tolist())
-            cols.extend([j] * len(tasks))
-            vals.extend(counts.astype(float).tolist())
-            rows.append(n + c)
-            cols.append(j)
-            vals.append(1.0)
-            value[j] = float(self.priority[list(route)].sum())
-        return csc_array((vals, (rows, cols)), shape=(n + k, m)), value
+        shape = (self.n + len(self.sizes), len(self.columns))
+        return (csc_array((self._vals, (self._rows, self._cols)), shape=shape),
+                np.asarray(self._value, dtype=float))
 
     def solve(self, interior: bool = True) -> Duals:
         """Optimum and duals; ``interior``: HiGHS's interior-point method without crossover,

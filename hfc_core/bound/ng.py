@@ -17,7 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 
 MAX_NG = 30  # bits of a local memory (int64 arithmetic, with room to spare)
-NIBBLE_BYTES = 48_000_000  # largest translation table built
 
 
 @dataclass(frozen=True, eq=False)
@@ -28,9 +27,6 @@ class NgSets:
     pos: np.ndarray  # (m, m) pos[l, x]: bit of x in N(l), or -1
     carry: np.ndarray  # (m, k, m) int64: carry[j, b, l] = 1 << pos[l, members[j, b]] or 0
     self_bit: np.ndarray  # (m, m) int64: self_bit[j, l] = 1 << pos[l, j] or 0
-    # (m, q, 16, m): the bits at l of each value of the q-th 4-bit slice of j's memory
-    # (translating memories four bits at a time), or None when too large
-    nibbles: np.ndarray | None = None
 
     @property
     def k(self) -> int:
@@ -45,10 +41,6 @@ class NgSets:
     def moved(self, src: np.ndarray, mask: np.ndarray, dst: np.ndarray) -> np.ndarray:
         """Memory at ``dst`` after moving there from ``src`` with memory ``mask`` (all (L,))."""
         out = self.self_bit[src, dst].copy()
-        if self.nibbles is not None:
-            for q in range(self.nibbles.shape[1]):
-                out |= self.nibbles[src, q, (mask >> (4 * q)) & 15, dst]
-            return out
         for b in range(self.k):
             out |= ((mask >> b) & 1) * self.carry[src, b, dst]
         return out

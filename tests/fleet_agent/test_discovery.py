@@ -214,7 +214,7 @@ def test_a_claim_goes_out_after_each_find_is_announced_once_and_before_the_repea
     for k in range(2):
         slot = b.own_slot()
         assert b.add_find(slot, off_map(fleet, k), 50.0, 60.0, 100.0)
-        radio.finds_new.extend([slot] * CONFIG.find_repeats)
+        radio.queue_find(slot)
         slots.append(slot)
     radio.holdings.clear()
     radio.queue_holding(True, 120, [slots[0]])
