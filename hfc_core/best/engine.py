@@ -18,7 +18,7 @@ import numpy as np
 
 from hfc_core.best.exchange import replace_improve
 from hfc_core.best.insert import EXPONENTS, fill
-from hfc_core.best.inter import improve_between
+from hfc_core.best.inter import PairMemo, improve_between
 from hfc_core.best.intra import improve_route
 from hfc_core.best.ruin import RUIN_OPERATORS
 from hfc_core.best.state import State
@@ -108,10 +108,12 @@ def local_search(
     return state
 
 
-def polish(state: State, rng: np.random.Generator, relocate: bool = False) -> State:
-    """Inter-route moves (`inter`) and, if any changed a route, search again from there."""
+def polish(state: State, rng: np.random.Generator, relocate: bool = False,
+           memo: PairMemo | None = None) -> State:
+    """Inter-route moves (`inter`) and, if any changed a route, search again from there.
+    ``memo``: the search's record of route pairs already evaluated (`inter.PairMemo`)."""
     before = state.copy()
-    swapped = improve_between(state)
+    swapped = improve_between(state, memo=memo)
     if not swapped:
         return state
     shorten(state, swapped)
@@ -173,6 +175,7 @@ def search(
     best, best_obj, run_obj = start.copy(), current_obj, current_obj
     ruins = _Roulette(len(RUIN_OPERATORS), params)
     noises = _Roulette(len(params.noise_levels), params)
+    memo = PairMemo()  # route pairs already evaluated by the polish, across iterations
     iteration = stale = 0
     while not stop.done(iteration):
         op, level = ruins.pick(rng), noises.pick(rng)
@@ -184,7 +187,7 @@ def search(
         spent = progress(stop, iteration)
         line = run_obj - params.threshold * abs(run_obj) * (1.0 - spent)
         if params.polish is not None and cand_obj >= line - params.polish * abs(run_obj):
-            candidate = polish(candidate, rng, params.relocate)
+            candidate = polish(candidate, rng, params.relocate, memo)
             cand_obj = candidate.objective(tie)
         iteration, stale = iteration + 1, stale + 1
         if cand_obj > best_obj + 1e-12:

@@ -154,41 +154,103 @@ def best_relocate(state: State, tie: float) -> tuple[float, int, int, int, int] 
     return float(masked[to, r]), int(task[r]), int(veh[r]), to, int(state.ins_pos[to, task[r]])
 
 
-def best_swap(state: State, tie: float) -> tuple[float, int, int, int, int] | None:
-    """The best improving exchange of one task of a route with one of another, each taking
-    the other's place: (gain, vehicle a, index in a, vehicle b, index in b)."""
+def _swap_pair(state: State, a: int, b: int, tie: float) -> tuple[float, int, int] | None:
+    """The best improving swap of a task of route ``a`` with one of route ``b``: (gain, index
+    in a, index in b)."""
     inst = state.inst
-    if sum(map(bool, state.routes)) < 2 or inst.clock is not None:
+    ra, rb = state.routes[a], state.routes[b]
+    if not ra or not rb:
         return None
-    task, veh, idx, prev, nxt = state.positions()
     stack, which = inst.stacked()
-    c = which[veh][:, None]  # the travel times of the route receiving
-    # put[x, y]: time of route veh[x] with task y in task x's place, minus its time now
-    put = (stack[c, prev[:, None], task[None, :]] + stack[c, task[None, :], nxt[:, None]]
-           - stack[c, prev[:, None], task[:, None]] - stack[c, task[:, None], nxt[:, None]]
-           + inst.service_s[task][None, :] - inst.service_s[task][:, None])
-    worth = inst.value[veh[:, None], task[None, :]] - inst.value[veh, task][:, None]
-    times = np.array([state.time_s(v) for v in range(inst.k)])
-    fit = fits(times[veh][:, None] + put, inst.budget_s[veh][:, None])
-    fit &= inst.allowed[veh[:, None], task[None, :]]
-    gain = worth + worth.T - tie * (put + put.T)
-    ok = fit & fit.T & (veh[:, None] < veh[None, :]) & (gain > tie * EPS_S)
+    na, nb = state.nodes(a), state.nodes(b)
+    ta, pa, xa = na[1:-1], na[:-2], na[2:]
+    tb, pb, xb = nb[1:-1], nb[:-2], nb[2:]
+    ca, cb = which[a], which[b]
+    service = inst.service_s
+    # put_ab[x, y]: time of route a with b's task y in a's task x's place, minus its time now
+    put_ab = (stack[ca, pa[:, None], tb[None, :]] + stack[ca, tb[None, :], xa[:, None]]
+              - stack[ca, pa, ta][:, None] - stack[ca, ta, xa][:, None]
+              + service[tb][None, :] - service[ta][:, None])
+    put_ba = (stack[cb, pb[:, None], ta[None, :]] + stack[cb, ta[None, :], xb[:, None]]
+              - stack[cb, pb, tb][:, None] - stack[cb, tb, xb][:, None]
+              + service[ta][None, :] - service[tb][:, None])  # (Lb, La)
+    worth_ab = inst.value[a, tb][None, :] - inst.value[a, ta][:, None]  # (La, Lb)
+    worth_ba = inst.value[b, ta][None, :] - inst.value[b, tb][:, None]  # (Lb, La)
+    fit_ab = (fits(state.time_s(a) + put_ab, float(inst.budget_s[a]))
+              & inst.allowed[a, tb][None, :])
+    fit_ba = (fits(state.time_s(b) + put_ba, float(inst.budget_s[b]))
+              & inst.allowed[b, ta][None, :])
+    gain = worth_ab + worth_ba.T - tie * (put_ab + put_ba.T)
+    ok = fit_ab & fit_ba.T & (gain > tie * EPS_S)
     if not ok.any():
         return None
     masked = np.where(ok, gain, -np.inf)
-    x, y = divmod(int(masked.argmax()), len(task))
-    return float(masked[x, y]), int(veh[x]), int(idx[x]), int(veh[y]), int(idx[y])
+    i, j = divmod(int(masked.argmax()), masked.shape[1])
+    return float(masked[i, j]), i, j
 
 
-def improve_between(state: State, max_rounds: int = 100) -> list[int]:
+def best_swap(state: State, tie: float, memo: "PairMemo | None" = None
+              ) -> tuple[float, int, int, int, int] | None:
+    """The best improving exchange of one task of a route with one of another, each taking
+    the other's place: (gain, vehicle a, index in a, vehicle b, index in b); of equal gains
+    the first by (a, index in a, b, index in b). Each pair's best is kept in ``memo`` until
+    one of its routes changes."""
+    inst = state.inst
+    if sum(map(bool, state.routes)) < 2 or inst.clock is not None:
+        return None
+    memo = memo or PairMemo()
+    best: tuple[float, int, int, int, int] | None = None
+    for a in range(inst.k):
+        for b in range(a + 1, inst.k):
+            move = memo.get(memo.swaps, state, a, b)
+            if move is PairMemo.MISSING:
+                move = _swap_pair(state, a, b, tie)
+                memo.put(memo.swaps, state, a, b, move)
+            if move is None:
+                continue
+            gain, i, j = move
+            if best is None or gain > best[0] or (gain == best[0] and (a, i, b, j) < best[1:]):
+                best = (gain, a, i, b, j)
+    return best
+
+
+class PairMemo:
+    """What a pair of routes gave, kept while both routes are what they were: the moves are
+    pure functions of the two routes, and a ruin-and-recreate iteration changes few routes of
+    a large fleet, so most pairs need no new evaluation. Keep one per search (per instance)."""
+
+    MISSING = object()
+
+    def __init__(self) -> None:
+        self.tails: dict[tuple[int, int], tuple] = {}  # tail-exchange pairs without a move
+        self.swaps: dict[tuple[int, int], tuple] = {}  # each pair's best swap
+
+    @staticmethod
+    def get(table: dict, state: State, a: int, b: int) -> object:
+        hit = table.get((a, b))
+        if hit is None or hit[0] != state.routes[a] or hit[1] != state.routes[b]:
+            return PairMemo.MISSING
+        return hit[2]
+
+    @staticmethod
+    def put(table: dict, state: State, a: int, b: int, result: object) -> None:
+        # Copies: State.insert edits a route list in place.
+        table[(a, b)] = (list(state.routes[a]), list(state.routes[b]), result)
+
+
+def improve_between(state: State, max_rounds: int = 100, memo: PairMemo | None = None
+                    ) -> list[int]:
     """Tail exchanges, then the best relocation, then the best swap, round after round until
-    a round changes nothing (or ``max_rounds``); returns the vehicles whose routes changed."""
+    a round changes nothing (or ``max_rounds``); returns the vehicles whose routes changed.
+    ``memo``: what pairs of routes gave before (`PairMemo`), kept by the caller across calls
+    on the same instance."""
     if state.inst.clock is not None:  # leg times depend on when they are flown
         return []
     tie = state.inst.tie_weight()
     changed: set[int] = set()
+    memo = memo or PairMemo()
     for _ in range(max_rounds):
-        moved = swap_tails(state)
+        moved = swap_tails(state, memo)
         relocate = best_relocate(state, tie)
         if relocate is not None:
             _, u, a, b, at = relocate
@@ -196,7 +258,7 @@ def improve_between(state: State, max_rounds: int = 100) -> list[int]:
             into.insert(at, u)
             if _apply(state, {a: [x for x in state.routes[a] if x != u], b: into}, tie):
                 moved += [a, b]
-        swap = best_swap(state, tie)
+        swap = best_swap(state, tie, memo)
         if swap is not None:
             _, a, i, b, j = swap
             ra, rb = list(state.routes[a]), list(state.routes[b])
@@ -209,23 +271,32 @@ def improve_between(state: State, max_rounds: int = 100) -> list[int]:
     return sorted(changed)
 
 
-def swap_tails(state: State) -> list[int]:
+def swap_tails(state: State, memo: PairMemo | None = None) -> list[int]:
     """Apply the best improving tail exchange of every pair of routes, pair by pair, until
-    none improves; returns the vehicles whose routes changed."""
+    none improves; returns the vehicles whose routes changed. A pair that had no move is not
+    evaluated again while its routes stay as they were (``memo``): a pass over a large fleet
+    costs the pairs that changed."""
     inst = state.inst
     if inst.clock is not None:  # leg times depend on when they are flown: left to the repair
         return []
     tie = inst.tie_weight()
     views = _Views(state)
+    memo = memo or PairMemo()
     changed: set[int] = set()
     improved = True
     while improved:
         improved = False
         for a in range(inst.k):
             for b in range(a + 1, inst.k):
+                if memo.get(memo.tails, state, a, b) is not PairMemo.MISSING:
+                    continue
                 move = best_tail_swap(state, a, b, tie, views)
                 if move is None:
+                    memo.put(memo.tails, state, a, b, None)
                     continue
+                # A move whose estimate gains and whose routes' own sums do not is tried again
+                # on the next pass: whether the fleet's objective rises by a rounding-sized
+                # gain depends on the other routes too.
                 _, i, j = move
                 ra, rb = state.routes[a], state.routes[b]
                 if _apply(state, {a: ra[:i] + rb[j:], b: rb[:j] + ra[i:]}, tie):

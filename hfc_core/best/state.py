@@ -21,7 +21,7 @@ class State:
     """Mutable; operators work on a `copy` and return it."""
 
     __slots__ = ("inst", "routes", "travel_s", "service_s", "owner", "ins_s", "ins_pos", "stale",
-                 "_nodes")
+                 "_nodes", "_values")
 
     def __init__(self, inst: Instance, routes: list[list[int]] | None = None) -> None:
         self.inst = inst
@@ -31,6 +31,7 @@ class State:
         for v, route in enumerate(self.routes):
             self.owner[route] = v
         self._nodes = [self._terminals(v) for v in range(k)]
+        self._values = [self._route_values(v) for v in range(k)]
         self.service_s = [self._service(v) for v in range(k)]
         self.travel_s = [self._travel(v) for v in range(k)]
         self.ins_s = np.zeros((k, n))
@@ -42,6 +43,7 @@ class State:
         other.inst = self.inst
         other.routes = [list(r) for r in self.routes]
         other._nodes = list(self._nodes)  # arrays are never modified in place
+        other._values = list(self._values)
         other.travel_s = list(self.travel_s)
         other.service_s = list(self.service_s)
         other.owner = self.owner.copy()
@@ -59,6 +61,9 @@ class State:
         inst = self.inst
         return np.array([inst.start[v], *self.routes[v], inst.end[v]], dtype=np.int64)
 
+    def _route_values(self, v: int) -> np.ndarray:
+        return self.inst.value[v, self.routes[v]]
+
     def _travel(self, v: int) -> float:
         nodes = self.nodes(v)
         if self.inst.clock is not None:  # as flown through the tide, less the injections
@@ -71,6 +76,7 @@ class State:
 
     def _changed(self, v: int) -> None:
         self._nodes[v] = self._terminals(v)
+        self._values[v] = self._route_values(v)
         self.service_s[v] = self._service(v)
         self.travel_s[v] = self._travel(v)
         self.stale[v] = True
@@ -87,8 +93,10 @@ class State:
         return bool(fits(self.time_s(v), float(self.inst.budget_s[v])))
 
     def value(self) -> float:
-        val = self.inst.value
-        return float(sum(float(val[v, u]) for v, r in enumerate(self.routes) for u in r))
+        """Value collected, summed task after task in route order (a sequential cumsum: the
+        same bits on every Python, where builtin ``sum`` of floats changed in 3.12)."""
+        picked = np.concatenate(self._values)
+        return float(np.cumsum(picked)[-1]) if len(picked) else 0.0
 
     def total_time_s(self) -> float:
         return sum(self.time_s(v) for v in range(self.inst.k))

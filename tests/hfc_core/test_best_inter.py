@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hfc_core.best.instance import instance_from_problem
-from hfc_core.best.inter import (EPS_S, best_relocate, best_swap, best_tail_swap,
+from hfc_core.best.inter import (EPS_S, PairMemo, best_relocate, best_swap, best_tail_swap,
                                    improve_between, swap_tails)
 from hfc_core.best.state import State
 from hfc_core.problem import Problem, Task, Vehicle
@@ -177,3 +177,27 @@ def test_polishing_is_reproducible_and_can_be_switched_off():
     two = solve(problem, "best", max_iterations=150, seed=3).plan.routes
     off = solve(problem, "best", max_iterations=150, seed=3, polish=None).plan.routes
     assert one == two and one != off
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_memo_answers_what_a_fresh_evaluation_answers(seed):
+    """A `PairMemo` kept across edits (moves, in-place inserts, removals) gives the same best
+    swap and the same tail exchanges as evaluating every pair afresh."""
+    problem = random_problem(36, 6, seed, battery_s=2500.0)
+    state = State(instance_from_problem(problem))
+    from hfc_core.best.insert import fill
+    fill(state)
+    tie, memo, rng = state.inst.tie_weight(), PairMemo(), np.random.default_rng(seed)
+    for _ in range(12):
+        assert best_swap(state, tie, memo) == best_swap(state, tie)
+        fresh, kept = state.copy(), state.copy()
+        assert swap_tails(kept, memo) == swap_tails(fresh) and kept.routes == fresh.routes
+        state = kept
+        routed = np.flatnonzero(state.owner >= 0)
+        u = int(rng.choice(routed))
+        state.remove([u])
+        state.refresh()
+        v = int(rng.integers(state.inst.k))
+        state.insert(v, u, int(state.ins_pos[v, u]))  # edits route v's list in place
+        if not state.fits(v):
+            state.remove([u])
