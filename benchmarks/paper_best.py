@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -35,6 +36,8 @@ LONG_FACTOR = 10  # pyvrp20 runs this many times the time limit
 # Both anytime solvers are stochastic and their time-limited runs chaotic: on one scenario a
 # single seed says little, so the preset is also planned with several seeds each.
 PRESET_SEEDS = 8
+RUNS_OUT = Path(__file__).with_name("paper_best_runs.json")  # per-run priorities, by scenario
+BOUNDS = Path(__file__).with_name("bounds_paper.json")  # benchmarks.upper_bound's certificates
 
 
 def worker(mode: str, scenario_seed: int, seed: int, time_limit_s: float) -> None:
@@ -86,11 +89,13 @@ def main(runs: int, time_limit_s: float, parallel: int, write: bool, base: int =
                      for m, v in by_seed.items()]
     table: dict[str, dict[str, list]] = {m: {"priority": [], "spots": [], "time": [], "fixed": 0}
                                          for m in modes}
+    per_run: dict[str, dict[str, float]] = {}
     for s in scenarios:
         problem = problem_from_dict(paper_preset_doc(s))
         for mode in modes:
             out = raw[(mode, s)]
             priority, spots, fixed = figures(problem, out["routes"])
+            per_run.setdefault(str(s), {})[mode] = priority
             if s == 0 and preset:
                 preset_rows.append([mode, f"{priority:.1f}", f"{spots}/{problem.n_tasks}",
                                     f"{out['elapsed_s']:.2f}"])
@@ -107,6 +112,9 @@ def main(runs: int, time_limit_s: float, parallel: int, write: bool, base: int =
                         f"{sp.min()}..{sp.max()}", f"{np.median(table[mode]['time']):.2f}",
                         table[mode]["fixed"]])
     verdict = ratios(table, runs)
+    ceiling = bound_ceiling(per_run, [str(base + i) for i in range(runs)])
+    if ceiling:
+        verdict += " " + ceiling
     head_preset = ["mode", "priority", "spots", "planner s"]
     head_seeds = ["mode", "priority min", "median", "max"]
     head_mc = ["mode", "priority median", "IQR", "spots median", "spots min..max", "planner s",
@@ -129,8 +137,10 @@ def main(runs: int, time_limit_s: float, parallel: int, write: bool, base: int =
             + f"\n\nThe same preset with planner seeds 0..{PRESET_SEEDS - 1} ({time_limit_s:g} s "
             "each):\n\n" + markdown_table(head_seeds, seed_rows)
             + f"\n\nMonte Carlo, {runs} runs (scenario `paper_preset_doc({base} + i)`, seed i):"
-            "\n\n" + markdown_table(head_mc, mc_rows) + "\n\n" + verdict + "\n"
+            "\n\n" + markdown_table(head_mc, mc_rows) + "\n\n" + verdict
+            + f" Per-run priorities: `benchmarks/{RUNS_OUT.name}`.\n"
         )
+        RUNS_OUT.write_text(json.dumps(per_run, indent=1) + "\n")
         write_section("paper_best", "Paper preset and Monte Carlo: best vs the paper's modes "
                       "and PyVRP", body)
 
@@ -155,6 +165,21 @@ def ratios(table: dict[str, dict[str, list]], runs: int) -> str:
     if "best" in table and "hfc-cm" in table:
         parts.append(f"best/hfc-cm median {np.median(col('best') / col('hfc-cm')):.3f}")
     return "; ".join(parts) + "."
+
+
+def bound_ceiling(per_run: dict[str, dict[str, float]], scenarios: list[str]) -> str:
+    """What the certified upper bounds (`benchmarks/bounds_paper.json`) allow any planner run
+    by run: plan_i <= bound_i, so the median of plan_i / PyVRP_i is at most the median of
+    bound_i / PyVRP_i (the median is monotone). Empty if a scenario has no bound."""
+    if not BOUNDS.exists():
+        return ""
+    bounds = json.loads(BOUNDS.read_text())
+    if not all(s in bounds and "pyvrp" in per_run.get(s, {}) for s in scenarios):
+        return ""
+    ceiling = np.array([bounds[s]["bound"] / per_run[s]["pyvrp"] for s in scenarios])
+    return (f"Certified ceiling (`{BOUNDS.name}`, run by run): bound/PyVRP median "
+            f"{np.median(ceiling):.4f} (min {ceiling.min():.4f}, max {ceiling.max():.4f}), so no "
+            f"planner's median ratio to these PyVRP runs can exceed {np.median(ceiling):.4f}.")
 
 
 if __name__ == "__main__":

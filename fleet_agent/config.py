@@ -53,7 +53,7 @@ class AgentConfig:
     # Polish the initial plan with inter-route moves (`hfc_core.best` SearchParams.polish):
     # +0.6 % priority on the paper preset, but its iteration budget takes longer: a sweep's
     # median paper-preset run 1.82 s (1.35 s before), a whole in-process run of 24 AUVs x 600
-    # spots 60.5 s against 11.6 s without; off for sweeps of large fleets.
+    # spots 32 s against 12 s without (same priority there); off for sweeps of large fleets.
     plan_polish: bool = True
     coop_period_s: float = 120.0  # online cooperation operator: how often to look for work
     coop_min_slack_s: float = 60.0  # below this spare battery, do not even look
