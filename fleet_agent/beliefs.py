@@ -272,10 +272,7 @@ class Beliefs:
     @property
     def planner(self) -> Planner:
         if self._planner is None:
-            cfg = self.config
-            self._planner = Planner(self.problem, self.seed, cfg.plan_iterations,
-                                    cfg.replan_iterations, cfg.battery_reserve_s,
-                                    cfg.plan_polish)
+            self._planner = Planner.from_config(self.problem, self.seed, self.config)
         return self._planner
 
     def _build(self) -> Problem:

@@ -45,9 +45,7 @@ class Fleet:
               camera: Camera | None = None) -> "Fleet":
         if camera is not None:
             return Fleet._build_dynamic(problem, key, seed, config, run_id, camera)
-        planner = planner or Planner(problem, seed, config.plan_iterations,
-                                     config.replan_iterations, config.battery_reserve_s,
-                                     config.plan_polish)
+        planner = planner or Planner.from_config(problem, seed, config)
         return Fleet(problem, Codec.for_problem(problem, key, run_id), planner, path_function(problem),
                      seed, planner.initial_routes())
 
@@ -58,12 +56,9 @@ class Fleet:
                                          initial_working_problem)
 
         expected = expected_problem(scenario, camera, config.p_cots)
-        routes = Planner(expected, seed, config.plan_iterations,
-                         config.replan_iterations, config.battery_reserve_s,
-                         config.plan_polish).initial_routes()
+        routes = Planner.from_config(expected, seed, config).initial_routes()
         working = initial_working_problem(scenario, camera, config)
-        planner = Planner(working, seed, config.plan_iterations, config.replan_iterations,
-                          config.battery_reserve_s, config.plan_polish)
+        planner = Planner.from_config(working, seed, config)
         codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
                                   found_from=scenario.n_tasks)
         return Fleet(working, codec, planner, path_function(working), seed, routes,

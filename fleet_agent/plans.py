@@ -10,9 +10,12 @@ process, as the vehicles would).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Mapping, Sequence
+from typing import TYPE_CHECKING, Mapping, Sequence
 
 from hfc_core.problem import Problem
+
+if TYPE_CHECKING:
+    from fleet_agent.config import AgentConfig
 
 Point3 = tuple[float, float, float]
 
@@ -44,6 +47,12 @@ class Planner:
         self._initial: tuple[tuple[int, ...], ...] | None = None
         self._memo: dict[tuple, dict[int, list[int]]] = {}
         self.calls = 0  # replanner runs (not memo hits), for benchmarks
+
+    @classmethod
+    def from_config(cls, problem: Problem, seed: int, config: "AgentConfig") -> "Planner":
+        """The planner an agent with ``config`` uses (its budgets, reserve and polishing)."""
+        return cls(problem, seed, config.plan_iterations, config.replan_iterations,
+                   config.battery_reserve_s, config.plan_polish)
 
     def initial_routes(self) -> tuple[tuple[int, ...], ...]:
         """The fleet plan every agent computes alone at start: solve("best") on the shared

@@ -154,6 +154,35 @@ def best_relocate(state: State, tie: float) -> tuple[float, int, int, int, int] 
     return float(masked[to, r]), int(task[r]), int(veh[r]), to, int(state.ins_pos[to, task[r]])
 
 
+class PairTable:
+    """One result per pair of routes, kept while both routes are what they were."""
+
+    MISSING = object()
+
+    def __init__(self) -> None:
+        self._table: dict[tuple[int, int], tuple[list[int], list[int], object]] = {}
+
+    def get(self, state: State, a: int, b: int) -> object:
+        hit = self._table.get((a, b))
+        if hit is None or hit[0] != state.routes[a] or hit[1] != state.routes[b]:
+            return PairTable.MISSING
+        return hit[2]
+
+    def put(self, state: State, a: int, b: int, result: object) -> None:
+        # Copies: State.insert edits a route list in place.
+        self._table[(a, b)] = (list(state.routes[a]), list(state.routes[b]), result)
+
+
+class PairMemo:
+    """What pairs of routes gave: the moves are pure functions of the two routes, and a
+    ruin-and-recreate iteration changes few routes of a large fleet, so most pairs need no new
+    evaluation. Keep one per search (per instance)."""
+
+    def __init__(self) -> None:
+        self.tails = PairTable()  # pairs without a tail exchange (result None)
+        self.swaps = PairTable()  # each pair's best swap
+
+
 def _swap_pair(state: State, a: int, b: int, tie: float) -> tuple[float, int, int] | None:
     """The best improving swap of a task of route ``a`` with one of route ``b``: (gain, index
     in a, index in b)."""
@@ -189,7 +218,7 @@ def _swap_pair(state: State, a: int, b: int, tie: float) -> tuple[float, int, in
     return float(masked[i, j]), i, j
 
 
-def best_swap(state: State, tie: float, memo: "PairMemo | None" = None
+def best_swap(state: State, tie: float, memo: PairMemo | None = None
               ) -> tuple[float, int, int, int, int] | None:
     """The best improving exchange of one task of a route with one of another, each taking
     the other's place: (gain, vehicle a, index in a, vehicle b, index in b); of equal gains
@@ -202,40 +231,16 @@ def best_swap(state: State, tie: float, memo: "PairMemo | None" = None
     best: tuple[float, int, int, int, int] | None = None
     for a in range(inst.k):
         for b in range(a + 1, inst.k):
-            move = memo.get(memo.swaps, state, a, b)
-            if move is PairMemo.MISSING:
+            move = memo.swaps.get(state, a, b)
+            if move is PairTable.MISSING:
                 move = _swap_pair(state, a, b, tie)
-                memo.put(memo.swaps, state, a, b, move)
+                memo.swaps.put(state, a, b, move)
             if move is None:
                 continue
             gain, i, j = move
             if best is None or gain > best[0] or (gain == best[0] and (a, i, b, j) < best[1:]):
                 best = (gain, a, i, b, j)
     return best
-
-
-class PairMemo:
-    """What a pair of routes gave, kept while both routes are what they were: the moves are
-    pure functions of the two routes, and a ruin-and-recreate iteration changes few routes of
-    a large fleet, so most pairs need no new evaluation. Keep one per search (per instance)."""
-
-    MISSING = object()
-
-    def __init__(self) -> None:
-        self.tails: dict[tuple[int, int], tuple] = {}  # tail-exchange pairs without a move
-        self.swaps: dict[tuple[int, int], tuple] = {}  # each pair's best swap
-
-    @staticmethod
-    def get(table: dict, state: State, a: int, b: int) -> object:
-        hit = table.get((a, b))
-        if hit is None or hit[0] != state.routes[a] or hit[1] != state.routes[b]:
-            return PairMemo.MISSING
-        return hit[2]
-
-    @staticmethod
-    def put(table: dict, state: State, a: int, b: int, result: object) -> None:
-        # Copies: State.insert edits a route list in place.
-        table[(a, b)] = (list(state.routes[a]), list(state.routes[b]), result)
 
 
 def improve_between(state: State, max_rounds: int = 100, memo: PairMemo | None = None
@@ -288,11 +293,11 @@ def swap_tails(state: State, memo: PairMemo | None = None) -> list[int]:
         improved = False
         for a in range(inst.k):
             for b in range(a + 1, inst.k):
-                if memo.get(memo.tails, state, a, b) is not PairMemo.MISSING:
+                if memo.tails.get(state, a, b) is not PairTable.MISSING:
                     continue
                 move = best_tail_swap(state, a, b, tie, views)
                 if move is None:
-                    memo.put(memo.tails, state, a, b, None)
+                    memo.tails.put(state, a, b, None)
                     continue
                 # A move whose estimate gains and whose routes' own sums do not is tried again
                 # on the next pass: whether the fleet's objective rises by a rounding-sized

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hfc_core.best.insert import fill
 from hfc_core.best.instance import instance_from_problem
 from hfc_core.best.inter import (EPS_S, PairMemo, best_relocate, best_swap, best_tail_swap,
                                    improve_between, swap_tails)
@@ -185,7 +186,6 @@ def test_a_memo_answers_what_a_fresh_evaluation_answers(seed):
     swap and the same tail exchanges as evaluating every pair afresh."""
     problem = random_problem(36, 6, seed, battery_s=2500.0)
     state = State(instance_from_problem(problem))
-    from hfc_core.best.insert import fill
     fill(state)
     tie, memo, rng = state.inst.tie_weight(), PairMemo(), np.random.default_rng(seed)
     for _ in range(12):
