@@ -12,7 +12,7 @@ from hfc_core.best.exchange import replace_improve
 from hfc_core.best.insert import fill
 from hfc_core.best.instance import instance_from_problem
 from hfc_core.best.intra import improve_route, or_opt_step, two_opt_step
-from hfc_core.best.ruin import RUIN_OPERATORS
+from hfc_core.best.ruin import CHAIN, CHAIN_SEEDS, RUIN_OPERATORS, chain_planting
 from hfc_core.best.state import State
 from hfc_core.problem import Problem, Task, Vehicle
 from hfc_core.solve import solve
@@ -167,7 +167,10 @@ def test_replace_can_move_the_task_it_takes_out_to_a_route_with_slack():
     assert chained.feasible() and chained.value() == 61.0
 
 
-@pytest.mark.parametrize("op", RUIN_OPERATORS, ids=lambda f: f.__name__)
+REMOVALS = [op for op in RUIN_OPERATORS if op is not chain_planting]
+
+
+@pytest.mark.parametrize("op", REMOVALS, ids=lambda f: f.__name__)
 def test_ruin_operators_only_unassign(op):
     problem = random_problem(60, 3, 2)
     state = fill(State(instance_from_problem(problem)))
@@ -178,3 +181,54 @@ def test_ruin_operators_only_unassign(op):
     for old, new in zip(before, out.routes):
         assert new == [u for u in old if u not in removed]  # order kept
     assert set(np.flatnonzero(out.owner < 0)) >= removed
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_chain_planting_refills_one_route_with_a_chain_of_nearby_free_spots(seed):
+    problem = random_problem(60, 3, seed)
+    inst = instance_from_problem(problem)
+    state = fill(State(inst))
+    before = [list(r) for r in state.routes]
+    out = chain_planting(state.copy(), np.random.default_rng(seed), 6)
+    emptied = [v for v in range(3) if out.routes[v] != before[v]]
+    assert len(emptied) <= 1 and out.feasible()
+    if emptied:
+        v = emptied[0]
+        planted = out.routes[v]
+        free = [u for u in range(inst.n) if u not in {w for r in out.routes for w in r} - set(planted)]
+        # Every planted spot is among the CHAIN nearest free spots of one of them (the head).
+        assert planted and any(
+            set(planted) <= set(sorted(free, key=lambda u: inst.dist_m[h, u])[:CHAIN])
+            for h in planted + [u for u in free if u not in planted]
+        )
+
+
+def test_chain_planting_opens_a_rich_cluster_no_single_insertion_would():
+    """Six rich spots far out, each alone a detour past the battery's use for the cheap spots
+    by the way: greedy repair never opens the cluster; a planted chain takes all six."""
+    vehicles = [Vehicle("a", (0, 0, 0), (0, 0, 0), 330.0, 1.0)]
+    near = [Task(i, (20.0 + 10 * i, 0, 0), 30.0, 0.0) for i in range(5)]
+    cluster = [Task(10 + i, (0, 150.0 + 3 * i, 0), 30.0, 0.0) for i in range(6)]
+    problem = Problem.build("cluster", vehicles, near + cluster)
+    inst = instance_from_problem(problem)
+    greedy = fill(State(inst))
+    assert sorted(greedy.routes[0]) == [0, 1, 2, 3, 4]  # 150, one cluster spot no longer fits
+    out = chain_planting(greedy.copy(), np.random.default_rng(0), 3)
+    out = fill(out)
+    assert sorted(out.routes[0]) == list(range(5, 11)) and out.feasible()
+    assert out.value() == 180.0 > greedy.value()
+
+
+def test_chain_planting_weighs_a_bounded_number_of_heads():
+    """More free spots than `CHAIN_SEEDS`: a sample of heads is weighed, the plant still fits
+    and leaves the other route alone."""
+    problem = random_problem(CHAIN_SEEDS + 100, 2, 3, battery_s=700.0)
+    state = fill(State(instance_from_problem(problem)))
+    assert (state.owner < 0).sum() > CHAIN_SEEDS
+    planted = 0
+    for seed in range(4):
+        out = chain_planting(state.copy(), np.random.default_rng(seed), 4)
+        kept = [v for v in range(2) if out.routes[v] == state.routes[v]]
+        assert out.feasible() and len(kept) >= 1
+        planted += sum(len(out.routes[v]) for v in range(2) if v not in kept)
+    assert planted > 0
