@@ -14,9 +14,10 @@ RESERVE_S = AgentConfig().battery_reserve_s
 
 @pytest.fixture(scope="module")
 def problem():
-    # Seed 0 of the paper preset: planned for the whole battery, auv2's route takes
-    # 3599.45 s of 3600, which the 1 s reserve does not fit.
-    return problem_from_dict(paper_preset_doc(0))
+    # Seed 11 of the paper preset: planned for the whole battery, auv2's route takes
+    # 3599.95 s of 3600, which the 1 s reserve does not fit. (Seed 0 was that case until the
+    # planner's chain_planting operator changed its plan.)
+    return problem_from_dict(paper_preset_doc(11))
 
 
 def test_the_initial_plan_fits_with_the_reserve_so_fitting_drops_nothing(problem) -> None:
