@@ -67,12 +67,10 @@ def fill(
         v, u = divmod(flat, inst.n)
         if score[v, u] == -np.inf:
             return state
-        state.insert(v, u, int(state.ins_pos[v, u]))
-        if state.fits(v):
+        if state.try_insert(v, u):
             usable[:, u] = False
             score[:, u] = -np.inf
-        else:  # the cached estimate fitted, the route's own sum does not (rounding): undo
-            state.remove([u])
+        else:
             usable[v, u] = False
         state.refresh_route(v)
         rescore(v)

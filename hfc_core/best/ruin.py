@@ -140,9 +140,7 @@ def chain_planting(state: State, rng: np.random.Generator, size: int) -> State:
         u = int(u)
         state.refresh_route(v)
         if state.ins_s[v, u] + inst.service_s[u] <= state.slack_s(v):
-            state.insert(v, u, int(state.ins_pos[v, u]))
-            if not state.fits(v):  # the estimate fitted, the route's own sum does not
-                state.remove([u])
+            state.try_insert(v, u)
     return state
 
 

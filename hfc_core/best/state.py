@@ -132,6 +132,15 @@ class State:
         self.owner[u] = v
         self._changed(v)
 
+    def try_insert(self, v: int, u: int) -> bool:
+        """Insert ``u`` at its cached cheapest position in route ``v`` if the route's own sum
+        still fits; the cached estimate can fit where the sum does not (rounding): undone."""
+        self.insert(v, u, int(self.ins_pos[v, u]))
+        if self.fits(v):
+            return True
+        self.remove([u])
+        return False
+
     def remove(self, tasks: list[int]) -> None:
         """Unassign ``tasks`` from whatever routes hold them."""
         drop = set(tasks)
