@@ -4,6 +4,7 @@ one-line ready messages the launcher waits for."""
 from __future__ import annotations
 
 import ctypes
+import faulthandler
 import os
 import signal
 import sys
@@ -35,8 +36,9 @@ def die_with_parent(stop: threading.Event) -> None:
     however the launcher ends, SIGKILL included: the kernel sends SIGTERM when the parent dies
     (``PR_SET_PDEATHSIG``, Linux), and a watcher thread sets ``stop`` once the parent's pid
     is no longer this process's parent (every platform; also covers a parent that died before
-    the first call), and ends the process outright if it is still there `ORPHAN_GRACE_S`
-    later. A process started by hand is left alone."""
+    the first call). Either way an orphan gets `ORPHAN_GRACE_S` to end cleanly, then a
+    watchdog ends it (`_orphan_deadline`). A process started by hand is left alone.
+    Call from the main thread (it wraps the SIGTERM handler)."""
     expected = os.environ.get(PARENT_ENV)
     if not expected or not expected.isdigit():
         return
@@ -45,25 +47,51 @@ def die_with_parent(stop: threading.Event) -> None:
         ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
     except (OSError, AttributeError):  # not Linux: the watcher below does the job
         pass
+    # The kernel's SIGTERM arms the deadline at once, in the handler: the clean end it
+    # starts may hang before the watcher's next poll (a teardown that never gives the GIL
+    # back would stop the watcher thread too).
+    chained = signal.getsignal(signal.SIGTERM)
+
+    def on_term(signum: int, frame: object) -> None:
+        if os.getppid() != parent:
+            _orphan_deadline()
+        if callable(chained):
+            chained(signum, frame)
+
+    signal.signal(signal.SIGTERM, on_term)
 
     def watch() -> None:
-        # Polls even once ``stop`` is set (the kernel's SIGTERM sets it first): an orphan
-        # that has not ended within `ORPHAN_GRACE_S` is stuck (e.g. in a call that does not
-        # look at ``stop``) and leaves at once. Its journal is flushed at every record.
         while os.getppid() == parent:
             time.sleep(PARENT_POLL_S)
+        _orphan_deadline()
         stop.set()
-        time.sleep(ORPHAN_GRACE_S)
-        try:  # the launcher's end of the pipe may be gone with it
-            print(f"{os.path.basename(sys.argv[0])}: parent gone and not ended after "
-                  f"{ORPHAN_GRACE_S:g} s; exiting now", file=sys.stderr, flush=True)
-        except (OSError, ValueError):
-            pass
-        os._exit(1)
 
     if os.getppid() != parent:
+        _orphan_deadline()
         stop.set()
     threading.Thread(target=watch, name="parent-watch", daemon=True).start()
+
+
+_deadline_armed = threading.Lock()
+
+
+def _orphan_deadline() -> None:
+    """End this process `ORPHAN_GRACE_S` from now, whatever it is doing then: faulthandler's
+    watchdog is a C thread that needs no GIL, so it fires even through a deadlock in native
+    code (it prints every thread's stack first: where the clean end was stuck). Armed once."""
+    if not _deadline_armed.acquire(blocking=False):
+        return
+    try:
+        faulthandler.dump_traceback_later(ORPHAN_GRACE_S, exit=True, file=sys.__stderr__)
+    except (OSError, ValueError, AttributeError, RuntimeError):
+        # No usable stderr for the watchdog: a plain timer thread ends the process instead
+        # (it needs the GIL; the best left).
+        threading.Timer(ORPHAN_GRACE_S, os._exit, args=(1,)).start()
+    try:  # the launcher's end of the pipe may be gone with it
+        print(f"{os.path.basename(sys.argv[0])}: parent gone; ending within "
+              f"{ORPHAN_GRACE_S:g} s", file=sys.__stderr__, flush=True)
+    except (OSError, ValueError, AttributeError, RuntimeError):
+        pass
 
 
 def ready(prefix: str, detail: str = "") -> None:

@@ -58,3 +58,34 @@ def test_a_stuck_orphan_is_ended_after_the_grace() -> None:
     finally:
         if alive(child):
             os.kill(child, signal.SIGKILL)
+
+
+# Stuck the way a native teardown deadlock is: its clean end begins (stop is set by the
+# kernel's SIGTERM) and then holds the GIL for good, so no Python thread runs again.
+GIL_HELD_CHILD = textwrap.dedent("""
+    import itertools
+    from fleet_bus.process import process_stop
+    stop = process_stop()
+    print("ready", flush=True)
+    stop.wait()
+    sum(itertools.repeat(1, 10**15))  # one C call that never releases the GIL
+""")
+
+
+def test_an_orphan_whose_clean_end_holds_the_gil_is_still_ended() -> None:
+    """The deadline after the parent's death is kept by a watchdog that needs no GIL (the
+    watcher thread alone would wait forever for it)."""
+    parent = subprocess.Popen([sys.executable, "-c", PARENT, GIL_HELD_CHILD],
+                              stdout=subprocess.PIPE, text=True)
+    assert parent.stdout is not None
+    child = int(parent.stdout.readline())
+    try:
+        parent.send_signal(signal.SIGKILL)
+        parent.wait()
+        t0 = time.monotonic()
+        while alive(child) and time.monotonic() - t0 < ORPHAN_GRACE_S + 10:
+            time.sleep(0.1)
+        assert not alive(child)
+    finally:
+        if alive(child):
+            os.kill(child, signal.SIGKILL)
