@@ -54,6 +54,7 @@ class Agent:
         slots = Slots(index, p.n_vehicles, config.slot_s)
         self.vehicle = Vehicle(p, index, fleet.paths)
         self.know = Knowledge(fleet, index, config, slots.cycle_s)
+        self.vehicle.not_before = self.know.settled_s
         if fleet.dynamic is not None:  # the map is a prior: look before injecting
             cam = fleet.dynamic.camera
             self.know.beliefs = Beliefs(fleet.dynamic.scenario, cam, config, index, fleet.seed,

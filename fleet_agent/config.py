@@ -26,6 +26,12 @@ class AgentConfig:
     cleared_refresh_cycles: int = 8  # unprompted full-state push of the cleared set
     claim_repeats: int = 3  # each new claim/release is sent this many times
     claim_refresh_cycles: int = 12  # rebroadcast of standing claims (late joiners, loss)
+    # A spot claimed after the initial plan is not worked until its claim has settled: this
+    # many cycles after the claim, plus one slot and 1 s (`Knowledge.settled_s`). A new claim
+    # goes out in the claimer's next slot, so an earlier claim of the same spot by a peer is
+    # heard by then on a working link and the later claimer gives way instead of treating
+    # the spot too (two vehicles that claimed a find seconds apart and were both at it).
+    claim_settle_cycles: float = 1.0
     abort_repeats: int = 4
     home_repeats: int = 3
     # A vehicle done with the mission (home or aborted) keeps watch: after its announcements
@@ -108,7 +114,8 @@ class AgentConfig:
             raise ValueError(f"agent config: find_slots must be an integer 0..64, got "
                              f"{self.find_slots!r}")
         for name in ("coop_min_slack_s", "battery_reserve_s", "aggregation_radius_m",
-                     "find_settle_cycles", "takeover_wait_s", "takeover_doubt"):
+                     "find_settle_cycles", "claim_settle_cycles", "takeover_wait_s",
+                     "takeover_doubt"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value >= 0):
                 raise ValueError(f"agent config: {name} must be >= 0, got {value!r}")

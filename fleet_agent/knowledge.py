@@ -42,6 +42,8 @@ class Knowledge:
         self.cleared = ClearedSet(p.n_tasks)
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
         self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s)
+        # A claim has settled once any earlier claim of its spot has been heard (`settled_s`).
+        self.claim_settle_s = config.claim_settle_cycles * cycle_s + config.slot_s + 1.0
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
@@ -85,6 +87,16 @@ class Knowledge:
         blocked = self.blocked(now)
         return {t for t in range(self.problem.n_tasks)
                 if t not in self.cleared and t not in held and t not in blocked}
+
+    def settled_s(self, task: int) -> float:
+        """When this vehicle may start work at ``task``: at once (0) on its initial plan,
+        else ``claim_settle_s`` after its own claim. Why: the holder is the earliest claimant,
+        and a claim goes out in the claimer's next slot (`Radio.choose`), so a peer's claim
+        made before ours (whole seconds) is on the air within a cycle and heard within a
+        slot more; by then, on a working link, we know we lost the spot. Without the wait,
+        two vehicles near a find that both claimed it seconds apart each treat it."""
+        c = self.holdings.claim_time(task, self.index)
+        return float(c) + self.claim_settle_s if c else 0.0
 
     def standing_claims(self) -> dict[int, int]:
         """Spots this vehicle claimed after the initial plan and still holds: spot -> time."""

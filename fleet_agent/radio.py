@@ -11,7 +11,12 @@ order. `Radio.choose` picks one message per slot, most urgent first:
 1. aborting: its own ABORT (``abort_repeats`` times), then one push of its cleared set;
 2. home: a POSE saying so (``home_repeats`` times); then, aborted or home, a POSE every
    ``watch_every_cycles`` slots (keeping watch: its heard codes confirm silences) or silence;
-3. an ABORT it passes on (news of another vehicle's abort, once);
+3. the first send of a new CLAIM (or of one a peer contested, `Agent._contest`): in the next
+   slot, before a pose or news, since a vehicle works a spot it claimed late only once any
+   earlier claim of it has had a cycle to arrive (`Knowledge.settled_s`). Two vehicles near
+   a find once claimed it 5 s apart; the first claim waited 27 s behind a pose and a FOUND
+   and both treated the find;
+3a. an ABORT it passes on (news of another vehicle's abort, once);
 4. a POSE if the last one is ``pose_every_cycles`` slots old (the heartbeat);
 5. a new find of this vehicle (dynamic missions): its first FOUND;
 6. a segment of the cleared set owed to a peer that claimed a spot in it we know is cleared,
@@ -83,12 +88,14 @@ class Slots:
 
 @dataclass
 class PendingHolding:
-    """A claim or release still to be sent ``repeats`` more times."""
+    """A claim or release still to be sent ``repeats`` more times; ``fresh``: a claim not on
+    the air yet that may be contested (new, or an answer), sent before anything else."""
 
     cls: type[Claim] | type[Release]
     t_s: int
     tasks: tuple[int, ...]
     repeats: int
+    fresh: bool = False
 
 
 @dataclass(frozen=True)
@@ -131,13 +138,14 @@ class Radio:
     def next_slot_s(self) -> float:
         return self.slots.time(self.slot_no)
 
-    def queue_holding(self, claim: bool, t_s: int, tasks: list[int]) -> None:
+    def queue_holding(self, claim: bool, t_s: int, tasks: list[int],
+                      fresh: bool = True) -> None:
         """Owe the fleet a claim (or release) of ``tasks``, in frames of at most
-        ``max_ids`` spots."""
+        ``max_ids`` spots; a new claim (``fresh``) goes out in the next slot."""
         cls = Claim if claim else Release
         for i in range(0, len(tasks), self.max_ids):
             self.holdings.append(PendingHolding(cls, t_s, tuple(tasks[i:i + self.max_ids]),
-                                                self.config.claim_repeats))
+                                                self.config.claim_repeats, fresh and claim))
 
     def answer_claim(self, t_s: int, tasks: list[int]) -> None:
         """Our claim of ``tasks`` (made at ``t_s``) goes out next: a peer claimed them later,
@@ -149,11 +157,12 @@ class Radio:
                  and wanted & set(e.tasks)]
         for e in front:
             self.holdings.remove(e)
+            e.fresh = True
         covered = {t for e in front for t in e.tasks}
         rest = [t for t in tasks if t not in covered]
         for i in range(0, len(rest), self.max_ids):
             front.append(PendingHolding(Claim, t_s, tuple(rest[i:i + self.max_ids]),
-                                        self.config.claim_repeats))
+                                        self.config.claim_repeats, True))
         self.holdings.extendleft(reversed(front))
 
     def answer_cleared(self, segments: set[int]) -> None:
@@ -197,6 +206,9 @@ class Radio:
                 return self._pose(now, vehicle, know, heard)
             return self._watch(now, vehicle, know, heard)
         self.since_pose += 1
+        fresh = self._fresh_claim(now, know, heard)
+        if fresh is not None:
+            return fresh
         if self.aborts:
             news = self.aborts.popleft()
             return Abort(me, self.next_seq(now), news.t_s, heard, news.subject)
@@ -244,10 +256,26 @@ class Radio:
                 for t, c in sorted(standing.items()):
                     by_time.setdefault(c, []).append(t)
                 for c, tasks in by_time.items():
-                    self.queue_holding(True, c, tasks)
+                    self.queue_holding(True, c, tasks, fresh=False)
                 entry = self.holdings.popleft()
                 return entry.cls(me, self.next_seq(now), entry.t_s, entry.tasks, heard)
         return self._pose(now, vehicle, know, heard)
+
+    def _fresh_claim(self, now: float, know: Knowledge, heard: Heard) -> Claim | None:
+        """A claim not on the air yet, before a pose, a find or news: a vehicle that claimed
+        a spot waits only `Knowledge.settled_s` before working it, which counts on every
+        claim going out in its claimer's next slot."""
+        for entry in list(self.holdings):
+            if not entry.fresh:
+                continue
+            entry.fresh = False
+            tasks = tuple(t for t in entry.tasks if t not in know.cleared)
+            entry.repeats -= 1
+            if entry.repeats <= 0 or not tasks:
+                self.holdings.remove(entry)
+            if tasks:
+                return Claim(know.index, self.next_seq(now), entry.t_s, tasks, heard)
+        return None
 
     def queue_find(self, slot: int) -> None:
         """Announce a new own find ``find_repeats`` times."""

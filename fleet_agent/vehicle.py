@@ -24,6 +24,7 @@ from typing import Callable, Collection, Sequence
 
 import numpy as np
 
+from hfc_core.current import CurrentField
 from hfc_core.feasibility import fits, room_s
 from hfc_core.problem import Problem
 from hfc_core.travel import LegError, segment_pieces
@@ -36,6 +37,9 @@ TRANSIT, INJECTING, RETURNING, HOME, ABORTED = "transit", "injecting", "returnin
 # Hovering at a predicted spot to see what is there (dynamic missions). Reported as
 # "injecting" on the wire and in telemetry: for the fleet it is a vehicle busy at a spot.
 INSPECTING = "inspecting"
+# Hovering at a spot claimed moments ago until the claim has settled (`not_before`): an
+# earlier claim of the same spot by a peer has had time to arrive. Reported as "injecting".
+WAITING = "waiting"
 _EPS = 1e-9
 
 
@@ -93,12 +97,13 @@ class _Looking:
     a spot its agent knows nothing about, then injects what the camera showed (if it fits the
     battery) or moves on. Part of `Vehicle`, kept apart: one idea."""
 
-    route: list[int]
     mode: str
     t_s: float
     pos: Point3
     inspect_s: float
     inspect_until_s: float | None
+    wait_until_s: float | None
+    route: list[int]
     inject_until_s: float | None
     readings: dict[int, float | None]
     reserve_s: float
@@ -139,11 +144,16 @@ class _Looking:
 
     def _busy_until_s(self, route: Sequence[int]) -> float | None:
         """When the vehicle is done at the spot it is busy at, if ``route`` starts with it
-        (injecting, or looking: the look and the injection it may reveal); else None."""
+        (injecting; looking: the look and the injection it may reveal; waiting for a claim
+        to settle: the wait, then the work); else None."""
         if not route or not self.route or route[0] != self.route[0]:
             return None
         if self.mode == INJECTING:
             return self.inject_until_s or self.t_s
+        if self.mode == WAITING:
+            task, service = self.route[0], float(self.problem.service_s[self.route[0]])
+            work = max(self.inspect_s, service) if self.needs_look(task) else service
+            return max(self.t_s, self.wait_until_s or self.t_s) + work
         return self.t_s + self._at_spot_left_s() if self.mode == INSPECTING else None
 
     def _fits_here(self, service_s: float) -> bool:
@@ -177,7 +187,101 @@ class _Looking:
         return True
 
 
-class Vehicle(_Looking):
+class _InCurrent:
+    """The vehicle's motion through a current (the scenario's ``current``): when a leg ends,
+    flown piece by piece as `hfc_core.travel.segment_pieces` cuts it (a gridded field's
+    pieces, the tide's 60 s steps), and how far along a segment it is at a given time. Part
+    of `Vehicle`, kept apart: one idea."""
+
+    problem: Problem
+    index: int
+    speed_mps: float
+    t_s: float
+    pos: Point3
+    current: CurrentField | None
+    paths: PathFn
+    not_before: Callable[[int], float]
+    _target: int | None
+    _waypoints: list[Point3]
+    _origin_t: float
+    _pieces: list[tuple[float, float]]
+
+    def _time_to_finish_in_current(self, route: list[int]) -> float:
+        """`time_to_finish_s` through the current: the leg under way as its pieces say, the
+        others from the planner's exact times (steady current) or flown from the moment each
+        starts (tidal)."""
+        p = self.problem
+        t = self.t_s
+        i = 0
+        busy = self._busy_until_s(route)  # type: ignore[attr-defined]
+        if busy is not None:
+            t = max(t, busy)
+            i = 1
+        elif route:
+            t = max(self._reach_at_s(route[0]), self.not_before(route[0]))
+            t += float(p.service_s[route[0]])
+            i = 1
+        prev = route[0] if route else None
+        steady = self.current is not None and self.current.steady
+        times = p.travel_s[self.index]
+        for task in [*route[i:], -1]:
+            if prev is None:
+                t = self._reach_at_s(-1)
+                break
+            node = p.end_node(self.index) if task < 0 else task
+            if steady:
+                t += float(times[prev, node])
+            else:
+                t = self._fly_s(p.xyz[prev], self._target_pos(task), t)  # type: ignore[attr-defined]
+            if task >= 0:
+                t = max(t, self.not_before(task)) + float(p.service_s[task])
+            prev = task
+        return t - self.t_s
+
+    def _reach_at_s(self, target: int) -> float:
+        """When the vehicle, going now from where it is, reaches ``target`` (-1: rendezvous)."""
+        if self._target == target and self._waypoints:
+            return self._leg_end_s()  # type: ignore[attr-defined]
+        return self._fly_s(self.pos, self._target_pos(target), self.t_s)  # type: ignore[attr-defined]
+
+    def _fly_s(self, a: Sequence[float], b: Sequence[float], t_s: float) -> float:
+        """When a leg a -> b (its waypoint path) started at ``t_s`` ends; inf if impossible."""
+        _, waypoints = self.paths(tuple(float(c) for c in a), tuple(float(c) for c in b))  # type: ignore[arg-type]
+        prev = a
+        for w in waypoints:
+            t_s = self._segment_end_s(prev, w, t_s)
+            prev = w
+        return t_s
+
+    def _segment_end_s(self, a: Sequence[float], b: Sequence[float], t_s: float) -> float:
+        try:
+            return t_s + sum(d for d, _ in segment_pieces(self.current, a, b, self.speed_mps, t_s))
+        except LegError:
+            return math.inf  # the current makes the segment impossible: never there
+
+    def _profile(self, a: Point3, b: Point3, t_s: float) -> list[tuple[float, float]]:
+        """(mission time, metres run) at the end of each piece of the segment a -> b."""
+        try:
+            pieces = segment_pieces(self.current, a, b, self.speed_mps, t_s)
+        except LegError:
+            return [(math.inf, 0.0)]  # cannot make headway: holds station, never arrives
+        out, t, run = [], t_s, 0.0
+        for duration, length in pieces:
+            t, run = t + duration, run + length
+            out.append((t, run))
+        return out
+
+    def _run_m(self, t_s: float) -> float:
+        """Metres run along the current segment at ``t_s`` (piece by piece from its origin)."""
+        t0, run0 = self._origin_t, 0.0
+        for t1, run1 in self._pieces:
+            if t_s < t1:
+                return run0 + (run1 - run0) * ((t_s - t0) / (t1 - t0)) if t1 > t0 else run0
+            t0, run0 = t1, run1
+        return run0
+
+
+class Vehicle(_Looking, _InCurrent):
     """One AUV's physical state. ``route`` holds task indices still to treat, in order; the
     head is the spot being approached or injected."""
 
@@ -199,6 +303,10 @@ class Vehicle(_Looking):
         self.yaw_deg = 0.0
         self.pitch_deg = 0.0
         self.inject_until_s: float | None = None
+        self.wait_until_s: float | None = None
+        # When work at a spot may begin at the earliest (the agent's claim rule: a spot this
+        # vehicle claimed moments ago waits for the claim to settle); 0: at once.
+        self.not_before: Callable[[int], float] = lambda task: 0.0
         self.home_at_s: float | None = None
         self._init_looking()
         self._waypoints: list[Point3] = []
@@ -230,7 +338,7 @@ class Vehicle(_Looking):
         """The telemetry state (`fleet_agent.telemetry.STATES`)."""
         if self.aborted and self.mode != HOME:
             return ABORTED
-        return INJECTING if self.mode == INSPECTING else self.mode
+        return INJECTING if self.mode in (INSPECTING, WAITING) else self.mode
 
 
     def time_to_finish_s(self, route: Sequence[int] | None = None) -> float:
@@ -248,69 +356,21 @@ class Vehicle(_Looking):
             total += max(0.0, busy - self.t_s)
             i = 1
         elif route:
-            total += self._reach_m(route[0]) / self.speed_mps + self.problem.service_s[route[0]]
+            total += self._reach_m(route[0]) / self.speed_mps
+            total = max(total, self.not_before(route[0]) - self.t_s)
+            total += self.problem.service_s[route[0]]
             i = 1
         prev = route[0] if route else None
         for task in route[i:]:
-            total += dist[prev, task] / self.speed_mps + self.problem.service_s[task]
+            total += dist[prev, task] / self.speed_mps
+            total = max(total, self.not_before(task) - self.t_s)
+            total += self.problem.service_s[task]
             prev = task
         if prev is None:
             total += self._reach_home_m() / self.speed_mps
         else:
             total += dist[prev, self.problem.end_node(self.index)] / self.speed_mps
         return total
-
-    def _time_to_finish_in_current(self, route: list[int]) -> float:
-        """`time_to_finish_s` through the current: the leg under way as its pieces say, the
-        others from the planner's exact times (steady current) or flown from the moment each
-        starts (tidal)."""
-        p, speed = self.problem, self.speed_mps
-        t = self.t_s
-        i = 0
-        busy = self._busy_until_s(route)
-        if busy is not None:
-            t = max(t, busy)
-            i = 1
-        elif route:
-            t = self._reach_at_s(route[0]) + float(p.service_s[route[0]])
-            i = 1
-        prev = route[0] if route else None
-        steady = self.current is not None and self.current.steady
-        times = p.travel_s[self.index]
-        for task in [*route[i:], -1]:
-            if prev is None:
-                t = self._reach_at_s(-1)
-                break
-            node = p.end_node(self.index) if task < 0 else task
-            if steady:
-                t += float(times[prev, node])
-            else:
-                t = self._fly_s(p.xyz[prev], self._target_pos(task), t)
-            if task >= 0:
-                t += float(p.service_s[task])
-            prev = task
-        return t - self.t_s
-
-    def _reach_at_s(self, target: int) -> float:
-        """When the vehicle, going now from where it is, reaches ``target`` (-1: rendezvous)."""
-        if self._target == target and self._waypoints:
-            return self._leg_end_s()
-        return self._fly_s(self.pos, self._target_pos(target), self.t_s)
-
-    def _fly_s(self, a: Sequence[float], b: Sequence[float], t_s: float) -> float:
-        """When a leg a -> b (its waypoint path) started at ``t_s`` ends; inf if impossible."""
-        _, waypoints = self.paths(tuple(float(c) for c in a), tuple(float(c) for c in b))  # type: ignore[arg-type]
-        prev = a
-        for w in waypoints:
-            t_s = self._segment_end_s(prev, w, t_s)
-            prev = w
-        return t_s
-
-    def _segment_end_s(self, a: Sequence[float], b: Sequence[float], t_s: float) -> float:
-        try:
-            return t_s + sum(d for d, _ in segment_pieces(self.current, a, b, self.speed_mps, t_s))
-        except LegError:
-            return math.inf  # the current makes the segment impossible: never there
 
     def slack_s(self, reserve_s: float = 0.0) -> float:
         """Extra time the rest of the mission may take and still fit the battery less
@@ -326,6 +386,8 @@ class Vehicle(_Looking):
             return self.inject_until_s
         if self.mode == INSPECTING:
             return self._look_ends_s()
+        if self.mode == WAITING:
+            return self.wait_until_s
         return max(self.t_s, self._leg_end_s())
 
     # -- commands --------------------------------------------------------------------------
@@ -335,9 +397,10 @@ class Vehicle(_Looking):
         route = [int(t) for t in route]
         if self.mode == HOME:
             return
-        if self.mode in (INJECTING, INSPECTING) and (not route or route[0] != self.route[0]):
+        if self.mode in (INJECTING, INSPECTING, WAITING) and (
+                not route or route[0] != self.route[0]):
             self.mode = TRANSIT
-            self.inject_until_s = self.inspect_until_s = None
+            self.inject_until_s = self.inspect_until_s = self.wait_until_s = None
         self.route = route if not self.aborted else []
         self._retarget()
 
@@ -354,7 +417,7 @@ class Vehicle(_Looking):
         self.pos = tuple(float(c) for c in pos)  # type: ignore[assignment]
         self.distance_m = float(distance_m)
         self.aborted = aborted
-        self.inject_until_s = self.inspect_until_s = None
+        self.inject_until_s = self.inspect_until_s = self.wait_until_s = None
         self._target, self._waypoints = None, []
         self._origin, self._origin_t, self._origin_dist = self.pos, self.t_s, self.distance_m
         if home_at_s is not None:
@@ -376,6 +439,14 @@ class Vehicle(_Looking):
             if self.mode == INSPECTING:
                 if not self._end_look(until_s, events):
                     break  # still looking, or waiting for the camera's answer
+                continue
+            if self.mode == WAITING:
+                end = self.wait_until_s if self.wait_until_s is not None else self.t_s
+                if end > until_s:
+                    break
+                self.t_s = max(self.t_s, end)
+                self.wait_until_s = None
+                self._begin(self.route[0])
                 continue
             if self.mode == INJECTING:
                 end = self.inject_until_s if self.inject_until_s is not None else self.t_s
@@ -459,18 +530,6 @@ class Vehicle(_Looking):
             if self.current is not None:
                 self._pieces = self._profile(origin, self._waypoints[0], t_s)
 
-    def _profile(self, a: Point3, b: Point3, t_s: float) -> list[tuple[float, float]]:
-        """(mission time, metres run) at the end of each piece of the segment a -> b."""
-        try:
-            pieces = segment_pieces(self.current, a, b, self.speed_mps, t_s)
-        except LegError:
-            return [(math.inf, 0.0)]  # cannot make headway: holds station, never arrives
-        out, t, run = [], t_s, 0.0
-        for duration, length in pieces:
-            t, run = t + duration, run + length
-            out.append((t, run))
-        return out
-
     def _interpolate(self, t_s: float) -> tuple[Point3, float]:
         w = self._waypoints[0]
         seg_m = math.dist(self._origin, w)
@@ -482,17 +541,8 @@ class Vehicle(_Looking):
         pos = tuple(a + (b - a) * f for a, b in zip(self._origin, w))
         return pos, self._origin_dist + run_m  # type: ignore[return-value]
 
-    def _run_m(self, t_s: float) -> float:
-        """Metres run along the current segment at ``t_s`` (piece by piece from its origin)."""
-        t0, run0 = self._origin_t, 0.0
-        for t1, run1 in self._pieces:
-            if t_s < t1:
-                return run0 + (run1 - run0) * ((t_s - t0) / (t1 - t0)) if t1 > t0 else run0
-            t0, run0 = t1, run1
-        return run0
-
     def _retarget(self) -> None:
-        if self.mode in (HOME, INJECTING, INSPECTING):
+        if self.mode in (HOME, INJECTING, INSPECTING, WAITING):
             return
         target = self.route[0] if self.route else -1
         if target == self._target and self._waypoints:
@@ -504,18 +554,25 @@ class Vehicle(_Looking):
         self._start_segment(self.pos, self.t_s, self.distance_m)
 
     def _arrive(self, events: list[Cleared | Arrived | Inspected]) -> None:
-        if self._target is not None and self._target >= 0 and self.needs_look(self._target):
-            self.mode = INSPECTING
-            self.inspect_until_s = self.t_s + self.inspect_s
-            self._target = None
-        elif self._target is not None and self._target >= 0:
-            self.mode = INJECTING
-            self.inject_until_s = self.t_s + float(self.problem.service_s[self._target])
-            self._target = None
-        else:
+        target, self._target = self._target, None
+        if target is None or target < 0:
             self.mode = HOME
             self.home_at_s = self.t_s
             events.append(Arrived(self.t_s))
+        elif self.not_before(target) > self.t_s:
+            self.mode = WAITING
+            self.wait_until_s = self.not_before(target)
+        else:
+            self._begin(target)
+
+    def _begin(self, task: int) -> None:
+        """Work at the spot reached: look first if its agent knows nothing of it, else inject."""
+        if self.needs_look(task):
+            self.mode = INSPECTING
+            self.inspect_until_s = self.t_s + self.inspect_s
+        else:
+            self.mode = INJECTING
+            self.inject_until_s = self.t_s + float(self.problem.service_s[task])
 
     def _heading(self, p: Point3, w: Point3) -> None:
         """Yaw (eq. 5) and pitch (eq. 6) of the motion from ``p`` toward ``w``; NED, degrees."""

@@ -67,3 +67,34 @@ def test_a_claim_on_a_spot_we_cleared_gets_that_segment_of_the_cleared_set() -> 
     msg = agent.radio.choose(301.0, agent.vehicle, agent.know)
     assert isinstance(msg, ClearedSegment) and msg.segment == agent.know.cleared.segment_of(spot)
     assert not agent.radio.segments_owed
+
+
+def test_a_new_claim_takes_the_next_slot_even_when_a_pose_is_due() -> None:
+    """A vehicle works a spot it claimed late only once an earlier claim could have been
+    heard (`Knowledge.settled_s`), which counts on each claim leaving in the next slot."""
+    _, agent, spot = claimed_by_auv1()
+    radio = agent.radio
+    radio.since_pose = agent.config.pose_every_cycles  # the heartbeat is due
+    msg = radio.choose(301.0, agent.vehicle, agent.know)
+    assert isinstance(msg, Claim) and (msg.t_s, msg.tasks) == (250, (spot,))
+    assert type(radio.choose(302.0, agent.vehicle, agent.know)).__name__ == "Pose"
+
+
+def test_standing_claims_sent_again_do_not_jump_the_queue() -> None:
+    _, agent, spot = claimed_by_auv1()
+    radio = agent.radio
+    radio.holdings.clear()
+    radio.queue_holding(True, 250, [spot], fresh=False)  # a refresh of a standing claim
+    radio.since_pose = agent.config.pose_every_cycles
+    assert type(radio.choose(301.0, agent.vehicle, agent.know)).__name__ == "Pose"
+
+
+def test_a_late_claim_settles_a_cycle_and_a_slot_after_it_and_the_initial_plan_at_once() -> None:
+    world, agent, spot = claimed_by_auv1()
+    know, cfg = agent.know, agent.config
+    cycle = cfg.slot_s * agent.problem.n_vehicles
+    assert know.settled_s(spot) == 250 + cfg.claim_settle_cycles * cycle + cfg.slot_s + 1.0
+    own = agent.vehicle.route[0] if agent.vehicle.route else next(
+        t for t in range(know.holdings.n_tasks) if know.holder(t) == know.index)
+    assert know.settled_s(own) == 0.0
+    assert agent.vehicle.not_before(spot) == know.settled_s(spot)  # the vehicle obeys it

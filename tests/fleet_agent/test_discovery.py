@@ -185,6 +185,23 @@ def test_three_vehicles_seeing_one_aggregation_at_once_treat_it_once():
     assert r.report["fleet"]["duplicate_treatments"] == 0
 
 
+@pytest.mark.parametrize("seed", [2, 10])
+def test_two_vehicles_claiming_one_find_seconds_apart_treat_it_once(seed):
+    """`benchmarks/dynamic.py`'s two duplicates: on these paper-preset reefs two vehicles
+    near a settled find claimed it 1-5 s apart and each was at it before hearing the other's
+    claim (one waited 27 s behind a pose and a FOUND). Claims now leave in the next slot and
+    a late claim is worked only once it has settled (`Knowledge.settled_s`)."""
+    from hfc_core.generate import dynamic_preset_doc
+
+    doc = dynamic_preset_doc(seed)
+    problem = problem_from_dict(doc)
+    reef = reef_from_doc(doc, problem)
+    r = simulate(problem, AgentConfig(), seed=seed, reef=reef)
+    treated = [d["spot"] for d in r.report["dynamic"]["treated"]]
+    assert r.report["fleet"]["duplicate_treatments"] == 0 and len(treated) == len(set(treated))
+    assert any(e.kind == "claim" for e in r.events)  # the race's ingredients are there
+
+
 def test_a_rich_find_is_taken_even_by_vehicles_without_spare_battery():
     # With a slack threshold no vehicle ever reaches, only a find can open the cooperation
     # operator: a full plan must not make a vehicle pass the aggregation it has just seen.
@@ -203,9 +220,11 @@ def test_a_rich_find_is_taken_even_by_vehicles_without_spare_battery():
     assert r.report["fleet"]["duplicate_treatments"] == 0
 
 
-def test_a_claim_goes_out_after_each_find_is_announced_once_and_before_the_repeats(fleet):
+def test_a_new_claim_goes_out_first_and_its_repeats_before_the_find_repeats(fleet):
     # Two finds in a row used to fill six slots with FOUND (three each) while the claim on the
     # first waited: 90 s in which a peer claimed the same find, missed ours, and treated it too.
+    # A new claim now takes the next slot (`Knowledge.settled_s` counts on it), its repeats
+    # come after each find's first announcement and before the finds' repeats.
     from fleet_agent.wire import Claim
 
     agent = Agent(fleet, 1, CONFIG, now=100.0)
@@ -226,7 +245,7 @@ def test_a_claim_goes_out_after_each_find_is_announced_once_and_before_the_repea
         sent.append(("claim", msg.tasks) if isinstance(msg, Claim) else ("found", msg.slot))
     claims = [("claim", (slots[0],))] * CONFIG.claim_repeats
     repeats = [("found", s) for s in slots for _ in range(CONFIG.find_repeats - 1)]
-    assert sent == [("found", slots[0]), ("found", slots[1]), *claims, *repeats]
+    assert sent == [claims[0], ("found", slots[0]), ("found", slots[1]), *claims[1:], *repeats]
 
 
 def test_a_restarted_agent_gets_its_finds_back_and_heads_for_the_one_it_was_going_to(fleet):

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from fleet_agent.vehicle import (HOME, INJECTING, RETURNING, TRANSIT, Arrived, Cleared, Vehicle,
-                                 fit_route, position_along)
+from fleet_agent.vehicle import (HOME, INJECTING, RETURNING, TRANSIT, WAITING, Arrived, Cleared,
+                                 Vehicle, fit_route, position_along)
 from hfc_core.problem import Problem, Task, Vehicle as Spec
 
 
@@ -42,6 +42,43 @@ def test_route_takes_exactly_the_planned_mission_time(step_s: float) -> None:
     legs = [math.dist(a, b) for a, b in zip([(0, 0, 0), *p.xyz[[0, 1, 2]], (0, 0, 0)],
                                                [*p.xyz[[0, 1, 2]], (0, 0, 0)])]
     assert v.distance_m == pytest.approx(sum(legs), abs=1e-6)  # eq. 7 summed over legs
+
+
+@pytest.mark.parametrize("step_s", [0.37, 7.0, 10_000.0])
+def test_a_spot_not_yet_settled_is_waited_for_then_worked(step_s: float) -> None:
+    """Spot 0 (100.5 s away, 60 s of injection) may not be worked before t = 130 s (a claim
+    settling): the vehicle hovers there until then, reported busy, and the wait is in its
+    time to finish."""
+    p = small_problem()
+    v = Vehicle(p, 0)
+    v.not_before = lambda task: 130.0 if task == 0 else 0.0
+    v.set_route([0, 1])
+    planned = p.route_time_s(0, [0, 1]) + 130.0 - math.dist((0, 0, 0), p.xyz[0])
+    assert v.time_to_finish_s() == pytest.approx(planned)
+    v.advance(110.0)
+    assert v.mode == WAITING and v.injecting is None and v.state() == INJECTING
+    assert v.next_event_s() == 130.0 and v.time_to_finish_s() == pytest.approx(planned - 110.0)
+    w = Vehicle(p, 0)  # the same route from the start, advanced in steps of step_s
+    w.not_before = v.not_before
+    w.set_route([0, 1])
+    events = run_to_end(w, step_s)
+    assert [(type(e), getattr(e, "task", None)) for e in events] == [
+        (Cleared, 0), (Cleared, 1), (Arrived, None)]
+    assert events[0].t_s == pytest.approx(190.0, abs=1e-6)  # 130 s + 60 s, however stepped
+    assert events[-1].t_s == pytest.approx(planned, abs=1e-6)
+
+
+def test_a_vehicle_waiting_at_a_spot_leaves_it_when_the_spot_is_taken_away() -> None:
+    p = small_problem()
+    v = Vehicle(p, 0)
+    v.not_before = lambda task: 130.0
+    v.set_route([0])
+    v.advance(120.0)
+    assert v.mode == WAITING
+    v.set_route([])  # a peer's earlier claim arrived: the spot is its own
+    assert v.mode == RETURNING
+    events = run_to_end(v, 5.0)
+    assert [type(e) for e in events] == [Arrived]
 
 
 def test_heading_follows_the_motion() -> None:
