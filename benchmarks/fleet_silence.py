@@ -187,19 +187,22 @@ def _alive(seen: dict[int, float]) -> list[int]:
     return left
 
 
-def run_mission_processes(seed: int, warp: float, workdir: Path,
-                          stall: bool = False) -> dict[str, Any]:
-    """One ``cotsfleet run`` in its own session (with ``stall``: `STALL` too); every process
-    it spawned is recorded and must be gone when it returns."""
-    tag = f"w{warp:g}-s{seed}{'-stall' if stall else ''}"
+def run_mission_processes(seed: int, warp: float, workdir: Path, stall: bool = False,
+                          viewer: str = "none", extra: tuple[str, ...] = (),
+                          tag: str = "") -> dict[str, Any]:
+    """One ``cotsfleet run`` in its own session (with ``stall``: `STALL` too; ``extra``: more
+    arguments, e.g. a scenario and faults); every process it spawned is recorded and must be
+    gone when it returns."""
+    tag = tag or f"w{warp:g}-s{seed}{'-stall' if stall else ''}"
     report_path = workdir / f"report-{tag}.json"
     run_dir = workdir / f"run-{tag}"
     cli = Path(sys.executable).with_name("cotsfleet")
     argv = [str(cli) if cli.exists() else sys.executable,
             *([] if cli.exists() else ["-m", "cotsfleet"]),
-            "run", "--warp", f"{warp:g}", "--viewer", "none", "--seed", str(seed),
+            "run", "--warp", f"{warp:g}", "--viewer", viewer, "--seed", str(seed),
             "--report", str(report_path), "--run-dir", str(run_dir), "--no-hold-viewer",
-            *(["--stall", f"{STALL.vid}@{STALL.t_s:g}+{STALL.value:g}"] if stall else [])]
+            *(["--stall", f"{STALL.vid}@{STALL.t_s:g}+{STALL.value:g}"] if stall else []),
+            *extra]
     timeout = 4 * 3600 / warp + 300
     log = open(workdir / f"log-{tag}.txt", "w")
     t0 = time.perf_counter()

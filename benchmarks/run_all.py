@@ -26,6 +26,7 @@ BENCHMARKS: list[tuple[str, list[str]]] = [
     ("benchmarks.fleet_mission", []),
     ("benchmarks.fleet_loss", []),
     ("benchmarks.fleet_silence", []),
+    ("benchmarks.demo_warp", []),
     ("benchmarks.fleet_scale", []),
     ("benchmarks.security", []),
     ("benchmarks.dynamic", ["--jobs", "2"]),
