@@ -4,7 +4,8 @@ Every agent reports in each status the worst lateness of its host since the prev
 (`Status.lag_s`, mission seconds). A single late step is a burst (a replan of a few hundred
 wall milliseconds is tens of mission seconds at warp 60): slowing the clock afterwards would
 not undo it, and since silence is not death (`docs/fleet_agent.md`) it costs no spot and no
-false alarm. A host that stays late, status after status, is one the machine cannot keep up
+false alarm as long as it is shorter than the suspicion window; a longer one is the limit
+docs/fleet_agent.md names (`benchmarks/demo_warp.py`). A host that stays late, status after status, is one the machine cannot keep up
 with at this warp: it wakes after its TDMA slots and its decisions come late, which a slower
 clock does fix. So the clock is slowed when one vehicle has reported more
 than ``bound_s`` in ``sustained`` consecutive statuses, at once to the warp that host can keep
