@@ -176,9 +176,11 @@ def test_the_bound_on_the_paper_preset():
     problem = problem_from_dict(paper_preset_doc(0))
     routes = [list(r) for r in solve(problem, "best", seed=0, time_limit_s=1.0).plan.routes]
     collected = sum(problem.route_priority(r) for r in routes)
-    bound = upper_bound(problem, time_limit_s=20.0, plans=[routes])
+    bound = upper_bound(problem, time_limit_s=40.0, plans=[routes])
     print(f"paper preset: plan {collected:.2f} bound {bound.upper:.2f} lp {bound.lp:.2f} "
           f"after {bound.iterations} iterations, {bound.seconds:.1f} s")
     assert collected - 1e-9 <= bound.upper <= float(problem.priority.sum()) + 1e-6
-    assert bound.upper <= 1.05 * collected  # far from the trivial bound within 20 s
+    # Far from the trivial bound (every spot: 1.12 x the plan). 20 s gave 1.040 on an idle
+    # machine (9 iterations) and 1.051 under load (7): 40 s leaves room for a shared machine.
+    assert bound.upper <= 1.05 * collected
     assert math.isfinite(bound.lp) and bound.lp >= collected - 1e-6  # the plan is a column
