@@ -34,7 +34,7 @@ $(BENCH): $(BASE)
 demo: $(BASE)
 	@dir=runs/demo-$$(date +%Y%m%d-%H%M%S) && mkdir -p $$dir && \
 	$(VENV)/bin/cotsfleet scenario --paper --dynamic --seed 0 -o $$dir/dyn.json && \
-	$(VENV)/bin/cotsfleet run --scenario $$dir/dyn.json --run-dir $$dir --abort auv2@1200 --warp 30
+	$(VENV)/bin/cotsfleet run --scenario $$dir/dyn.json --run-dir $$dir --abort auv2@1200
 
 test: $(TESTS)
 	$(PY) -m pytest -q

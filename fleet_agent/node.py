@@ -36,6 +36,7 @@ from fleet_agent.config import AgentConfig
 from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
 from fleet_agent.journal import Journal
+from fleet_agent.plans import set_planning_hook
 from fleet_agent.sensor import Camera, World
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
@@ -44,7 +45,7 @@ from fleet_bus.commands import STOP, decode_command
 from fleet_bus.link import TxTag
 from fleet_bus.mission import clock_of, fetch_clock, fetch_mission
 from fleet_bus.process import AGENT_READY, ready
-from fleet_bus.telemetry import Event, Status, Truth
+from fleet_bus.telemetry import Event, Status, Truth, encode_busy
 from hfc_core.problem import ScenarioError
 from hfc_core.scenario import problem_from_dict
 from hfc_core.truth import reef_from_doc
@@ -90,6 +91,8 @@ class ZenohTransport:
         self._tx = session.declare_publisher(self._tx_key)
         self._telemetry = {topic: (key, session.declare_publisher(key)) for topic, key in
                            ((t, f"{keys.PREFIX}/{t}/{vid}") for t in keys.TELEMETRY_KINDS)}
+        self._busy_key = keys.busy_key(vid)
+        self._busy = session.declare_publisher(self._busy_key)
 
     def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
         self._tx.put(seal(self._auth, self._tx_key, frame),
@@ -98,6 +101,11 @@ class ZenohTransport:
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
         key, publisher = self._telemetry[topic]
         publisher.put(seal(self._auth, key, payload.encode()))
+
+    def planning(self, busy: bool) -> None:
+        """Tell the operator this process starts (ends) a planner run: it holds the shared
+        clock meanwhile, so the burst costs no mission time (`fleet_agent.plans`)."""
+        self._busy.put(seal(self._auth, self._busy_key, encode_busy(busy)))
 
 
 def _announce_ready(session: zenoh.Session, vid: str, auth: BusAuth | None,
@@ -161,7 +169,9 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
                 stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
             now = clock.now()
             agent = Agent(fleet, problem.vehicle_index[vid], config, now, journal.records)
-            driver = AgentDriver(agent, ZenohTransport(session, vid, auth), journal,
+            transport = ZenohTransport(session, vid, auth)
+            set_planning_hook(transport.planning)
+            driver = AgentDriver(agent, transport, journal,
                                  world=None if reef is None else
                                  World(reef, mission.seed, problem.vehicle_index[vid]))
             start = f"restart, {len(journal.records)} records" if journal.records else "fresh"

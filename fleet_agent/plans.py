@@ -9,8 +9,9 @@ process, as the vehicles would).
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import TYPE_CHECKING, Callable, Iterator, Mapping, Sequence
 
 from hfc_core.problem import Problem
 
@@ -18,6 +19,31 @@ if TYPE_CHECKING:
     from fleet_agent.config import AgentConfig
 
 Point3 = tuple[float, float, float]
+
+# Told when this process starts and ends a replanner run (True, then False). The deployment
+# sets it (`fleet_agent.node`: one agent per process) so that the launcher holds the shared
+# clock while an agent plans: a planner burst of b wall seconds would otherwise be b x warp
+# mission seconds of silence, enough for a false alarm at high warp (docs/fleet_agent.md).
+# The in-process simulation leaves it unset: there planning takes no mission time anyway.
+_on_planning: Callable[[bool], None] | None = None
+
+
+def set_planning_hook(hook: Callable[[bool], None] | None) -> None:
+    """Call ``hook(True)`` before and ``hook(False)`` after every replanner run."""
+    global _on_planning
+    _on_planning = hook
+
+
+@contextmanager
+def _planning() -> Iterator[None]:
+    hook = _on_planning
+    if hook is not None:
+        hook(True)
+    try:
+        yield
+    finally:
+        if hook is not None:
+            hook(False)
 
 
 @dataclass(frozen=True)
@@ -82,9 +108,10 @@ class Planner:
         live = [LiveVehicle(vid[v.index], tuple(v.pos), max(0.0, v.battery_s - self.reserve_s),
                             route=tuple(tid[t] for t in v.route),
                             locked=tuple(tid[t] for t in v.locked)) for v in vehicles]
-        routes = replan(p, live, cleared=tuple(tid[t] for t in sorted(unavailable)),
-                        held={tid[t]: vid[h] for t, h in held.items()},
-                        max_iterations=self.replan_iterations, seed=seed)
+        with _planning():
+            routes = replan(p, live, cleared=tuple(tid[t] for t in sorted(unavailable)),
+                            held={tid[t]: vid[h] for t, h in held.items()},
+                            max_iterations=self.replan_iterations, seed=seed)
         self.calls += 1
         out = {p.vehicle_index[v]: [p.task_index[t] for t in r] for v, r in routes.items()}
         if len(self._memo) > 256:

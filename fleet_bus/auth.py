@@ -52,7 +52,7 @@ REFUSALS = ("malformed", "unknown_signer", "not_allowed", "bad_signature", "repl
 
 # Which role may sign on which kind of key; vehicles only on keys ending with their own id.
 _KIND_ROLE = {"ctl": OPERATOR, "tx": VEHICLE, "truth": VEHICLE, "status": VEHICLE, "event": VEHICLE,
-              "alive": VEHICLE, "rx": RELAY, "link": RELAY, "stats": RELAY}
+              "alive": VEHICLE, "busy": VEHICLE, "rx": RELAY, "link": RELAY, "stats": RELAY}
 
 
 class Refused(ValueError):

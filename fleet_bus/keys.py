@@ -17,6 +17,7 @@ STATUS_ALL = f"{PREFIX}/status/*"
 EVENT_ALL = f"{PREFIX}/event/*"
 LINK_ALL = f"{PREFIX}/link/**"
 ALIVE_ALL = f"{PREFIX}/alive/*"
+BUSY_ALL = f"{PREFIX}/busy/*"
 LINK_CTL = f"{PREFIX}/ctl/link"  # operator -> relay: extra loss, partitions
 LINK_STATS = f"{PREFIX}/stats/link"  # relay queryable: drop/delivery counters
 MISSION = f"{PREFIX}/mission"  # operator queryable: scenario, seed, run id
@@ -58,6 +59,12 @@ def ctl_key(vid: str) -> str:
 def alive_key(vid: str) -> str:
     """The liveliness token an agent declares once its initial plan is ready."""
     return _key("alive", vid)
+
+
+def busy_key(vid: str) -> str:
+    """Agent -> operator: this vehicle's process starts (or ends) a planner run; the operator
+    holds the shared clock meanwhile (`cotsfleet.mission.pacing.Holds`). Not a radio."""
+    return _key("busy", vid)
 
 
 def link_event_key(src: str, dst: str) -> str:

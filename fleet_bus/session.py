@@ -66,7 +66,8 @@ def access_control(vehicles: Sequence[str], upstream_zid: str | None = None) -> 
                 {"rules": ["operator"], "subjects": ["operator"]},
                 {"rules": ["relay"], "subjects": ["relay"]}]
     for vid in vehicles:
-        own = [f"{p}/{kind}/{vid}" for kind in ("tx", "truth", "status", "event", "alive")]
+        own = [f"{p}/{kind}/{vid}"
+               for kind in ("tx", "truth", "status", "event", "alive", "busy")]
         rules.append(rule(f"vehicle {vid}", ["put", "liveliness_token"], own))
         subjects.append({"id": f"vehicle {vid}", "usernames": [vid]})
         policies.append({"rules": [f"vehicle {vid}"], "subjects": [f"vehicle {vid}"]})

@@ -164,3 +164,15 @@ class Event:
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+
+def encode_busy(busy: bool) -> bytes:
+    """The payload of ``fleet/busy/<id>``: one byte, 1 a planner run starts, 0 it ended."""
+    return b"\x01" if busy else b"\x00"
+
+
+def decode_busy(payload: bytes) -> bool:
+    """ValueError unless ``payload`` is one of `encode_busy`'s."""
+    if payload not in (b"\x00", b"\x01"):
+        raise ValueError(f"busy: not a busy flag: {payload[:8]!r}")
+    return payload == b"\x01"

@@ -4,8 +4,8 @@ Every agent reports in each status the worst lateness of its host since the prev
 (`Status.lag_s`, mission seconds). A single late step is a burst (a replan of a few hundred
 wall milliseconds is tens of mission seconds at warp 60): slowing the clock afterwards would
 not undo it, and since silence is not death (`docs/fleet_agent.md`) it costs no spot and no
-false alarm as long as it is shorter than the suspicion window; a longer one is the limit
-docs/fleet_agent.md names (`benchmarks/demo_warp.py`). A host that stays late, status after status, is one the machine cannot keep up
+false alarm as long as it is shorter than the suspicion window; the replanner's bursts, the
+long ones, hold the clock instead (`Holds`, `benchmarks/demo_warp.py`). A host that stays late, status after status, is one the machine cannot keep up
 with at this warp: it wakes after its TDMA slots and its decisions come late, which a slower
 clock does fix. So the clock is slowed when one vehicle has reported more
 than ``bound_s`` in ``sustained`` consecutive statuses, at once to the warp that host can keep
@@ -87,3 +87,45 @@ class LagWatch:
         self._late_run.clear()
         self._worst.clear()
         self._calm_run.clear()
+
+
+HOLD_WARP = 2.0  # the shared clock's pace while an agent plans (mission s per wall s)
+HOLD_EXPIRE_WALL_S = 10.0  # a hold not released this long after it began is dropped
+
+
+@dataclass
+class Holds:
+    """Which vehicles' processes are running the planner now (`fleet_agent.plans`), by wall
+    time of the start. While any is, the operator runs the shared clock at `HOLD_WARP`:
+    a planner burst then costs almost no mission time, as in the in-process simulation, and
+    a vehicle is never silent for a whole suspicion window because its host was computing.
+    A hold older than ``expire_wall_s`` is dropped (a process that died mid-plan, or an end
+    lost on the bus), so a hold can slow the mission but never stop it."""
+
+    expire_wall_s: float = HOLD_EXPIRE_WALL_S
+    _since: dict[str, float] = field(default_factory=dict)
+    count: int = 0  # holds begun
+    held_wall_s: float = 0.0  # wall time with at least one hold
+    _held_from: float | None = None
+
+    def update(self, vid: str, busy: bool, wall_s: float) -> None:
+        if busy:
+            if vid not in self._since:
+                self.count += 1
+            self._since[vid] = wall_s
+        else:
+            self._since.pop(vid, None)
+        self.active(wall_s)
+
+    def active(self, wall_s: float) -> bool:
+        """Any hold still standing at ``wall_s`` (expired ones dropped)."""
+        for vid, t in list(self._since.items()):
+            if wall_s - t > self.expire_wall_s:
+                del self._since[vid]
+        held = bool(self._since)
+        if held and self._held_from is None:
+            self._held_from = wall_s
+        elif not held and self._held_from is not None:
+            self.held_wall_s += wall_s - self._held_from
+            self._held_from = None
+        return held

@@ -46,7 +46,7 @@ import zenoh
 from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
 from cotsfleet.mission.intruder import Intruder, intruder_rng
-from cotsfleet.mission.pacing import LagWatch, faster_warp, slower_warp
+from cotsfleet.mission.pacing import HOLD_WARP, Holds, LagWatch, faster_warp, slower_warp
 from cotsfleet.mission.runner import MissionStopped
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_agent.radio import LATE_SHARE
@@ -63,7 +63,7 @@ from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID,
 from fleet_bus.process import RELAY_READY, ROUTER_READY
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
 from fleet_agent.beliefs import find_ids
-from fleet_bus.telemetry import STATES, Event, Status
+from fleet_bus.telemetry import STATES, Event, Status, decode_busy
 from hfc_core.problem import Problem
 
 POLL_WALL_S = 0.05
@@ -192,6 +192,12 @@ class ProcessBackend:
         # as late as a host may run before its frames are dated back (`Radio.take_slot`)
         self.lag_watch = LagWatch(LATE_SHARE * opts.agent_config.slot_s)
         self._next_slow_wall = 0.0
+        # Agents planning now (`fleet/busy/<id>`): the clock runs at HOLD_WARP meanwhile and
+        # returns to ``_held_warp`` after; the main loop's pacing and the busy callbacks
+        # change the clock under ``_clock_lock``.
+        self.holds = Holds()
+        self._held_warp: float | None = None
+        self._clock_lock = threading.Lock()
         self._next_progress = 0.0
         self._closed = False
         self._closing = threading.Event()  # ends stall threads (they SIGCONT on the way out)
@@ -230,7 +236,8 @@ class ProcessBackend:
         self._closers += [
             session.declare_subscriber(keys.STATUS_ALL, self._on_status),
             session.declare_subscriber(keys.EVENT_ALL, self._on_event),
-            session.declare_subscriber(keys.ALIVE_ALL, self._on_alive)]
+            session.declare_subscriber(keys.ALIVE_ALL, self._on_alive),
+            session.declare_subscriber(keys.BUSY_ALL, self._on_busy)]
         mission = Mission(self.scenario, self.seed, self.run_id).encode()
         self._closers.append(session.declare_queryable(
             keys.MISSION, lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission))))
@@ -320,6 +327,13 @@ class ProcessBackend:
         with self._lock:
             for vid, s in self.ledger.statuses.items():
                 self.lag_watch.see(vid, s.t_s, s.lag_s)
+        with self._clock_lock:
+            self._apply_hold()  # holds expire
+            if self._held_warp is not None:
+                return  # an agent is planning: its lateness is not the machine's pace
+            self._pace_step(clock)
+
+    def _pace_step(self, clock: WarpClock) -> None:
         if time.monotonic() < self._next_slow_wall:
             return
         lag = self.lag_watch.behind()
@@ -335,12 +349,52 @@ class ProcessBackend:
             self.out(f"t={clock.now():.0f} s: every vehicle keeps up; warp back up to {warp:.1f}")
         else:
             return
+        self._set_warp(warp)
+        self._next_slow_wall = time.monotonic() + SLOW_HOLD_WALL_S
+        self.lag_watch.restart()
+
+    def _set_warp(self, warp: float) -> None:
+        """Run the shared clock at ``warp`` from now on: a new signed clock record, without a
+        jump in mission time (`WarpClock.at_warp`), that every process follows."""
+        clock = self.clock
+        if clock is None or self._session is None or self.auth is None:
+            return
         epoch, warp, seq = clock.at_warp(warp)
         clock.follow(epoch, warp, seq)
         self._clock_payload = ClockRecord(epoch, warp, seq).encode()
         self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, self._clock_payload))
-        self._next_slow_wall = time.monotonic() + SLOW_HOLD_WALL_S
-        self.lag_watch.restart()
+
+    def _apply_hold(self) -> None:
+        """Hold the clock at HOLD_WARP while any agent plans, give it back after (call with
+        ``_clock_lock``)."""
+        clock = self.clock
+        if clock is None:
+            return
+        held = self.holds.active(time.monotonic())
+        if held and self._held_warp is None:
+            self._held_warp = clock.warp
+            if clock.warp > HOLD_WARP:
+                self._set_warp(HOLD_WARP)
+        elif not held and self._held_warp is not None:
+            warp, self._held_warp = self._held_warp, None
+            if warp != clock.warp:
+                self._set_warp(warp)
+            self.lag_watch.restart()  # lateness measured across a hold is not the pace
+
+    def _on_busy(self, sample: zenoh.Sample) -> None:
+        opened = self._open(sample)
+        if opened is None:
+            return
+        vid = keys.vid_of(opened[0])
+        try:
+            busy = decode_busy(opened[1])
+        except ValueError:
+            return self._invalid("invalid")
+        if vid not in self.ids:
+            return self._invalid("invalid")
+        with self._clock_lock:
+            self.holds.update(vid, busy, time.monotonic())
+            self._apply_hold()
 
     def _clock_report(self) -> dict[str, Any]:
         """Requested and effective warp (mission seconds per wall second over the whole
@@ -357,6 +411,7 @@ class ProcessBackend:
                 "effective_warp": round(clock.now() / wall, 2) if wall > 0 else None,
                 "slowdowns": self.slowdowns, "speedups": self.speedups,
                 "max_lag_s": round(self.lag_watch.max_lag_s, 2),
+                "holds": self.holds.count, "held_wall_s": round(self.holds.held_wall_s, 2),
                 "slots_late": sum(s.counters.get("slots_late", 0) for s in statuses),
                 "max_frame_late_s": self._relay_extra.get("max_late_s")}
 
@@ -545,6 +600,9 @@ class ProcessBackend:
                 self._signal(child, signal.SIGKILL)
                 child.popen.wait(5.0)
             self.dead.add(f.vid)
+            with self._clock_lock:  # a hold of the killed process ends with it
+                self.holds.update(f.vid, False, time.monotonic())
+                self._apply_hold()
         elif f.kind == "restart":
             self._spawn(f.vid, self._agent_argv(f.vid))
             self.dead.discard(f.vid)

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from cotsfleet.mission.pacing import (MAX_FACTOR, MIN_FACTOR, LagWatch, faster_warp,
-                                      slower_warp)
+from cotsfleet.mission.pacing import (HOLD_EXPIRE_WALL_S, MAX_FACTOR, MIN_FACTOR, Holds,
+                                      LagWatch, faster_warp, slower_warp)
 
 
 def feed(watch: LagWatch, vid: str, lags: list[float], t0: float = 0.0) -> None:
@@ -84,3 +84,32 @@ def test_speeding_up_is_a_step_and_never_past_the_request():
     assert faster_warp(20.0, 100.0) == pytest.approx(20.0 / MAX_FACTOR)
     assert faster_warp(90.0, 100.0) == 100.0
     assert faster_warp(100.0, 100.0) == 100.0
+
+
+def test_the_clock_is_held_while_any_agent_plans():
+    h = Holds()
+    assert not h.active(0.0)
+    h.update("auv1", True, 1.0)
+    h.update("auv2", True, 1.2)
+    h.update("auv1", False, 1.5)
+    assert h.active(1.5)  # auv2 still plans
+    h.update("auv2", False, 2.0)
+    assert not h.active(2.0)
+    assert h.count == 2 and h.held_wall_s == pytest.approx(1.0)
+
+
+def test_a_hold_never_released_expires():
+    """A process that died mid-plan (or whose end was lost) slows the mission, never stops it."""
+    h = Holds()
+    h.update("auv1", True, 0.0)
+    assert h.active(HOLD_EXPIRE_WALL_S - 0.1)
+    assert not h.active(HOLD_EXPIRE_WALL_S + 0.1)
+    h.update("auv1", False, HOLD_EXPIRE_WALL_S + 1.0)  # a late end changes nothing
+    assert not h.active(HOLD_EXPIRE_WALL_S + 1.0) and h.count == 1
+
+
+def test_a_repeated_start_is_one_hold():
+    h = Holds()
+    h.update("auv1", True, 0.0)
+    h.update("auv1", True, 0.5)
+    assert h.count == 1 and h.active(0.5)

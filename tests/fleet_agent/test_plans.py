@@ -3,7 +3,7 @@
 import pytest
 
 from fleet_agent.config import AgentConfig
-from fleet_agent.plans import Live, Planner
+from fleet_agent.plans import Live, Planner, set_planning_hook
 from fleet_agent.vehicle import Vehicle, fit_route, path_function
 from hfc_core.feasibility import fits
 from hfc_core.generate import paper_preset_doc
@@ -67,3 +67,21 @@ def test_plan_polish_must_be_a_boolean() -> None:
     assert AgentConfig(plan_polish=False).plan_polish is False
     with pytest.raises(ValueError, match="plan_polish must be true or false"):
         AgentConfig(plan_polish="no")  # type: ignore[arg-type]
+
+
+def test_the_planning_hook_brackets_every_replanner_run(problem) -> None:
+    """The deployment's hold on the shared clock (`fleet_agent.node`): told before and after
+    each planner run (a memo hit runs nothing), and not at all once unset."""
+    calls: list[bool] = []
+    live = [Live(v, problem.vehicles[v].start, 2000.0) for v in range(2)]
+    planner = Planner(problem, 0, 0, 20)
+    set_planning_hook(calls.append)
+    try:
+        planner.replan(live, frozenset(), {}, seed=3)
+        planner.replan(live, frozenset(), {}, seed=3)  # memoised: no planner run
+        assert calls == [True, False]
+    finally:
+        set_planning_hook(None)
+    planner.replan(live, frozenset(), {}, seed=4)
+    assert calls == [True, False]
+

@@ -47,6 +47,9 @@ def test_only_the_rightful_role_may_speak_on_a_key():
     assert allowed(keys.rx_key("auv1"), "relay", "relay")
     assert not allowed(keys.rx_key("auv1"), "auv1", "vehicle")
     assert allowed(keys.link_event_key("auv1", "auv2"), "relay", "relay")
+    assert allowed(keys.busy_key("auv1"), "auv1", "vehicle")  # only its own planner runs
+    assert not allowed(keys.busy_key("auv1"), "auv2", "vehicle")
+    assert not allowed(keys.busy_key("auv1"), "operator", "operator")
     assert allowed(keys.MISSION, "operator", "operator") and allowed(keys.CLOCK, "operator",
                                                                      "operator")
     assert not allowed(keys.MISSION, "relay", "relay")

@@ -7,6 +7,7 @@ import pytest
 from cotsfleet.commands.run import run_warnings
 from fleet_bus.clock import WarpClock
 from fleet_bus.mission import ClockRecord
+from fleet_bus.telemetry import decode_busy, encode_busy
 
 
 class Wall:
@@ -65,3 +66,10 @@ def test_the_launcher_warns_of_false_alarms_and_a_slowed_clock() -> None:
                        "speedups": [{"t_s": 500.0, "warp": 240.0}], "slots_late": 3}}
     lines = run_warnings(eased)
     assert "slowed to 117.6, back up to 240" in lines[0] and "3 frame(s)" in lines[1]
+
+
+def test_the_busy_flag_is_one_byte_and_nothing_else():
+    assert decode_busy(encode_busy(True)) is True and decode_busy(encode_busy(False)) is False
+    for bad in (b"", b"\x02", b"\x01\x00", b"busy"):
+        with pytest.raises(ValueError):
+            decode_busy(bad)

@@ -130,6 +130,15 @@ def test_the_lost_vehicles_were_detected_in_time(mission):
     assert report["fleet"]["spots_taken_over"] > 0
 
 
+def test_the_clock_was_held_while_agents_planned(mission):
+    """Every replanner run of an agent holds the shared clock (`fleet/busy/<id>`): the kill's
+    takeover ran the planner, and each hold ended (none left standing at the end)."""
+    report, launcher, _ = mission
+    clock = report["clock"]
+    assert clock["holds"] > 0 and clock["held_wall_s"] > 0.0, clock
+    assert launcher._held_warp is None
+
+
 def test_hostile_traffic_was_refused_and_counted(mission):
     report, _, sent = mission
     assert sent.get("rx", 0) > 20
