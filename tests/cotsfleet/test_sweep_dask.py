@@ -164,3 +164,31 @@ def test_a_killed_sweep_leaves_no_local_cluster_behind(scenario: Path, tmp_path:
         for line in left:
             os.kill(int(line.split()[0]), 9)
     assert left == []
+
+
+def test_a_local_worker_drops_only_the_heartbeat_lost_to_the_closing_sweep() -> None:
+    import logging
+    import signal
+
+    from cotsfleet.sweep import dask_worker
+
+    def record(msg: str, level: int = logging.ERROR) -> logging.LogRecord:
+        return logging.LogRecord("distributed.worker", level, __file__, 1, msg, None, None)
+
+    logger = logging.getLogger("distributed.worker")
+    seen: list[str] = []
+    handler = logging.Handler()
+    handler.emit = lambda r: seen.append(r.getMessage())  # type: ignore[method-assign]
+    logger.addHandler(handler)
+    sigint = signal.getsignal(signal.SIGINT)  # dask_setup ignores Ctrl-C, as a worker does
+    try:
+        dask_worker.dask_setup(worker=None)
+        logger.handle(record("Failed to communicate with scheduler during heartbeat."))
+        logger.handle(record("Unexpected exception during heartbeat. Closing worker."))
+        logger.handle(record("Worker is at 95% memory usage.", logging.WARNING))
+    finally:
+        logger.removeHandler(handler)
+        logger.removeFilter(dask_worker.closing_noise)
+        signal.signal(signal.SIGINT, sigint)
+    assert seen == ["Unexpected exception during heartbeat. Closing worker.",
+                    "Worker is at 95% memory usage."]
