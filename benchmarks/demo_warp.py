@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from benchmarks.fleet_silence import run_mission_processes
-from benchmarks.results import markdown_table, write_section
+from benchmarks.results import markdown_table, misses_block, print_misses, write_section
 
 SEED = 0
 ABORT = "auv2@1200"
@@ -91,9 +91,7 @@ def main(warps: tuple[float, ...], write: bool) -> int:
          "max host lag, mission s (wall s)", "frames sent after their slot",
          "processes left"], rows)
     print(table)
-    print("missed targets:" if misses else "every target met")
-    for m in misses:
-        print(f"  - {m}")
+    print_misses(misses)
     if write:
         body = (
             f"`make demo`'s mission as real processes: `cotsfleet scenario --paper --dynamic "
@@ -105,9 +103,7 @@ def main(warps: tuple[float, ...], write: bool) -> int:
             f"alarms, 0 duplicates, nothing left. Max host lag: the worst lateness of an "
             f"agent's step (report `clock`), in mission seconds and in wall seconds. "
             f"{spawned} processes started, {time.perf_counter() - t0:.0f} s wall.\n\n"
-            f"{table}\n\n"
-            + ("Missed targets:\n\n" + "\n".join(f"- {m}" for m in misses) if misses else
-               "Every target met.") + "\n")
+            f"{table}\n\n" + misses_block(misses))
         write_section("demo_warp", "make demo at several warps: bursts of planning", body)
     return 0
 

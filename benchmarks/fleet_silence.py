@@ -38,7 +38,7 @@ from typing import Any
 
 import psutil
 
-from benchmarks.results import markdown_table, write_section
+from benchmarks.results import markdown_table, misses_block, print_misses, write_section
 from cotsfleet.commands.mission_args import scenario_doc
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import simulate
@@ -363,9 +363,7 @@ def main(runs: int, warps: list[float], mp_seeds: list[int], quick: bool,
         wall_b = time.perf_counter() - t1
         print(table_b, flush=True)
     misses = misses_a + misses_b
-    print("missed targets:" if misses else "every target met", flush=True)
-    for m in misses:
-        print(f"  - {m}", flush=True)
+    print_misses(misses)
     if quick or skip_b:
         return 0
     load = os.getloadavg()
@@ -391,9 +389,7 @@ def main(runs: int, warps: list[float], mp_seeds: list[int], quick: bool,
         f"same stall. Targets: priority within 2 %, 0 duplicates, all home, no false alarm. "
         f"{wall_b:.0f} s wall. {check} The machine may "
         f"also have been loaded by another developer's work (load average at the end "
-        f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}).\n\n{table_b}\n\n"
-        + ("Missed targets:\n\n" + "\n".join(f"- {m}" for m in misses) if misses else
-           "Every target met.") + "\n")
+        f"{load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f}).\n\n{table_b}\n\n" + misses_block(misses))
     write_section("fleet_silence", "fleet_agent: silence is not death (issue 11)", body)
     return 0
 

@@ -64,3 +64,17 @@ def markdown_table(header: list[str], rows: list[list[object]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
     return "\n".join(lines)
+
+
+def print_misses(misses: list[str]) -> None:
+    """The benchmark's verdict on stdout: each missed target, or that every one was met."""
+    print("missed targets:" if misses else "every target met", flush=True)
+    for m in misses:
+        print(f"  - {m}", flush=True)
+
+
+def misses_block(misses: list[str]) -> str:
+    """The same verdict as the closing block of a RESULTS.md section."""
+    if not misses:
+        return "Every target met.\n"
+    return "Missed targets:\n\n" + "\n".join(f"- {m}" for m in misses) + "\n"
