@@ -115,17 +115,20 @@ class Holds:
             self._since[vid] = wall_s
         else:
             self._since.pop(vid, None)
-        self.active(wall_s)
+        self.refresh(wall_s)
 
-    def active(self, wall_s: float) -> bool:
-        """Any hold still standing at ``wall_s`` (expired ones dropped)."""
+    @property
+    def held(self) -> bool:
+        """Any hold standing (as of the last `update` or `refresh`)."""
+        return bool(self._since)
+
+    def refresh(self, wall_s: float) -> None:
+        """Drop the holds expired at ``wall_s`` and count the wall time held up to it."""
         for vid, t in list(self._since.items()):
             if wall_s - t > self.expire_wall_s:
                 del self._since[vid]
-        held = bool(self._since)
-        if held and self._held_from is None:
+        if self.held and self._held_from is None:
             self._held_from = wall_s
-        elif not held and self._held_from is not None:
+        elif not self.held and self._held_from is not None:
             self.held_wall_s += wall_s - self._held_from
             self._held_from = None
-        return held

@@ -196,7 +196,7 @@ class ProcessBackend:
         # returns to ``_held_warp`` after; the main loop's pacing and the busy callbacks
         # change the clock under ``_clock_lock``.
         self.holds = Holds()
-        self._held_warp: float | None = None
+        self._held_warp: float | None = None  # also: a hold stands (`clock_held`)
         self._clock_lock = threading.Lock()
         self._next_progress = 0.0
         self._closed = False
@@ -364,13 +364,19 @@ class ProcessBackend:
         self._clock_payload = ClockRecord(epoch, warp, seq).encode()
         self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, self._clock_payload))
 
+    @property
+    def clock_held(self) -> bool:
+        """The shared clock runs at HOLD_WARP now because an agent plans."""
+        return self._held_warp is not None
+
     def _apply_hold(self) -> None:
         """Hold the clock at HOLD_WARP while any agent plans, give it back after (call with
         ``_clock_lock``)."""
         clock = self.clock
         if clock is None:
             return
-        held = self.holds.active(time.monotonic())
+        self.holds.refresh(time.monotonic())
+        held = self.holds.held
         if held and self._held_warp is None:
             self._held_warp = clock.warp
             if clock.warp > HOLD_WARP:

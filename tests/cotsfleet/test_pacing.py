@@ -86,15 +86,20 @@ def test_speeding_up_is_a_step_and_never_past_the_request():
     assert faster_warp(100.0, 100.0) == 100.0
 
 
+def held_at(h: Holds, wall_s: float) -> bool:
+    h.refresh(wall_s)
+    return h.held
+
+
 def test_the_clock_is_held_while_any_agent_plans():
     h = Holds()
-    assert not h.active(0.0)
+    assert not held_at(h, 0.0)
     h.update("auv1", True, 1.0)
     h.update("auv2", True, 1.2)
     h.update("auv1", False, 1.5)
-    assert h.active(1.5)  # auv2 still plans
+    assert h.held  # auv2 still plans
     h.update("auv2", False, 2.0)
-    assert not h.active(2.0)
+    assert not h.held
     assert h.count == 2 and h.held_wall_s == pytest.approx(1.0)
 
 
@@ -102,14 +107,15 @@ def test_a_hold_never_released_expires():
     """A process that died mid-plan (or whose end was lost) slows the mission, never stops it."""
     h = Holds()
     h.update("auv1", True, 0.0)
-    assert h.active(HOLD_EXPIRE_WALL_S - 0.1)
-    assert not h.active(HOLD_EXPIRE_WALL_S + 0.1)
+    assert held_at(h, HOLD_EXPIRE_WALL_S - 0.1)
+    assert not held_at(h, HOLD_EXPIRE_WALL_S + 0.1)
+    assert h.held_wall_s == pytest.approx(HOLD_EXPIRE_WALL_S + 0.1)
     h.update("auv1", False, HOLD_EXPIRE_WALL_S + 1.0)  # a late end changes nothing
-    assert not h.active(HOLD_EXPIRE_WALL_S + 1.0) and h.count == 1
+    assert not h.held and h.count == 1
 
 
 def test_a_repeated_start_is_one_hold():
     h = Holds()
     h.update("auv1", True, 0.0)
     h.update("auv1", True, 0.5)
-    assert h.count == 1 and h.active(0.5)
+    assert h.count == 1 and held_at(h, 0.5)

@@ -136,7 +136,7 @@ def test_the_clock_was_held_while_agents_planned(mission):
     report, launcher, _ = mission
     clock = report["clock"]
     assert clock["holds"] > 0 and clock["held_wall_s"] > 0.0, clock
-    assert launcher._held_warp is None
+    assert not launcher.clock_held
 
 
 def test_hostile_traffic_was_refused_and_counted(mission):
