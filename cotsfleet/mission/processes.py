@@ -39,7 +39,7 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any, Callable, Iterator, Sequence, TypeVar
 
 import zenoh
 
@@ -75,6 +75,7 @@ POLL_WALL_S = 0.05
 SLOW_HOLD_WALL_S = 2.0
 MIN_WARP = 1.0
 ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
+T = TypeVar("T")
 
 
 @contextmanager
@@ -388,18 +389,11 @@ class ProcessBackend:
             self.lag_watch.restart()  # lateness measured across a hold is not the pace
 
     def _on_busy(self, sample: zenoh.Sample) -> None:
-        opened = self._open(sample)
-        if opened is None:
+        got = self._from_fleet(sample, decode_busy)
+        if got is None:
             return
-        vid = keys.vid_of(opened[0])
-        try:
-            busy = decode_busy(opened[1])
-        except ValueError:
-            return self._invalid("invalid")
-        if vid not in self.ids:
-            return self._invalid("invalid")
         with self._clock_lock:
-            self.holds.update(vid, busy, time.monotonic())
+            self.holds.update(*got, time.monotonic())
             self._apply_hold()
 
     def _clock_report(self) -> dict[str, Any]:
@@ -681,48 +675,55 @@ class ProcessBackend:
         if opened is not None:
             self.intruder.overhear(opened[1])  # the attack faults' replay material
 
-    def _on_status(self, sample: zenoh.Sample) -> None:
+    def _from_fleet(self, sample: zenoh.Sample,
+                    decode: Callable[[bytes], T]) -> tuple[str, T] | None:
+        """(vehicle id, decoded payload) of a sample signed by a vehicle of this mission
+        under its own key; else None, and a payload that does not decode, or a sender not
+        on the roster, is counted as invalid."""
         opened = self._open(sample)
         if opened is None:
-            return
+            return None
+        vid = keys.vid_of(opened[0])
         try:
-            s = Status.decode(opened[1])
+            value = decode(opened[1])
         except ValueError:
-            return self._invalid("invalid")
+            value = None
+        if value is None or vid not in self.ids:
+            self._invalid("invalid")
+            return None
+        return vid, value
+
+    def _on_status(self, sample: zenoh.Sample) -> None:
+        got = self._from_fleet(sample, Status.decode)
+        if got is None:
+            return
+        vid, s = got
         # Signed by the vehicle itself, and still checked: one unknown spot id must not cost
         # the report (a vehicle's bug is not a reason to lose the mission's record).
-        if s.id != keys.vid_of(opened[0]) or s.id not in self.ids or s.state not in STATES \
+        if s.id != vid or s.state not in STATES \
                 or not self._known_tasks(s.route, s.treated, s.claims):
             return self._invalid("invalid")
         with self._lock:
             self.ledger.add_status(s)
 
     def _on_event(self, sample: zenoh.Sample) -> None:
-        opened = self._open(sample)
-        if opened is None:
+        got = self._from_fleet(sample, Event.decode)
+        if got is None:
             return
-        try:
-            e = Event.decode(opened[1])
-        except ValueError:
-            return self._invalid("invalid")
-        if e.id != keys.vid_of(opened[0]) or e.id not in self.ids \
-                or not self._known_tasks(e.tasks):
+        vid, e = got
+        if e.id != vid or not self._known_tasks(e.tasks):
             return self._invalid("invalid")
         with self._lock:
             self.ledger.add_event(e)
 
     def _on_alive(self, sample: zenoh.Sample) -> None:
         """A vehicle's signed ready announcement (its initial plan is computed)."""
-        opened = self._open(sample)
-        if opened is None:
+        got = self._from_fleet(sample, lambda b: v.unpack_map(b, "ready"))
+        if got is None:
             return
-        vid = keys.vid_of(opened[0])
-        try:
-            doc = v.unpack_map(opened[1], "ready")
-            if doc.get("id") != vid or doc.get("run_id") != self.run_id or vid not in self.ids:
-                raise ValueError("ready announcement of another vehicle or run")
-        except ValueError:
-            return self._invalid("invalid")
+        vid, doc = got
+        if doc.get("id") != vid or doc.get("run_id") != self.run_id:
+            return self._invalid("invalid")  # another vehicle's or another run's
         with self._lock:
             self._alive.add(vid)
 
