@@ -176,13 +176,17 @@ def browser_latency(repo: Path, warp: float, work: Path) -> dict:
 
 
 def _summary(samples: list[tuple[float, float, float | None, float]], end_s: float) -> dict:
-    """Latency in wall seconds at the warp of the moment (the operator may slow the clock)."""
-    shown = [x for x in samples if x[2] is not None and x[1] <= end_s]
-    lat = [(wall, (now - s) / w) for wall, now, s, w in shown]
+    """Latency in wall seconds behind the clock (`wall_behind_s`: the operator may slow or
+    hold the clock, so not the mission lag over the warp of the moment)."""
+    from ground_station.viewer_state import wall_behind_s
+
+    trace = [(wall, now, w) for wall, now, _, w in samples]
+    lat = [(wall, wall_behind_s(trace[:i + 1], s)) for i, (wall, now, s, _) in enumerate(samples)
+           if s is not None and now <= end_s]
     caught = next((i for i, (_, x) in enumerate(lat) if x < CAUGHT_UP_S), None)
     steady = [x for _, x in lat[caught:]] if caught is not None else []
     return {
-        "first_shown_s": shown[0][0] if shown else None,
+        "first_shown_s": lat[0][0] if lat else None,
         "caught_up_s": lat[caught][0] if caught is not None else None,
         "latency_median_s": statistics.median(steady) if steady else None,
         "latency_max_s": max(steady) if steady else None,
@@ -226,8 +230,9 @@ def main(repo: Path, browser: bool, write: bool) -> None:
              ["web viewer latency at the end of the mission", _fmt(web.get("latency_end_s"), " s")],
              ["a page opened after the mission shows all of it after",
               _fmt(web.get("late_page_s"), " s")]])
-        + "\n\nLatency: the mission clock (`fleet/clock`) minus the time the page shows (its "
-        "time cursor), in wall seconds, sampled every second while the mission runs; headless "
+        + "\n\nLatency: wall seconds since the mission clock (`fleet/clock`) read the time the "
+        "page shows (its time cursor), from the clock's own history, since the warp changes "
+        "(`viewer_state.wall_behind_s`); sampled every second while the mission runs; headless "
         "Debian chromium, software WebGL (swiftshader), 1400x900, on this machine with "
         "whatever else it was running.\n")
     print(body)

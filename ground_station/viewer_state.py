@@ -6,11 +6,17 @@ The page served by rerun-sdk keeps its viewer handle in ``window._handle``; the 
 ``rerun/v1alpha1/viewer_control.proto``): every open recording with its timelines, their time
 ranges, and its time cursor. The API is marked alpha upstream, so this reads only the few
 fields it needs, by number, and returns None for anything it does not recognise.
+
+`wall_behind_s` turns the cursor into wall seconds behind the mission clock. The clock's warp
+is not constant (the operator slows it when hosts fall behind and holds it at warp 2 while an
+agent plans), so the lag is read off the clock's own recent history, never divided by the
+warp of the moment: a page 100 mission s behind at warp 60 is 1.7 s behind, even if the clock
+is held at warp 2 when it is sampled.
 """
 
 from __future__ import annotations
 
-from typing import Iterator
+from typing import Iterator, Sequence
 
 # Run in the page (Playwright's page.evaluate): the state as a list of byte values, or null
 # while the viewer is still loading.
@@ -121,3 +127,18 @@ def cursor_s(state: bytes | list[int] | None, timeline: str = "sim_time",
     cursors = [c for _, c, _ in recording_times(bytes(state), timeline, application_id)
                if c is not None]
     return max(cursors) if cursors else None
+
+
+def wall_behind_s(trace: Sequence[tuple[float, float, float]], shown_s: float) -> float:
+    """Wall seconds since the mission clock read ``shown_s``. ``trace``: samples of the clock
+    (wall s, mission s, warp), oldest first, the last one now. Between samples the clock is
+    taken as linear; before the first, as running at the first sample's warp."""
+    if not trace:
+        raise ValueError("no clock sample")
+    now_wall = trace[-1][0]
+    for (w0, m0, _), (w1, m1, _) in zip(reversed(trace[:-1]), reversed(trace)):
+        if m0 <= shown_s:
+            frac = 0.0 if m1 <= m0 else min(1.0, (shown_s - m0) / (m1 - m0))
+            return now_wall - (w0 + frac * (w1 - w0))
+    w0, m0, warp0 = trace[0]
+    return now_wall - w0 + max(0.0, m0 - shown_s) / warp0

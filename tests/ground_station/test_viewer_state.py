@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from ground_station.viewer_state import cursor_s, recording_times
+from ground_station.viewer_state import cursor_s, recording_times, wall_behind_s
 
 # window._handle.viewer_state() of rerun 0.41's web viewer, showing a warp-60 mission
 STATE = (Path(__file__).parent / "data" / "viewer_state_rerun_0.41.bin").read_bytes()
@@ -29,3 +29,23 @@ def test_a_real_state_gives_the_cursor_and_the_latest_time_on_sim_time():
 ])
 def test_anything_else_is_none(state, timeline, app):
     assert cursor_s(state, timeline, app) is None
+
+
+def test_the_lag_is_read_off_the_clock_history_not_the_warp_of_the_moment():
+    """At warp 60 the page trails by 90 mission s (1.5 wall s); then an agent plans and the
+    clock is held at warp 2: half a wall second later the page is 2 s behind, not 45.5
+    ((121 - 30) / 2, the mission lag over the warp of the moment)."""
+    trace = [(0.0, 0.0, 60.0), (1.0, 60.0, 60.0), (2.0, 120.0, 60.0)]
+    assert wall_behind_s(trace, 30.0) == pytest.approx(1.5)
+    trace.append((2.5, 121.0, 2.0))  # held since 2.0 wall s
+    assert wall_behind_s(trace, 30.0) == pytest.approx(2.0)
+    assert wall_behind_s(trace, 120.5) == pytest.approx(0.25)
+    assert wall_behind_s(trace, 121.0) == pytest.approx(0.0)
+    assert wall_behind_s(trace, 500.0) == pytest.approx(0.0)  # ahead counts as caught up
+
+
+def test_a_cursor_older_than_the_history_runs_at_the_first_warp():
+    trace = [(10.0, 600.0, 60.0), (11.0, 660.0, 60.0)]
+    assert wall_behind_s(trace, 0.0) == pytest.approx(1.0 + 10.0)
+    with pytest.raises(ValueError):
+        wall_behind_s([], 0.0)
