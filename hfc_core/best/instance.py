@@ -90,6 +90,7 @@ class Instance:
             stack = arrays[0][None] if len(arrays) == 1 else np.stack(arrays)
             self.__dict__["_stacked"] = (stack, which)
         return self.__dict__["_stacked"]
+
     def route_time_s(self, v: int, route: list[int]) -> float:
         """Travel start -> route -> end at ``v``'s speed plus service, summed as `State` sums
         it (so both judge a route alike)."""
