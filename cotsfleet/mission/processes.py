@@ -46,7 +46,7 @@ import zenoh
 from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
 from cotsfleet.mission.intruder import Intruder, intruder_rng
-from cotsfleet.mission.pacing import HOLD_WARP, Holds, LagWatch, faster_warp, slower_warp
+from cotsfleet.mission.clock_control import ClockControl
 from cotsfleet.mission.runner import MissionStopped
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_agent.radio import LATE_SHARE
@@ -57,7 +57,7 @@ from fleet_bus.clock import WarpClock
 from fleet_bus.commands import ABORT, STOP, encode_command
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition, decode_stats
-from fleet_bus.mission import ClockRecord, Mission
+from fleet_bus.mission import Mission
 from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID, load_auth,
                                    load_ring, new_run_id, write_run_credentials)
 from fleet_bus.process import RELAY_READY, ROUTER_READY
@@ -67,13 +67,6 @@ from fleet_bus.telemetry import STATES, Event, Status, decode_busy
 from hfc_core.problem import Problem
 
 POLL_WALL_S = 0.05
-# The clock never outruns the fleet: when a vehicle's process stays more than half a TDMA
-# slot behind the mission clock (`pacing.LagWatch`: its frames are being dated back), the
-# operator slows the shared clock to the warp that host can keep (`pacing.slower_warp`), at
-# most once per SLOW_HOLD_WALL_S (the statuses must show the new pace first), never below
-# MIN_WARP; after a calm minute it speeds up again towards the requested warp.
-SLOW_HOLD_WALL_S = 2.0
-MIN_WARP = 1.0
 ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
 T = TypeVar("T")
 
@@ -172,7 +165,7 @@ class ProcessBackend:
         self.dead: set[str] = set()
         self.endpoint = ""
         self.started = threading.Event()  # set once the mission clock runs
-        self.clock: WarpClock | None = None
+        self.clock: WarpClock | None = None  # `pacer.clock`, once started
         self.interrupted = False
         self._lock = threading.Lock()
         self._alive: set[str] = set()
@@ -186,19 +179,11 @@ class ProcessBackend:
         self.auth: BusAuth | None = None  # the operator's key and the run's ring (start)
         self._relay_extra: dict[str, Any] = {}
         self._wall0 = time.monotonic()
-        self._clock_payload = b""  # the operator's current clock record (signed), served
-        self._epoch0 = 0.0  # wall time of mission time 0 at the start (effective warp)
-        self.slowdowns: list[dict[str, float]] = []
-        self.speedups: list[dict[str, float]] = []  # back up after a calm spell
-        # as late as a host may run before its frames are dated back (`Radio.take_slot`)
-        self.lag_watch = LagWatch(LATE_SHARE * opts.agent_config.slot_s)
-        self._next_slow_wall = 0.0
-        # Agents planning now (`fleet/busy/<id>`): the clock runs at HOLD_WARP meanwhile and
-        # returns to ``_held_warp`` after; the main loop's pacing and the busy callbacks
-        # change the clock under ``_clock_lock``.
-        self.holds = Holds()
-        self._held_warp: float | None = None  # also: a hold stands (`clock_held`)
-        self._clock_lock = threading.Lock()
+        # The clock never outruns the fleet: its pace follows the hosts' lateness (bound: as
+        # late as a host may run before its frames are dated back, `Radio.take_slot`) and it
+        # is held while an agent plans (`fleet/busy/<id>`).
+        self.pacer = ClockControl(opts.warp, LATE_SHARE * opts.agent_config.slot_s,
+                                 self._put_clock, out)
         self._next_progress = 0.0
         self._closed = False
         self._closing = threading.Event()  # ends stall threads (they SIGCONT on the way out)
@@ -260,13 +245,9 @@ class ProcessBackend:
             else:
                 self._spawn(vid, self._agent_argv(vid))
         self._wait_agents()
-        epoch = time.time() + 1.0
-        self.clock = WarpClock(epoch, opts.warp)
-        self._epoch0 = epoch
-        self._clock_payload = ClockRecord(epoch, opts.warp).encode()
+        self.clock = self.pacer.start(time.time() + 1.0)
         self._closers.append(session.declare_queryable(  # always the newest record
-            keys.CLOCK, lambda q: q.reply(keys.CLOCK,
-                                          auth.seal(keys.CLOCK, self._clock_payload))))
+            keys.CLOCK, lambda q: q.reply(keys.CLOCK, auth.seal(keys.CLOCK, self.pacer.record))))
         self._wait_ready(relay)
         for f in sorted(faults, key=lambda f: f.t_s):
             steps = int(f.value) if f.kind in ATTACKS else 1
@@ -303,7 +284,7 @@ class ProcessBackend:
     def advance(self, t_s: float) -> None:
         while self.now() < t_s:
             self._apply_due()
-            self._pace()
+            self._pace_clock()
             self._watch_children()
             self._progress()
             time.sleep(POLL_WALL_S)
@@ -318,101 +299,38 @@ class ProcessBackend:
     def link_counts(self) -> LinkCounts | None:
         return self._link
 
-    def _pace(self) -> None:
-        """Slow the shared clock down when a vehicle's process stays behind it (`LagWatch`,
-        `slower_warp`), and speed it up again once every process keeps up (`faster_warp`): a
-        slow machine gives a slower mission, not a different one."""
-        clock = self.clock
-        if clock is None or self._session is None or self.auth is None:
+    def _pace_clock(self) -> None:
+        """Slow or speed the shared clock with the hosts' pace (`ClockControl.pace`)."""
+        if self.clock is None:
             return
         with self._lock:
-            for vid, s in self.ledger.statuses.items():
-                self.lag_watch.see(vid, s.t_s, s.lag_s)
-        with self._clock_lock:
-            self._apply_hold()  # holds expire
-            if self._held_warp is not None:
-                return  # an agent is planning: its lateness is not the machine's pace
-            self._pace_step(clock)
+            statuses = list(self.ledger.statuses.values())
+        self.pacer.pace(statuses)
 
-    def _pace_step(self, clock: WarpClock) -> None:
-        if time.monotonic() < self._next_slow_wall:
-            return
-        lag = self.lag_watch.behind()
-        if lag > 0.0 and clock.warp > MIN_WARP:
-            warp = max(MIN_WARP, slower_warp(clock.warp, lag, self.lag_watch.bound_s))
-            self.slowdowns.append({"t_s": round(clock.now(), 1), "warp": round(warp, 2),
-                                   "lag_s": round(lag, 2)})
-            self.out(f"t={clock.now():.0f} s: a vehicle ran {lag:.1f} s behind the mission "
-                     f"clock; warp slowed to {warp:.1f}")
-        elif lag <= 0.0 and clock.warp < self.opts.warp and self.lag_watch.calm():
-            warp = faster_warp(clock.warp, self.opts.warp)
-            self.speedups.append({"t_s": round(clock.now(), 1), "warp": round(warp, 2)})
-            self.out(f"t={clock.now():.0f} s: every vehicle keeps up; warp back up to {warp:.1f}")
-        else:
-            return
-        self._set_warp(warp)
-        self._next_slow_wall = time.monotonic() + SLOW_HOLD_WALL_S
-        self.lag_watch.restart()
-
-    def _set_warp(self, warp: float) -> None:
-        """Run the shared clock at ``warp`` from now on: a new signed clock record, without a
-        jump in mission time (`WarpClock.at_warp`), that every process follows."""
-        clock = self.clock
-        if clock is None or self._session is None or self.auth is None:
-            return
-        epoch, warp, seq = clock.at_warp(warp)
-        clock.follow(epoch, warp, seq)
-        self._clock_payload = ClockRecord(epoch, warp, seq).encode()
-        self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, self._clock_payload))
+    def _put_clock(self, record: bytes) -> None:
+        """Put a new clock record on the bus, signed: every process follows it."""
+        if self._session is not None and self.auth is not None:
+            self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, record))
 
     @property
     def clock_held(self) -> bool:
         """The shared clock runs at HOLD_WARP now because an agent plans."""
-        return self._held_warp is not None
-
-    def _apply_hold(self) -> None:
-        """Hold the clock at HOLD_WARP while any agent plans, give it back after (call with
-        ``_clock_lock``)."""
-        clock = self.clock
-        if clock is None:
-            return
-        self.holds.refresh(time.monotonic())
-        held = self.holds.held
-        if held and self._held_warp is None:
-            self._held_warp = clock.warp
-            if clock.warp > HOLD_WARP:
-                self._set_warp(HOLD_WARP)
-        elif not held and self._held_warp is not None:
-            warp, self._held_warp = self._held_warp, None
-            if warp != clock.warp:
-                self._set_warp(warp)
-            self.lag_watch.restart()  # lateness measured across a hold is not the pace
+        return self.pacer.held
 
     def _on_busy(self, sample: zenoh.Sample) -> None:
         got = self._from_fleet(sample, decode_busy)
-        if got is None:
-            return
-        with self._clock_lock:
-            self.holds.update(*got, time.monotonic())
-            self._apply_hold()
+        if got is not None:
+            self.pacer.busy(*got)
 
     def _clock_report(self) -> dict[str, Any]:
-        """Requested and effective warp (mission seconds per wall second over the whole
-        mission), the slowdowns, the worst lag any vehicle reported, the slots hosts ran late
-        for (their frames dated back: `Radio.take_slot`) and the most the relay placed a frame
-        back from its arrival."""
-        clock = self.clock
-        if clock is None:
-            return {"warp": self.opts.warp}
-        wall = time.time() - self._epoch0
+        """`ClockControl.report`, with the slots hosts ran late for (their frames dated back:
+        `Radio.take_slot`) and the most the relay placed a frame back from its arrival."""
+        report = self.pacer.report()
+        if self.clock is None:
+            return report
         with self._lock:
             statuses = list(self.ledger.statuses.values())
-        return {"warp": self.opts.warp, "final_warp": round(clock.warp, 2),
-                "effective_warp": round(clock.now() / wall, 2) if wall > 0 else None,
-                "slowdowns": self.slowdowns, "speedups": self.speedups,
-                "max_lag_s": round(self.lag_watch.max_lag_s, 2),
-                "holds": self.holds.count, "held_wall_s": round(self.holds.held_wall_s, 2),
-                "slots_late": sum(s.counters.get("slots_late", 0) for s in statuses),
+        return {**report, "slots_late": sum(s.counters.get("slots_late", 0) for s in statuses),
                 "max_frame_late_s": self._relay_extra.get("max_late_s")}
 
     def extra(self) -> dict[str, Any]:
@@ -600,9 +518,7 @@ class ProcessBackend:
                 self._signal(child, signal.SIGKILL)
                 child.popen.wait(5.0)
             self.dead.add(f.vid)
-            with self._clock_lock:  # a hold of the killed process ends with it
-                self.holds.update(f.vid, False, time.monotonic())
-                self._apply_hold()
+            self.pacer.busy(f.vid, False)  # a hold of the killed process ends with it
         elif f.kind == "restart":
             self._spawn(f.vid, self._agent_argv(f.vid))
             self.dead.discard(f.vid)

@@ -53,9 +53,9 @@ def signed(creds: Path, signer: str, key: str, payload: bytes) -> Sample:
 def test_a_vehicles_busy_flag_holds_the_clock_and_its_end_releases_it(launcher) -> None:
     backend, creds = launcher
     backend._on_busy(signed(creds, "auv1", keys.busy_key("auv1"), encode_busy(True)))
-    assert backend.holds.held and backend.holds.count == 1
+    assert backend.pacer.holds.held and backend.pacer.holds.count == 1
     backend._on_busy(signed(creds, "auv1", keys.busy_key("auv1"), encode_busy(False)))
-    assert not backend.holds.held and backend.refused == {}
+    assert not backend.pacer.holds.held and backend.refused == {}
 
 
 def test_what_does_not_decode_or_speaks_for_another_vehicle_is_counted_not_taken(
@@ -69,7 +69,7 @@ def test_what_does_not_decode_or_speaks_for_another_vehicle_is_counted_not_taken
     backend._on_alive(signed(creds, "auv1", keys.alive_key("auv1"), b"\xc1"))
     backend._on_status(signed(creds, "auv1", keys.status_key("auv1"), b"not a status"))
     assert backend.refused == {"invalid": 5}
-    assert not backend.holds.held and backend._alive == set()
+    assert not backend.pacer.holds.held and backend._alive == set()
 
 
 def test_a_ready_vehicle_is_taken_and_a_forged_one_is_refused_by_the_signature(
