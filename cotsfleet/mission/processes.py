@@ -32,8 +32,6 @@ import json
 import os
 import secrets
 import signal
-import subprocess
-import sys
 import threading
 import time
 from contextlib import contextmanager
@@ -45,9 +43,9 @@ import zenoh
 
 from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
-from cotsfleet.mission.intruder import Intruder, intruder_rng
+from cotsfleet.mission.children import Child, ChildExited, Children
 from cotsfleet.mission.clock_control import ClockControl
-from cotsfleet.mission.runner import MissionStopped
+from cotsfleet.mission.intruder import Intruder, intruder_rng
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_agent.radio import LATE_SHARE
 from fleet_bus import keys
@@ -87,10 +85,6 @@ def _signals_deferred() -> Iterator[None]:
             signal.signal(s, handler)
 
 
-class ChildExited(MissionStopped):
-    """A process of the mission ended on its own: the mission cannot go on as planned."""
-
-
 @dataclass(frozen=True)
 class ProcessOptions:
     warp: float = 60.0
@@ -116,18 +110,6 @@ class ProcessOptions:
             raise ValueError(f"loss must be in [0, 1], got {self.loss}")
         if self.viewer not in ("web", "native", "none"):
             raise ValueError(f"viewer must be web, native or none, got {self.viewer!r}")
-
-
-@dataclass
-class Child:
-    name: str
-    popen: subprocess.Popen
-    ready: threading.Event = field(default_factory=threading.Event)
-    lines: list[str] = field(default_factory=list)
-    expected_exit: bool = False  # we stopped or killed it
-
-    def tail(self, n: int = 5) -> str:
-        return " | ".join(self.lines[-n:])
 
 
 class ProcessBackend:
@@ -159,9 +141,9 @@ class ProcessBackend:
             self.run_id = ring.run_id
         self.run_dir = opts.run_dir or Path(os.environ.get("TMPDIR", "/tmp")) / \
             "cotsfleet-runs" / self.run_id
+        self.procs = Children(self.run_dir, out, opts.startup_timeout_s)
         self.ledger = FleetLedger()
         self.applied: list[Fault] = []
-        self.children: dict[str, Child] = {}
         self.dead: set[str] = set()
         self.endpoint = ""
         self.started = threading.Event()  # set once the mission clock runs
@@ -169,7 +151,6 @@ class ProcessBackend:
         self.interrupted = False
         self._lock = threading.Lock()
         self._alive: set[str] = set()
-        self._pids: dict[str, list[int]] = {}
         self._pending: list[tuple[float, Fault, str]] = []  # (time, fault, step)
         self._link: LinkCounts | None = None
         self._session: zenoh.Session | None = None
@@ -227,7 +208,7 @@ class ProcessBackend:
         mission = Mission(self.scenario, self.seed, self.run_id).encode()
         self._closers.append(session.declare_queryable(
             keys.MISSION, lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission))))
-        relay = self._spawn("relay", ["-m", "comms_sim", "--connect", self.endpoint,
+        relay = self.procs.spawn("relay", ["-m", "comms_sim", "--connect", self.endpoint,
                                       "--credentials", str(creds / RELAY_ID),
                                       "--mission-from-bus",
                                       "--mission-timeout", str(2 * opts.startup_timeout_s)]
@@ -235,7 +216,7 @@ class ProcessBackend:
         if opts.viewer != "none" or opts.rrd is not None:
             gs = ["-m", "ground_station", "--connect", self.endpoint, "--viewer", opts.viewer,
                   "--web-port", str(opts.web_port), "--credentials", str(creds / STATION_ID)]
-            self._spawn("ground_station", gs + (["--rrd", str(opts.rrd)] if opts.rrd else []),
+            self.procs.spawn("ground_station", gs + (["--rrd", str(opts.rrd)] if opts.rrd else []),
                         echo=True)
         for vid in self.ids:
             if vid in opts.remote:
@@ -243,12 +224,12 @@ class ProcessBackend:
                          f"--config AGENT.toml --credentials {creds / vid} "
                          f"--connect <a router linked to {listen}>")
             else:
-                self._spawn(vid, self._agent_argv(vid))
+                self.procs.spawn(vid, self._agent_argv(vid))
         self._wait_agents()
         self.clock = self.pacer.start(time.time() + 1.0)
         self._closers.append(session.declare_queryable(  # always the newest record
             keys.CLOCK, lambda q: q.reply(keys.CLOCK, auth.seal(keys.CLOCK, self.pacer.record))))
-        self._wait_ready(relay)
+        self.procs.wait_ready(relay)
         for f in sorted(faults, key=lambda f: f.t_s):
             steps = int(f.value) if f.kind in ATTACKS else 1
             for i in range(steps):
@@ -266,11 +247,11 @@ class ProcessBackend:
         for attempt in range(ROUTER_ATTEMPTS):
             listen = self.opts.listen or free_tcp_endpoint()
             self.endpoint = local_endpoint(listen)
-            router = self._spawn("router", ["-m", "comms_sim.router", "--listen", listen,
+            router = self.procs.spawn("router", ["-m", "comms_sim.router", "--listen", listen,
                                             "--credentials", str(creds / ROUTER_ID)],
                                  ROUTER_READY)
             try:
-                self._wait_ready(router)
+                self.procs.wait_ready(router)
                 return listen
             except ChildExited:
                 router.expected_exit = True
@@ -311,6 +292,11 @@ class ProcessBackend:
         """Put a new clock record on the bus, signed: every process follows it."""
         if self._session is not None and self.auth is not None:
             self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, record))
+
+    @property
+    def children(self) -> dict[str, Child]:
+        """The mission's processes by name (each name's latest)."""
+        return self.procs.by_name
 
     @property
     def clock_held(self) -> bool:
@@ -376,7 +362,7 @@ class ProcessBackend:
 
     def _close(self) -> None:
         try:
-            self._stop(self.ids)
+            self.procs.stop(self.ids)
             if self._session is not None:
                 for vid in self.opts.remote:  # not ours to signal: ask them to stop
                     self._command(vid, STOP)
@@ -391,8 +377,8 @@ class ProcessBackend:
             if self._session is not None:
                 self._session.close()
             held = ("ground_station",) if self.opts.hold_viewer and not self.interrupted else ()
-            self._stop([n for n in self.children if n not in ("router", *held)])
-            self._stop(["router"])
+            self.procs.stop([n for n in self.children if n not in ("router", *held)])
+            self.procs.stop(["router"])
             self._write_events()
 
     # -- after the report --------------------------------------------------------------------
@@ -408,7 +394,7 @@ class ProcessBackend:
         except KeyboardInterrupt:
             pass
         finally:
-            self._stop(["ground_station"])
+            self.procs.stop(["ground_station"])
 
     # -- processes --------------------------------------------------------------------------
 
@@ -416,46 +402,6 @@ class ProcessBackend:
         return ["-m", "fleet_agent", "--id", vid, "--config", str(self.run_dir / "agent.toml"),
                 "--connect", self.endpoint, "--journal", str(self.run_dir / f"{vid}.journal"),
                 "--credentials", str(self.creds / vid)]
-
-    def _spawn(self, name: str, argv: Sequence[str], ready_prefix: str | None = None,
-               echo: bool = False) -> Child:
-        log = open(self.run_dir / f"{name}.log", "ab")
-        popen = subprocess.Popen(
-            [sys.executable, *argv], stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True,
-            env={**os.environ, "PYTHONUNBUFFERED": "1", "COTSFLEET_PARENT_PID": str(os.getpid())})
-        child = Child(name, popen)
-
-        def pump() -> None:  # copy output to the log, watch for the ready line
-            assert popen.stdout is not None
-            for raw in popen.stdout:
-                log.write(raw)
-                log.flush()
-                line = raw.decode(errors="replace").rstrip()
-                child.lines.append(line)
-                del child.lines[:-50]
-                if echo:  # e.g. the ground station's viewer address: the user needs it
-                    self.out(line)
-                if ready_prefix and line.startswith(ready_prefix):
-                    child.ready.set()
-            log.close()
-
-        threading.Thread(target=pump, name=f"pump-{name}", daemon=True).start()
-        self.children[name] = child
-        self._pids.setdefault(name, []).append(popen.pid)
-        # Every process group this run ever started, for whoever must clean up after a crash.
-        (self.run_dir / "pids.json").write_text(json.dumps(self._pids), encoding="utf-8")
-        return child
-
-    def _wait_ready(self, child: Child) -> None:
-        deadline = time.monotonic() + self.opts.startup_timeout_s
-        while not child.ready.wait(0.1):
-            if child.popen.poll() is not None:
-                raise ChildExited(f"{child.name} exited with {child.popen.returncode}: "
-                                  f"{child.tail()}")
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"{child.name} not ready within "
-                                   f"{self.opts.startup_timeout_s:g} s")
 
     def _wait_agents(self) -> None:
         deadline = time.monotonic() + self.opts.startup_timeout_s
@@ -470,31 +416,13 @@ class ProcessBackend:
                                    f" {missing}")
             time.sleep(POLL_WALL_S)
 
-    def _signal(self, child: Child, sig: int) -> None:
-        child.expected_exit = True
-        _group_signal(child, sig)
-
-    def _stop(self, names: Sequence[str], grace_s: float = 5.0) -> None:
-        children = [self.children[n] for n in names if n in self.children
-                    and self.children[n].popen.poll() is None]
-        for c in children:
-            self._signal(c, signal.SIGTERM)
-        deadline = time.monotonic() + grace_s
-        for c in children:
-            try:
-                c.popen.wait(max(0.1, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
-                self._signal(c, signal.SIGKILL)
-                c.popen.wait(5.0)
-
     def _watch_children(self) -> None:
         """A child that ended without being told to ends the mission."""
-        for c in self.children.values():
-            if c.popen.poll() is not None and not c.expected_exit:
-                c.expected_exit = True  # reported once
-                if c.name in self.ids:
-                    self.dead.add(c.name)
-                raise ChildExited(f"{c.name} exited with {c.popen.returncode}: {c.tail()}")
+        c = self.procs.ended_untold()
+        if c is not None:
+            if c.name in self.ids:
+                self.dead.add(c.name)
+            raise ChildExited(f"{c.name} exited with {c.popen.returncode}: {c.tail()}")
 
     # -- faults ------------------------------------------------------------------------------
 
@@ -515,12 +443,12 @@ class ProcessBackend:
         elif f.kind == "kill":
             child = self.children.get(f.vid)
             if child is not None:
-                self._signal(child, signal.SIGKILL)
+                self.procs.signal(child, signal.SIGKILL)
                 child.popen.wait(5.0)
             self.dead.add(f.vid)
             self.pacer.busy(f.vid, False)  # a hold of the killed process ends with it
         elif f.kind == "restart":
-            self._spawn(f.vid, self._agent_argv(f.vid))
+            self.procs.spawn(f.vid, self._agent_argv(f.vid))
             self.dead.discard(f.vid)
         elif f.kind == "stall":
             child = self.children.get(f.vid)
@@ -549,10 +477,10 @@ class ProcessBackend:
                 if phase is None:
                     return
                 frozen, until = phase
-                _group_signal(child, signal.SIGSTOP if frozen else signal.SIGCONT)
+                child.signal_group(signal.SIGSTOP if frozen else signal.SIGCONT)
                 self._closing.wait((until - t) / warp)
         finally:
-            _group_signal(child, signal.SIGCONT)
+            child.signal_group(signal.SIGCONT)
 
     def _inject(self, kind: str, now: float) -> None:
         """The intruder's modem transmits one hostile frame into the water (via the relay)."""
@@ -680,11 +608,3 @@ class ProcessBackend:
             parts.append(f"{vid} {state} {len(s.treated) if s else 0}")
         self.out(f"t={now:6.0f} s  cleared {len(cleared)}/{self.problem.n_tasks}  "
                  f"priority {prio:.0f}  | " + " | ".join(parts))
-
-
-def _group_signal(child: Child, sig: int) -> None:
-    """``sig`` to the child's process group, if it still exists."""
-    try:
-        os.killpg(child.popen.pid, sig)
-    except (ProcessLookupError, PermissionError):
-        pass
