@@ -6,7 +6,9 @@ record (scenario, seed, run id) from the start and the clock record (epoch, warp
 agent has computed its initial plan; it applies faults at their mission times (abort: a
 command; kill: SIGKILL; restart: the agent again on its journal; stall: SIGSTOP and SIGCONT
 in wall time; partition, loss and attacks: link control to the relay), watches the fleet's
-telemetry, and collects the relay's counters.
+telemetry, and collects the relay's counters. Its parts, each one idea: `children` (the
+processes), `clock_control` (the shared clock's pace and holds) and `intake` (what it takes
+from the bus, checked); this module wires them to the bus and to the runner.
 
 Lifecycle: every child dies with its parent (`fleet_bus.process.die_with_parent`:
 ``PR_SET_PDEATHSIG`` on Linux, and a watch on the parent's pid everywhere), so whatever ends
@@ -37,7 +39,7 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator, Sequence, TypeVar
+from typing import Any, Callable, Iterator, Sequence
 
 import zenoh
 
@@ -45,11 +47,11 @@ from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
 from cotsfleet.mission.children import Child, ChildExited, Children
 from cotsfleet.mission.clock_control import ClockControl
+from cotsfleet.mission.intake import Intake
 from cotsfleet.mission.intruder import Intruder, intruder_rng
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_agent.radio import LATE_SHARE
 from fleet_bus import keys
-from fleet_bus import values as v
 from fleet_bus.auth import BusAuth
 from fleet_bus.clock import WarpClock
 from fleet_bus.commands import ABORT, STOP, encode_command
@@ -61,12 +63,10 @@ from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID,
 from fleet_bus.process import RELAY_READY, ROUTER_READY
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
 from fleet_agent.beliefs import find_ids
-from fleet_bus.telemetry import STATES, Event, Status, decode_busy
 from hfc_core.problem import Problem
 
 POLL_WALL_S = 0.05
 ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
-T = TypeVar("T")
 
 
 @contextmanager
@@ -142,21 +142,17 @@ class ProcessBackend:
         self.run_dir = opts.run_dir or Path(os.environ.get("TMPDIR", "/tmp")) / \
             "cotsfleet-runs" / self.run_id
         self.procs = Children(self.run_dir, out, opts.startup_timeout_s)
-        self.ledger = FleetLedger()
         self.applied: list[Fault] = []
         self.dead: set[str] = set()
         self.endpoint = ""
         self.started = threading.Event()  # set once the mission clock runs
         self.clock: WarpClock | None = None  # `pacer.clock`, once started
         self.interrupted = False
-        self._lock = threading.Lock()
-        self._alive: set[str] = set()
         self._pending: list[tuple[float, Fault, str]] = []  # (time, fault, step)
         self._link: LinkCounts | None = None
         self._session: zenoh.Session | None = None
         self._closers: list[Any] = []
         self.intruder = Intruder(problem, intruder_rng(seed))
-        self.refused: dict[str, int] = {}  # what the operator refused, by reason
         self.auth: BusAuth | None = None  # the operator's key and the run's ring (start)
         self._relay_extra: dict[str, Any] = {}
         self._wall0 = time.monotonic()
@@ -170,8 +166,9 @@ class ProcessBackend:
         self._closing = threading.Event()  # ends stall threads (they SIGCONT on the way out)
         self._stallers: list[threading.Thread] = []
         # Dynamic missions: finds are named by ids past the scenario's (`beliefs.find_ids`).
-        self._find_ids = find_ids(problem, opts.agent_config) if "truth" in scenario \
-            else range(0)
+        finds = find_ids(problem, opts.agent_config) if "truth" in scenario else range(0)
+        self.intake = Intake(problem, self.ids, self.run_id, finds, self.pacer.busy,
+                             self.intruder.overhear)
 
     # -- the runner's interface --------------------------------------------------------------
 
@@ -194,30 +191,30 @@ class ProcessBackend:
         creds = self.creds = opts.credentials or self.run_dir / "credentials"
         if opts.credentials is None:
             write_run_credentials(creds, self.ids, self.run_id)
-        auth = self.auth = load_auth(creds / OPERATOR_ID, OPERATOR_ID)
+        auth = self.auth = self.intake.auth = load_auth(creds / OPERATOR_ID, OPERATOR_ID)
         listen = self._start_router(creds)
         session = self._session = zenoh.open(client_config([self.endpoint],
                                                            credentials=creds / OPERATOR_ID))
         if any(f.kind == "replay" for f in faults):  # the modem intruder's material only
-            self._closers.append(session.declare_subscriber(keys.RX_ALL, self._on_rx))
+            self._closers.append(session.declare_subscriber(keys.RX_ALL, self.intake.rx))
         self._closers += [
-            session.declare_subscriber(keys.STATUS_ALL, self._on_status),
-            session.declare_subscriber(keys.EVENT_ALL, self._on_event),
-            session.declare_subscriber(keys.ALIVE_ALL, self._on_alive),
-            session.declare_subscriber(keys.BUSY_ALL, self._on_busy)]
+            session.declare_subscriber(keys.STATUS_ALL, self.intake.status),
+            session.declare_subscriber(keys.EVENT_ALL, self.intake.event),
+            session.declare_subscriber(keys.ALIVE_ALL, self.intake.alive),
+            session.declare_subscriber(keys.BUSY_ALL, self.intake.busy)]
         mission = Mission(self.scenario, self.seed, self.run_id).encode()
         self._closers.append(session.declare_queryable(
             keys.MISSION, lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission))))
-        relay = self.procs.spawn("relay", ["-m", "comms_sim", "--connect", self.endpoint,
-                                      "--credentials", str(creds / RELAY_ID),
-                                      "--mission-from-bus",
-                                      "--mission-timeout", str(2 * opts.startup_timeout_s)]
-                            + (["--loss", str(opts.loss)] if opts.loss else []), RELAY_READY)
+        relay = self.procs.spawn(
+            "relay", ["-m", "comms_sim", "--connect", self.endpoint, "--credentials",
+                      str(creds / RELAY_ID), "--mission-from-bus",
+                      "--mission-timeout", str(2 * opts.startup_timeout_s)]
+            + (["--loss", str(opts.loss)] if opts.loss else []), RELAY_READY)
         if opts.viewer != "none" or opts.rrd is not None:
             gs = ["-m", "ground_station", "--connect", self.endpoint, "--viewer", opts.viewer,
                   "--web-port", str(opts.web_port), "--credentials", str(creds / STATION_ID)]
-            self.procs.spawn("ground_station", gs + (["--rrd", str(opts.rrd)] if opts.rrd else []),
-                        echo=True)
+            self.procs.spawn("ground_station",
+                             gs + (["--rrd", str(opts.rrd)] if opts.rrd else []), echo=True)
         for vid in self.ids:
             if vid in opts.remote:
                 self.out(f"waiting for {vid} elsewhere: python -m fleet_agent --id {vid} "
@@ -248,8 +245,8 @@ class ProcessBackend:
             listen = self.opts.listen or free_tcp_endpoint()
             self.endpoint = local_endpoint(listen)
             router = self.procs.spawn("router", ["-m", "comms_sim.router", "--listen", listen,
-                                            "--credentials", str(creds / ROUTER_ID)],
-                                 ROUTER_READY)
+                                                 "--credentials", str(creds / ROUTER_ID)],
+                                      ROUTER_READY)
             try:
                 self.procs.wait_ready(router)
                 return listen
@@ -274,8 +271,7 @@ class ProcessBackend:
     def finished(self) -> bool:
         if any(f.kind in ("restart", "abort") for _, f, _ in self._pending):
             return False
-        with self._lock:
-            return self.ledger.all_final(self.ids, self.dead)
+        return self.intake.all_final(self.dead)
 
     def link_counts(self) -> LinkCounts | None:
         return self._link
@@ -284,14 +280,17 @@ class ProcessBackend:
         """Slow or speed the shared clock with the hosts' pace (`ClockControl.pace`)."""
         if self.clock is None:
             return
-        with self._lock:
-            statuses = list(self.ledger.statuses.values())
-        self.pacer.pace(statuses)
+        self.pacer.pace(self.intake.statuses().values())
 
     def _put_clock(self, record: bytes) -> None:
         """Put a new clock record on the bus, signed: every process follows it."""
         if self._session is not None and self.auth is not None:
             self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, record))
+
+    @property
+    def ledger(self) -> FleetLedger:
+        """What the fleet reported (`Intake`): the report is built from it."""
+        return self.intake.ledger
 
     @property
     def children(self) -> dict[str, Child]:
@@ -303,19 +302,13 @@ class ProcessBackend:
         """The shared clock runs at HOLD_WARP now because an agent plans."""
         return self.pacer.held
 
-    def _on_busy(self, sample: zenoh.Sample) -> None:
-        got = self._from_fleet(sample, decode_busy)
-        if got is not None:
-            self.pacer.busy(*got)
-
     def _clock_report(self) -> dict[str, Any]:
         """`ClockControl.report`, with the slots hosts ran late for (their frames dated back:
         `Radio.take_slot`) and the most the relay placed a frame back from its arrival."""
         report = self.pacer.report()
         if self.clock is None:
             return report
-        with self._lock:
-            statuses = list(self.ledger.statuses.values())
+        statuses = self.intake.statuses().values()
         return {**report, "slots_late": sum(s.counters.get("slots_late", 0) for s in statuses),
                 "max_frame_late_s": self._relay_extra.get("max_late_s")}
 
@@ -332,11 +325,7 @@ class ProcessBackend:
         """What each part of the fleet refused, by reason: the operator (telemetry, ready
         announcements, deliveries it overheard), the relay (its ``auth_*`` and malformed
         counters) and each agent (its ``drop_auth_*`` counters, from its last status)."""
-        with self._lock:
-            operator = dict(self.refused)
-            statuses = dict(self.ledger.statuses)
-        for reason, n in self.auth.verifier.refused.items() if self.auth is not None else ():
-            operator[reason] = operator.get(reason, 0) + n
+        operator, statuses = self.intake.refused_counts(), self.intake.statuses()
         relay_counts = self._relay_extra.get("relay", {})
         relay = {k: n for k, n in relay_counts.items() if isinstance(n, int) and n and (
             k.startswith(("auth_", "malformed_", "unknown_", "ctl_too")))}
@@ -406,8 +395,7 @@ class ProcessBackend:
     def _wait_agents(self) -> None:
         deadline = time.monotonic() + self.opts.startup_timeout_s
         while True:
-            with self._lock:
-                missing = [v for v in self.ids if v not in self._alive]
+            missing = self.intake.missing()
             if not missing:
                 return
             self._watch_children()
@@ -496,81 +484,6 @@ class ProcessBackend:
         key = keys.ctl_key(vid)
         self._session.put(key, self.auth.seal(key, encode_command(name)))
 
-    # -- telemetry ---------------------------------------------------------------------------
-
-    def _open(self, sample: zenoh.Sample) -> tuple[str, bytes] | None:
-        """(key, payload) of a sample signed by its key's rightful sender, else None (the
-        refusal is counted by the verifier)."""
-        assert self.auth is not None
-        key = str(sample.key_expr)
-        payload = self.auth.open_payload(key, sample.payload.to_bytes())
-        return None if payload is None else (key, payload)
-
-    def _invalid(self, why: str) -> None:
-        with self._lock:
-            self.refused[why] = self.refused.get(why, 0) + 1
-
-    def _known_tasks(self, *lists: list[int]) -> bool:
-        index, finds = self.problem.task_index, self._find_ids
-        return all(t in index or t in finds for ids in lists for t in ids)
-
-    def _on_rx(self, sample: zenoh.Sample) -> None:
-        opened = self._open(sample)
-        if opened is not None:
-            self.intruder.overhear(opened[1])  # the attack faults' replay material
-
-    def _from_fleet(self, sample: zenoh.Sample,
-                    decode: Callable[[bytes], T]) -> tuple[str, T] | None:
-        """(vehicle id, decoded payload) of a sample signed by a vehicle of this mission
-        under its own key; else None, and a payload that does not decode, or a sender not
-        on the roster, is counted as invalid."""
-        opened = self._open(sample)
-        if opened is None:
-            return None
-        vid = keys.vid_of(opened[0])
-        try:
-            value = decode(opened[1])
-        except ValueError:
-            value = None
-        if value is None or vid not in self.ids:
-            self._invalid("invalid")
-            return None
-        return vid, value
-
-    def _on_status(self, sample: zenoh.Sample) -> None:
-        got = self._from_fleet(sample, Status.decode)
-        if got is None:
-            return
-        vid, s = got
-        # Signed by the vehicle itself, and still checked: one unknown spot id must not cost
-        # the report (a vehicle's bug is not a reason to lose the mission's record).
-        if s.id != vid or s.state not in STATES \
-                or not self._known_tasks(s.route, s.treated, s.claims):
-            return self._invalid("invalid")
-        with self._lock:
-            self.ledger.add_status(s)
-
-    def _on_event(self, sample: zenoh.Sample) -> None:
-        got = self._from_fleet(sample, Event.decode)
-        if got is None:
-            return
-        vid, e = got
-        if e.id != vid or not self._known_tasks(e.tasks):
-            return self._invalid("invalid")
-        with self._lock:
-            self.ledger.add_event(e)
-
-    def _on_alive(self, sample: zenoh.Sample) -> None:
-        """A vehicle's signed ready announcement (its initial plan is computed)."""
-        got = self._from_fleet(sample, lambda b: v.unpack_map(b, "ready"))
-        if got is None:
-            return
-        vid, doc = got
-        if doc.get("id") != vid or doc.get("run_id") != self.run_id:
-            return self._invalid("invalid")  # another vehicle's or another run's
-        with self._lock:
-            self._alive.add(vid)
-
     def _fetch_link_stats(self) -> LinkCounts | None:
         assert self._session is not None and self.auth is not None
         for reply in self._session.get(keys.LINK_STATS, timeout=3.0):
@@ -585,7 +498,7 @@ class ProcessBackend:
         return None
 
     def _write_events(self) -> None:
-        with self._lock:
+        with self.intake.lock:
             events = list(self.ledger.events)
         with open(self.run_dir / "events.jsonl", "w", encoding="utf-8") as fh:
             for e in events:  # the whole event log, for whoever wants to dig deeper
@@ -596,7 +509,7 @@ class ProcessBackend:
             return
         self._next_progress = time.monotonic() + self.opts.progress_every_s
         now = self.now()
-        with self._lock:
+        with self.intake.lock:
             statuses = dict(self.ledger.statuses)
             cleared = set(self.ledger.cleared)
         index = self.problem.task_index
