@@ -25,7 +25,6 @@ import json
 import os
 import re
 import signal
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -119,7 +118,7 @@ def browser_latency(repo: Path, warp: float, work: Path) -> dict:
     """The web viewer's latency during a live mission, and a late page's catch-up."""
     from playwright.sync_api import sync_playwright
 
-    from ground_station.viewer_state import READ_STATE_JS, cursor_s
+    from ground_station.viewer_state import READ_STATE_JS, cursor_s, latency_figures
 
     run_dir, out = work / f"run-web-{warp:g}", work / f"web-{warp:g}.out"
     bus = f"tcp/127.0.0.1:{free_port()}"
@@ -130,8 +129,8 @@ def browser_latency(repo: Path, warp: float, work: Path) -> dict:
              "--listen", bus, "--hold-viewer"],
             cwd=repo, env=run_env(repo), stdout=log, stderr=subprocess.STDOUT,
             start_new_session=True)
-    # wall since open, mission, shown, warp
-    samples: list[tuple[float, float, float | None, float]] = []
+    # wall since open, mission, warp, shown
+    samples: list[tuple[float, float, float, float | None]] = []
     result: dict = {"warp": warp}
     try:
         url = _wait_for(run_dir / "ground_station.log", r"web viewer at (\S+)", mission, 180)
@@ -148,10 +147,10 @@ def browser_latency(repo: Path, warp: float, work: Path) -> dict:
                         raise RuntimeError("the mission did not end normally")
                     time.sleep(1.0)
                     shown = cursor_s(page.evaluate(READ_STATE_JS))
-                    samples.append((time.monotonic() - opened, clock.now(), shown, clock.warp))
+                    samples.append((time.monotonic() - opened, clock.now(), clock.warp, shown))
                 end = json.loads((run_dir / "report.json").read_text())["end_s"]
-                result |= _summary(samples, end)
-                last = max(s for _, _, s, _ in samples if s is not None)
+                result |= latency_figures(samples, end, CAUGHT_UP_S, warp)
+                last = max(s for _, _, _, s in samples if s is not None)
                 late = browser.new_page(viewport=VIEWPORT)
                 page.close()
                 late_opened = time.monotonic()
@@ -173,26 +172,6 @@ def browser_latency(repo: Path, warp: float, work: Path) -> dict:
                 os.killpg(mission.pid, signal.SIGKILL)
                 mission.wait(10)
     return result
-
-
-def _summary(samples: list[tuple[float, float, float | None, float]], end_s: float) -> dict:
-    """Latency in wall seconds behind the clock (`wall_behind_s`: the operator may slow or
-    hold the clock, so not the mission lag over the warp of the moment)."""
-    from ground_station.viewer_state import wall_behind_s
-
-    trace = [(wall, now, w) for wall, now, _, w in samples]
-    lat = [(wall, wall_behind_s(trace[:i + 1], s)) for i, (wall, now, s, _) in enumerate(samples)
-           if s is not None and now <= end_s]
-    caught = next((i for i, (_, x) in enumerate(lat) if x < CAUGHT_UP_S), None)
-    steady = [x for _, x in lat[caught:]] if caught is not None else []
-    return {
-        "first_shown_s": lat[0][0] if lat else None,
-        "caught_up_s": lat[caught][0] if caught is not None else None,
-        "latency_median_s": statistics.median(steady) if steady else None,
-        "latency_max_s": max(steady) if steady else None,
-        "latency_end_s": lat[-1][1] if lat else None,
-        "latency_all_max_s": max((x for _, x in lat), default=None),
-    }
 
 
 def _fmt(x: object, unit: str = "") -> str:

@@ -16,7 +16,8 @@ is held at warp 2 when it is sampled.
 
 from __future__ import annotations
 
-from typing import Iterator, Sequence
+import statistics
+from typing import Any, Iterator, Sequence
 
 # Run in the page (Playwright's page.evaluate): the state as a list of byte values, or null
 # while the viewer is still loading.
@@ -129,16 +130,46 @@ def cursor_s(state: bytes | list[int] | None, timeline: str = "sim_time",
     return max(cursors) if cursors else None
 
 
-def wall_behind_s(trace: Sequence[tuple[float, float, float]], shown_s: float) -> float:
-    """Wall seconds since the mission clock read ``shown_s``. ``trace``: samples of the clock
-    (wall s, mission s, warp), oldest first, the last one now. Between samples the clock is
-    taken as linear; before the first, as running at the first sample's warp."""
+def wall_behind_s(trace: Sequence[tuple[float, float, float]], shown_s: float,
+                  top_warp: float | None = None) -> float:
+    """Wall seconds since the mission clock read ``shown_s`` (0 if it has not yet passed it).
+    ``trace``: samples of the clock (wall s, mission s, warp), oldest first, the last one
+    now. Between samples the clock is taken as linear. Before the first sample its history
+    is unknown: it is taken to run at ``top_warp`` (the requested warp, which the clock never
+    exceeds; default: the fastest of the trace), so a cursor older than the trace gives a
+    lower bound: a page still loading reads as less behind, never more."""
     if not trace:
         raise ValueError("no clock sample")
-    now_wall = trace[-1][0]
+    now_wall, now_mission = trace[-1][0], trace[-1][1]
+    if shown_s >= now_mission:
+        return 0.0
     for (w0, m0, _), (w1, m1, _) in zip(reversed(trace[:-1]), reversed(trace)):
-        if m0 <= shown_s:
-            frac = 0.0 if m1 <= m0 else min(1.0, (shown_s - m0) / (m1 - m0))
-            return now_wall - (w0 + frac * (w1 - w0))
-    w0, m0, warp0 = trace[0]
-    return now_wall - w0 + max(0.0, m0 - shown_s) / warp0
+        if m0 <= shown_s:  # and shown_s < m1: the clock passed it between these samples
+            return now_wall - (w0 + (shown_s - m0) / (m1 - m0) * (w1 - w0))
+    w0, m0, _ = trace[0]
+    return now_wall - w0 + (m0 - shown_s) / (top_warp or max(w for _, _, w in trace))
+
+
+def latency_figures(samples: Sequence[tuple[float, float, float, float | None]], end_s: float,
+                    caught_up_s: float, top_warp: float) -> dict[str, Any]:
+    """A live page's latency over a mission (the browser test and the dashboard bench).
+    ``samples``: one per poll, (wall s since the page opened, mission clock, warp, time the
+    page shows or None while it loads). Counted while the mission ran (clock up to ``end_s``);
+    "steady" once the page first came within ``caught_up_s`` of the clock."""
+    trace: list[tuple[float, float, float]] = []
+    lat: list[tuple[float, float]] = []  # (wall s, latency s)
+    for wall, now, warp, shown in samples:
+        trace.append((wall, now, warp))
+        if shown is not None and now <= end_s:
+            lat.append((wall, wall_behind_s(trace, shown, top_warp)))
+    caught = next((i for i, (_, x) in enumerate(lat) if x < caught_up_s), None)
+    steady = [x for _, x in lat[caught:]] if caught is not None else []
+    return {
+        "first_shown_s": lat[0][0] if lat else None,
+        "caught_up_s": lat[caught][0] if caught is not None else None,
+        "latency_median_s": statistics.median(steady) if steady else None,
+        "latency_max_s": max(steady) if steady else None,
+        "latency_end_s": lat[-1][1] if lat else None,
+        "latency_all_max_s": max((x for _, x in lat), default=None),
+        "steady_samples": len(steady),
+    }
