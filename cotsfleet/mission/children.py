@@ -104,8 +104,11 @@ class Children:
         deadline = time.monotonic() + self.startup_timeout_s
         while not child.ready.wait(0.1):
             if child.popen.poll() is not None:
+                tail = child.tail()  # drains its output: the ready line may be in it
+                if child.ready.is_set():
+                    return
                 raise ChildExited(f"{child.name} exited with {child.popen.returncode}: "
-                                  f"{child.tail()}")
+                                  f"{tail}")
             if time.monotonic() > deadline:
                 raise TimeoutError(f"{child.name} not ready within "
                                    f"{self.startup_timeout_s:g} s")

@@ -54,11 +54,14 @@ class ClockControl:
         self._lock = threading.Lock()
 
     def start(self, epoch_unix: float) -> WarpClock:
-        """The mission clock: mission time 0 at ``epoch_unix``, at the requested warp."""
-        self.clock = WarpClock(epoch_unix, self.requested, wall=self._unix)
-        self._epoch0 = epoch_unix
-        self.record = ClockRecord(epoch_unix, self.requested).encode()
-        return self.clock
+        """The mission clock: mission time 0 at ``epoch_unix``, at the requested warp (held at
+        once if an agent already plans)."""
+        with self._lock:
+            self.record = ClockRecord(epoch_unix, self.requested).encode()
+            self._epoch0 = epoch_unix
+            self.clock = WarpClock(epoch_unix, self.requested, wall=self._unix)
+            self._apply_hold()
+            return self.clock
 
     @property
     def held(self) -> bool:
@@ -69,9 +72,9 @@ class ClockControl:
         """Slow the clock down when a vehicle's host stays behind it, and speed it up again
         once every host keeps up: a slow machine gives a slower mission, not a different
         one. ``statuses``: the latest status of each vehicle."""
-        for s in statuses:
-            self.lag_watch.see(s.id, s.t_s, s.lag_s)
-        with self._lock:
+        with self._lock:  # a hold's end restarts the watch (`busy`, another thread)
+            for s in statuses:
+                self.lag_watch.see(s.id, s.t_s, s.lag_s)
             self._apply_hold()  # holds expire
             if self._held_warp is None:
                 self._pace_step()

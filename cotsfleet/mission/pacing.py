@@ -8,8 +8,9 @@ false alarm as long as it is shorter than the suspicion window; the replanner's 
 long ones, hold the clock instead (`Holds`, `benchmarks/demo_warp.py`). A host that stays
 late, status after status, is one the machine cannot keep up with at this warp: it wakes after
 its TDMA slots and its decisions come late, which a slower clock does fix. So the clock is
-slowed when one vehicle has reported more than ``bound_s`` in ``sustained`` consecutive statuses, at once to the warp that host can keep
-(`slower_warp`). Once every vehicle has kept well within the bound (a quarter of it) for
+slowed when one vehicle has reported more than ``bound_s`` in ``sustained`` consecutive
+statuses, at once to the warp that host can keep (`slower_warp`). Once every vehicle has
+kept well within the bound (a quarter of it) for
 ``recover`` statuses in a row (a minute at the default period), the busy spell is over and the
 clock speeds up again, a step at a time, up to the requested warp (`faster_warp`): a host
 starved for a few seconds costs a few slower minutes, not a slow mission. Correctness does

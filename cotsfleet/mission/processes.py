@@ -72,7 +72,7 @@ ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
 @contextmanager
 def _signals_deferred() -> Iterator[None]:
     """Cleanup is not interrupted by a second Ctrl-C or SIGTERM (main thread only: that is
-    where Python runs signal handlers); it is bounded by the grace periods of `_stop`."""
+    where Python runs signal handlers); it is bounded by the grace periods of `Children.stop`."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -283,7 +283,8 @@ class ProcessBackend:
         self.pacer.pace(self.intake.statuses().values())
 
     def _put_clock(self, record: bytes) -> None:
-        """Put a new clock record on the bus, signed: every process follows it."""
+        """Put a new clock record on the bus, signed: every process follows it. (Only the
+        mission changes the clock: started, the session is open until `close`.)"""
         if self._session is not None and self.auth is not None:
             self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, record))
 

@@ -25,6 +25,7 @@ def procs(tmp_path: Path):
         if c.popen.poll() is None:
             c.signal_group(signal.SIGKILL)
             c.popen.wait(5.0)
+        assert gone(c.popen.pid)
 
 
 def gone(pid: int) -> bool:
