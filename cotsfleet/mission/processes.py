@@ -146,7 +146,6 @@ class ProcessBackend:
         self.dead: set[str] = set()
         self.endpoint = ""
         self.started = threading.Event()  # set once the mission clock runs
-        self.clock: WarpClock | None = None  # `pacer.clock`, once started
         self.interrupted = False
         self._pending: list[tuple[float, Fault, str]] = []  # (time, fault, step)
         self._link: LinkCounts | None = None
@@ -223,7 +222,7 @@ class ProcessBackend:
             else:
                 self.procs.spawn(vid, self._agent_argv(vid))
         self._wait_agents()
-        self.clock = self.pacer.start(time.time() + 1.0)
+        self.pacer.start(time.time() + 1.0)
         self._closers.append(session.declare_queryable(  # always the newest record
             keys.CLOCK, lambda q: q.reply(keys.CLOCK, auth.seal(keys.CLOCK, self.pacer.record))))
         self.procs.wait_ready(relay)
@@ -287,6 +286,11 @@ class ProcessBackend:
         mission changes the clock: started, the session is open until `close`.)"""
         if self._session is not None and self.auth is not None:
             self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, record))
+
+    @property
+    def clock(self) -> WarpClock | None:
+        """The shared mission clock (`ClockControl`), once every agent is ready."""
+        return self.pacer.clock
 
     @property
     def ledger(self) -> FleetLedger:
