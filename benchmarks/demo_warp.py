@@ -17,12 +17,11 @@ from __future__ import annotations
 import argparse
 import json
 import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
 
-from benchmarks.fleet_silence import run_mission_processes
+from benchmarks.fleet_silence import cotsfleet_argv, run_mission_processes
 from benchmarks.results import markdown_table, misses_block, print_misses, write_section
 
 SEED = 0
@@ -30,17 +29,12 @@ ABORT = "auv2@1200"
 WARPS = (30.0, 60.0, 120.0)
 
 
-def _cli(*args: str) -> list[str]:
-    cli = Path(sys.executable).with_name("cotsfleet")
-    return [str(cli), *args] if cli.exists() else [sys.executable, "-m", "cotsfleet", *args]
-
-
 def in_process(scenario: Path, workdir: Path) -> dict:
     """The same mission in one process (`cotsfleet sim`): the reference."""
     report = workdir / "inprocess.json"
-    subprocess.run(_cli("sim", "--scenario", str(scenario), "--seed", str(SEED), "--abort",
-                        ABORT, "--report", str(report)), check=True,
-                   stdout=subprocess.DEVNULL)
+    subprocess.run(cotsfleet_argv("sim", "--scenario", str(scenario), "--seed", str(SEED),
+                                  "--abort", ABORT, "--report", str(report)),
+                   check=True, stdout=subprocess.DEVNULL)
     return json.loads(report.read_text())
 
 
@@ -73,8 +67,8 @@ def main(warps: tuple[float, ...], write: bool) -> int:
     with tempfile.TemporaryDirectory(prefix="demo_warp-") as tmp:
         work = Path(tmp)
         scenario = work / "demo.json"
-        subprocess.run(_cli("scenario", "--paper", "--dynamic", "--seed", str(SEED), "-o",
-                            str(scenario)), check=True, stdout=subprocess.DEVNULL)
+        subprocess.run(cotsfleet_argv("scenario", "--paper", "--dynamic", "--seed", str(SEED),
+                                      "-o", str(scenario)), check=True, stdout=subprocess.DEVNULL)
         ref = in_process(scenario, work)
         for warp in warps:
             res = run_mission_processes(SEED, warp, work, viewer="web",

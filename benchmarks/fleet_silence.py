@@ -187,6 +187,13 @@ def _alive(seen: dict[int, float]) -> list[int]:
     return left
 
 
+def cotsfleet_argv(*args: str) -> list[str]:
+    """``cotsfleet ARGS`` as a command: the venv's console script when there is one (the
+    process is then named ``cotsfleet``), else ``python -m cotsfleet``."""
+    cli = Path(sys.executable).with_name("cotsfleet")
+    return [str(cli), *args] if cli.exists() else [sys.executable, "-m", "cotsfleet", *args]
+
+
 def run_mission_processes(seed: int, warp: float, workdir: Path, stall: bool = False,
                           viewer: str = "none", extra: tuple[str, ...] = (),
                           tag: str = "") -> dict[str, Any]:
@@ -196,13 +203,11 @@ def run_mission_processes(seed: int, warp: float, workdir: Path, stall: bool = F
     tag = tag or f"w{warp:g}-s{seed}{'-stall' if stall else ''}"
     report_path = workdir / f"report-{tag}.json"
     run_dir = workdir / f"run-{tag}"
-    cli = Path(sys.executable).with_name("cotsfleet")
-    argv = [str(cli) if cli.exists() else sys.executable,
-            *([] if cli.exists() else ["-m", "cotsfleet"]),
-            "run", "--warp", f"{warp:g}", "--viewer", viewer, "--seed", str(seed),
-            "--report", str(report_path), "--run-dir", str(run_dir), "--no-hold-viewer",
-            *(["--stall", f"{STALL.vid}@{STALL.t_s:g}+{STALL.value:g}"] if stall else []),
-            *extra]
+    argv = cotsfleet_argv(
+        "run", "--warp", f"{warp:g}", "--viewer", viewer, "--seed", str(seed),
+        "--report", str(report_path), "--run-dir", str(run_dir), "--no-hold-viewer",
+        *(["--stall", f"{STALL.vid}@{STALL.t_s:g}+{STALL.value:g}"] if stall else []),
+        *extra)
     timeout = 4 * 3600 / warp + 300
     log = open(workdir / f"log-{tag}.txt", "w")
     t0 = time.perf_counter()
