@@ -5,7 +5,7 @@ Scenario i is `paper_preset_doc(1000 + i)` with a tidal stream (M2, 12.42 h) of 
 (seeded: direction U(0, 2 pi), phase U(0, period)), the same for both peaks. Each scenario is
 planned by `best` (same iteration budget and seed) for still water (the paper's Assumption 1:
 the scenario without its current) and for each peak with the current. Every plan is then
-flown, without replanning, on the vehicle model in the tide (`fleet_agent.vehicle.fly`: the
+flown, without replanning, on the vehicle model in the tide (`reef_sim.vehicle.fly`: the
 in-process simulation of the plan's execution; no radio needed).
 
 Figures per plan: priority of the spots cleared before the vehicle's battery ran out, and of
@@ -27,7 +27,8 @@ import numpy as np
 
 from benchmarks.pinned import run_pinned
 from benchmarks.results import markdown_table, write_section
-from fleet_agent.vehicle import Arrived, Cleared, fly
+from fleet_bus.vehicle_port import Arrived, Injected
+from reef_sim.vehicle import fly
 from hfc_core.current import M2_PERIOD_S
 from hfc_core.generate import paper_preset_doc
 from hfc_core.problem import Problem
@@ -54,7 +55,7 @@ def flown(problem: Problem, routes: list[list[int]]) -> list[dict]:
         events = fly(problem, v, route)
         arrived = next((e.t_s for e in events if isinstance(e, Arrived)), math.inf)
         cleared = sum(float(problem.priority[e.task]) for e in events
-                      if isinstance(e, Cleared) and e.t_s <= battery)
+                      if isinstance(e, Injected) and e.t_s <= battery)
         out.append({"priority": cleared, "arrived_s": arrived, "battery_s": battery})
     return out
 
@@ -117,7 +118,7 @@ def main(runs: int, iterations: int, parallel: int, write: bool) -> None:
             f"at peaks {' and '.join(f'{p:g}' for p in PEAKS_MPS)} m/s. `best`, "
             f"{iterations} iterations, seed i, plans once for still water and once with the "
             "current; each plan is flown without replanning on the vehicle model in the tide "
-            "(`fleet_agent.vehicle.fly`). Priority cleared counts the spots finished before "
+            "(`reef_sim.vehicle.fly`). Priority cleared counts the spots finished before "
             "the vehicle's battery ran out; a late vehicle reaches the rendezvous after its "
             "battery is empty (lost at sea).\n\n" + table + "\n"
         )

@@ -1,17 +1,19 @@
 """The agent's decision logic: a pure state machine ``(state, input) -> (state, outputs)``.
 
 Inputs are `Tick`, `Frame` (bytes off the radio) and `Command` (fault injection), each with
-the simulation time ``now``; outputs are `Send` (a frame for the radio), `Publish`
-(telemetry: status, event, truth) and `Record` (a journal record). No I/O, no clock, no
-randomness: the same inputs give the same outputs, under every driver
+the simulation time ``now``, and with them what the vehicle reported since the last step
+(`fleet_bus.vehicle_port`: navigation fixes, arrivals, ends of looks and injections, what its
+camera saw); outputs are `Send` (a frame for the radio), `Publish` (telemetry: status,
+event), `Record` (a journal record) and `Helm` (a command for the vehicle). No I/O, no clock,
+no randomness: the same inputs give the same outputs, under every driver
 (`fleet_agent.driver`).
 
-One step (paper section II and IV-A): move the vehicle to ``now`` (eq. 3-7; arrivals and
-injection ends settle at their exact times), take the input, look for silent peers, run the
-cooperation operator when due, keep the route true to what is known, publish telemetry, and
-transmit if this is the vehicle's slot. The parts, one idea each:
+One step (paper section II and IV-A): take the vehicle's reports, take the input, look for
+silent peers, run the cooperation operator when due, keep the route true to what is known,
+command the vehicle if what it should do changed, publish telemetry, and transmit if this is
+the vehicle's slot. The parts, one idea each:
 
-- `vehicle.Vehicle`      where the vehicle is and what it is doing;
+- `motion.OwnVehicle`    where the vehicle is and what it is doing (the agent's model);
 - `knowledge.Knowledge`  what it knows about the fleet (cleared, holdings, members, peers);
 - `decisions.Decisions`  takeover, cooperation, the route;
 - `radio.Radio`          what it owes the fleet and which frame goes in its slot;
@@ -28,19 +30,21 @@ from fleet_agent.config import AgentConfig
 from fleet_agent.decisions import Decisions
 from fleet_agent.discovery import Discovery
 from fleet_agent.fleet import Fleet
-from fleet_agent.io_types import (Command, Frame, Input, Output, Outputs, Publish, Record,
-                                  Send, Sensed, Tick)
+from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, Publish,
+                                  Record, Send, Tick)
 from fleet_agent.knowledge import Knowledge, PeerPose
+from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.radio import PendingAbort, Radio, Slots
 from fleet_agent.records import Aborted, Checkpoint, Clear, Hold, Home, PeerState, Start
 from fleet_agent.restore import restore
-from fleet_agent.vehicle import Arrived, Cleared, Inspected, Vehicle
 from fleet_agent.wire import (MAX_LEAD_S, Abort, Claim, ClearedSegment, Found, Pose, Release,
                               WireError, radio_kind)
-from fleet_bus.telemetry import Status, Truth
+from fleet_bus.telemetry import Status
+from fleet_bus.vehicle_port import (Arrived, Injected, Looked, NavFix, Refused, Sighted,
+                                    VehicleReport)
 
-__all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Sensed", "Input", "Send", "Publish",
-           "Record", "Output"]
+__all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Input", "Send", "Publish", "Record",
+           "Helm", "Output"]
 
 
 class Agent:
@@ -52,64 +56,66 @@ class Agent:
         self.fleet, self.problem, self.index, self.config = fleet, p, index, config
         self.id = p.vehicles[index].id
         slots = Slots(index, p.n_vehicles, config.slot_s)
-        self.vehicle = Vehicle(p, index, fleet.paths)
-        self.know = Knowledge(fleet, index, config, slots.cycle_s)
-        self.vehicle.not_before = self.know.settled_s
+        beliefs = None
         if fleet.dynamic is not None:  # the map is a prior: look before injecting
-            cam = fleet.dynamic.camera
-            self.know.beliefs = Beliefs(fleet.dynamic.scenario, cam, config, index, fleet.seed,
-                                        slots.cycle_s)
-            self.vehicle.needs_look = self.know.beliefs.unknown
-            self.vehicle.inspect_s = cam.inspect_s
-            self.vehicle.reserve_s = config.battery_reserve_s
+            beliefs = Beliefs(fleet.dynamic.scenario, fleet.dynamic.camera, config, index,
+                              fleet.seed, slots.cycle_s)
+        self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs)
+        conduct = Conduct(self.know.settled_s,
+                          beliefs.unknown if beliefs is not None else lambda task: False,
+                          fleet.dynamic.camera.inspect_s if fleet.dynamic is not None else 0.0,
+                          config.battery_reserve_s)
+        self.own = OwnVehicle(p, index, fleet.paths, conduct, now)
         self.discovery = Discovery(self)  # the reef as the camera shows it
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
         self.counters: dict[str, int] = {}
-        self.decide = Decisions(fleet, config, self.vehicle, self.know, self.radio, now,
+        self.decide = Decisions(fleet, config, self.own, self.know, self.radio, now,
                                 self.count)
         self.largest_frame = 0
         self.lag_s = 0.0  # worst lateness of the host since the last status (`note_lag`)
         self.t = float(now)
         self.restarted = bool(journal)
-        self._next_status = self._next_truth = now
+        self._next_status = now
         self._next_ckpt = now + config.checkpoint_period_s
+        self._commanded: tuple[Any, ...] | None = None  # what the vehicle was last told
         self._boot = self._outputs()
         if journal:
             restore(self, journal, now, self._boot)
         else:
-            self.vehicle.set_route(fleet.base_routes[index])
+            self.own.set_route(fleet.base_routes[index])
             self._boot.record(Start(now, index))
         self.discovery.rebind()
 
     # -- the state machine -----------------------------------------------------------------
 
-    def step(self, inp: Input) -> list[Output]:
+    def step(self, inp: Input, reports: Sequence[VehicleReport] = ()) -> list[Output]:
+        """Take the vehicle's ``reports`` (in time order, none after ``inp.now``), then
+        ``inp``; return what to journal, send, publish and command."""
         now = max(float(inp.now), self.t)
         out, self._boot = self._boot, self._outputs()
-        self._advance(now, out)
+        self._from_vehicle(reports, out)
+        if self.own.wake(now):
+            self.decide.dirty = True
         if isinstance(inp, Frame):
             self._on_frame(inp.data, now, out)
         elif isinstance(inp, Command):
             self._on_command(inp.name, now, out)
-        elif isinstance(inp, Sensed):
-            self.discovery.on_sensed(inp, now, out)
         self.discovery.settled(now)
         self.discovery.rebind()
         self._detect(now, out)
         self.decide.cooperate(now, out)
         self.decide.sync_route(now, out)
-        self._telemetry(now, out)  # truth first: the relay places a sender before its frames
+        self._helm(out)
+        self._telemetry(now, out)
         self._transmit(now, out)
         self.t = now
         return list(out)
 
     def next_wakeup(self) -> float:
         """The next time `step(Tick(...))` has something to do."""
-        times = [self.radio.next_slot_s(), self._next_status, self._next_truth,
-                 self._next_ckpt]
-        ev = self.vehicle.next_event_s()
-        if ev is not None:
-            times.append(ev)
+        times = [self.radio.next_slot_s(), self._next_status, self._next_ckpt]
+        if self.own.activity is Activity.WAITING and self.own.busy_until_s is not None:
+            times.append(self.own.busy_until_s)  # the claim has settled: the work begins
         if self.decide.active:
             times.append(self.decide.next_coop_s)
             b = self.know.beliefs
@@ -123,7 +129,7 @@ class Agent:
 
     @property
     def state(self) -> str:
-        return self.vehicle.state()
+        return self.own.state()
 
     @property
     def quiet(self) -> bool:
@@ -143,22 +149,51 @@ class Agent:
 
     # -- the vehicle -----------------------------------------------------------------------
 
-    def _advance(self, now: float, out: Outputs) -> None:
-        for ev in self.vehicle.advance(now):
-            self.decide.dirty = True
-            if isinstance(ev, Cleared):
-                self.know.treated.append((ev.task, ev.t_s))
-                self.know.cleared.add(ev.task)
+    def _from_vehicle(self, reports: Sequence[VehicleReport], out: Outputs) -> None:
+        """What the vehicle reported, in time order: fixes move the model, arrivals and ends
+        of work change what it does, sightings and looks go to `discovery`."""
+        own = self.own
+        for r in reports:
+            if isinstance(r, NavFix):
+                own.fix(r)
+            elif isinstance(r, Arrived):
+                home = own.arrived(r.target, r.t_s)
+                if home is not None:
+                    self.decide.dirty = True
+                    # An aborted vehicle already said goodbye; others announce their arrival.
+                    self.radio.home_left = 0 if own.aborted else self.config.home_repeats
+                    out.record(Home(home.t_s))
+                    out.event(home.t_s, "replan", detail="home")
+            elif isinstance(r, Injected):
+                done = own.injected(r.task, r.t_s)
+                if done is None:
+                    self.count("injection_stale")
+                    continue
+                self.decide.dirty = True
+                self.know.treated.append((done.task, done.t_s))
+                self.know.cleared.add(done.task)
                 self.radio.push_cleared = 2
-                out.record(Clear(ev.t_s, (ev.task,), own=True))
-                out.event(ev.t_s, "cleared", [ev.task], detail=self.discovery.where(ev.task))
-            elif isinstance(ev, Inspected):
-                self.discovery.on_inspected(ev, out)
-            elif isinstance(ev, Arrived):
-                # An aborted vehicle already said goodbye; others announce their arrival.
-                self.radio.home_left = 0 if self.vehicle.aborted else self.config.home_repeats
-                out.record(Home(ev.t_s))
-                out.event(ev.t_s, "replan", detail="home")
+                out.record(Clear(done.t_s, (done.task,), own=True))
+                out.event(done.t_s, "cleared", [done.task],
+                          detail=self.discovery.where(done.task))
+            elif isinstance(r, Looked):
+                self.discovery.on_looked(r, out)
+            elif isinstance(r, Sighted):
+                self.discovery.on_sighted(r, r.t_s, out)
+            elif isinstance(r, Refused):
+                self.count("helm_refused")
+                out.event(r.t_s, "refused", detail=f"{r.command}: {r.reason}")
+
+    def _helm(self, out: Outputs) -> None:
+        """Tell the vehicle what to do when that changed (an arrival, the end of work, a new
+        head of the route, an abort)."""
+        key = self.own.command_key()
+        if key == self._commanded:
+            return
+        self._commanded = key
+        cmd = self.own.command()
+        if cmd is not None:
+            out.append(Helm(cmd))
 
     # -- radio in --------------------------------------------------------------------------
 
@@ -227,7 +262,7 @@ class Agent:
 
     def _on_holding(self, msg: Claim | Release, now: float, out: Outputs) -> None:
         is_claim, know = isinstance(msg, Claim), self.know
-        mine_before = set(self.vehicle.route)
+        mine_before = set(self.own.route)
         changed = know.holdings.apply(msg.sender, msg.t_s, msg.tasks, is_claim)
         if is_claim:
             self._contest(msg.tasks)
@@ -235,7 +270,7 @@ class Agent:
             self.decide.dirty = True
             out.record(Hold(msg.sender, msg.t_s, tuple(changed), is_claim))
             lost = [t for t in changed if t in mine_before and know.holder(t) != self.index
-                    and t != self.vehicle.injecting]
+                    and t != self.own.injecting]
             if lost:
                 out.event(now, "claim_lost", lost, peer=know.vid(msg.sender))
                 self.decide.coop_soon = True
@@ -260,7 +295,7 @@ class Agent:
     def _on_command(self, name: str, now: float, out: Outputs) -> None:
         if name != "abort" or not self.decide.active:
             return
-        self.vehicle.abort()
+        self.own.abort()
         self.radio.own_abort_left = self.config.abort_repeats
         self.radio.push_cleared = 1
         out.record(Aborted(now))
@@ -310,7 +345,7 @@ class Agent:
             self.count("slots_missed", skipped)
         if sent_s < now:
             self.count("slots_late")
-        msg = self.radio.choose(now, self.vehicle, self.know)
+        msg = self.radio.choose(now, self.own, self.know)
         if msg is None:
             return
         frame = self.fleet.codec.encode(msg)
@@ -324,9 +359,6 @@ class Agent:
     # -- telemetry and checkpoints ---------------------------------------------------------
 
     def _telemetry(self, now: float, out: Outputs) -> None:
-        if now >= self._next_truth:
-            self._next_truth = now + self.config.truth_period_s
-            out.append(Publish("truth", self.truth(now)))
         if now >= self._next_status:
             self._next_status = now + self.config.status_period_s
             out.append(Publish("status", self.status(now)))
@@ -336,7 +368,7 @@ class Agent:
 
     def status(self, now: float | None = None) -> Status:
         now = self.t if now is None else now
-        v, know = self.vehicle, self.know
+        v, know = self.own, self.know
         finish = v.time_to_finish_s()
         treated = [t for t, _ in know.treated]
         return Status(
@@ -356,12 +388,7 @@ class Agent:
         lag, self.lag_s = self.lag_s, 0.0
         return float(lag)
 
-    def truth(self, now: float) -> Truth:
-        v = self.vehicle
-        return Truth(float(now), tuple(v.pos), float(v.yaw_deg), float(v.pitch_deg), v.state())
-
     def checkpoint(self, now: float) -> Checkpoint:
-        v = self.vehicle
-        return Checkpoint(now, tuple(v.pos), v.distance_m, tuple(v.route),  # type: ignore
-                          self.radio.last_seq, self.know.replay.high_water(), v.home_at_s)
-
+        v = self.own
+        return Checkpoint(now, v.pos, v.distance_m, tuple(v.route), self.radio.last_seq,
+                          self.know.replay.high_water(), v.home_at_s)

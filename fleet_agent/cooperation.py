@@ -11,21 +11,23 @@ iteration budgets only, a seed shared where the fleet should agree):
 
 from __future__ import annotations
 
-import math
 from typing import Collection, Mapping, Sequence
 
 import numpy as np
 
 from fleet_agent.knowledge import PeerPose
+from fleet_agent.motion import OwnVehicle
 from fleet_agent.plans import Live, Planner
-from fleet_agent.vehicle import Vehicle, position_along
+from fleet_agent.reckoning import position_along
+from hfc_core.paths import as_point3
 from hfc_core.problem import Problem
 
-def live_self(vehicle: Vehicle) -> Live:
+
+def live_self(own: OwnVehicle) -> Live:
     """This vehicle as the replanner sees it (rounded: equal inputs memoise)."""
-    locked = (vehicle.injecting,) if vehicle.injecting is not None else ()
-    return Live(vehicle.index, tuple(round(c, 3) for c in vehicle.pos),  # type: ignore[arg-type]
-                round(vehicle.battery_left_s(), 3), tuple(vehicle.route), locked)
+    locked = (own.injecting,) if own.injecting is not None else ()
+    return Live(own.index, as_point3(round(c, 3) for c in own.pos),
+                round(own.battery_left_s(), 3), tuple(own.route), locked)
 
 
 def live_peer(problem: Problem, v: int, pose: PeerPose | None, route: Sequence[int],
@@ -41,8 +43,7 @@ def live_peer(problem: Problem, v: int, pose: PeerPose | None, route: Sequence[i
         pos, t, service_left = problem.vehicles[v].start, 0.0, 0.0
     est = position_along(problem, v, pos, route, max(0.0, now_s - t), service_left)
     battery = max(0.0, problem.vehicles[v].battery_s - now_s)
-    return Live(v, tuple(round(c, 3) for c in est), round(battery, 3),  # type: ignore[arg-type]
-                tuple(route))
+    return Live(v, as_point3(round(c, 3) for c in est), round(battery, 3), tuple(route))
 
 
 def takeover_share(planner: Planner, me: Live, peers: Sequence[Live], cleared: Collection[int],
@@ -98,30 +99,17 @@ def cooperation_route(planner: Planner, me: Live, cleared: Collection[int],
     return [t for t in routes.get(me.index, []) if t not in cleared]
 
 
-def detour_fits(vehicle: Vehicle, free: Collection[int], slack_s: float) -> bool:
+def detour_fits(own: OwnVehicle, free: Collection[int], slack_s: float) -> bool:
     """Cheap pre-check before the replanner: does any free spot fit as a detour (cheapest
     insertion into the current route, service included) within ``slack_s``?"""
-    p = vehicle.problem
-    nodes = list(vehicle.route) + [p.end_node(vehicle.index)]
-    pos = np.asarray(vehicle.pos)
+    p = own.problem
+    nodes = list(own.route) + [p.end_node(own.index)]
+    pos = np.asarray(own.pos)
     cand = np.fromiter(free, dtype=int)
     first = nodes[0]
     detour = (np.linalg.norm(p.xyz[cand] - pos, axis=1) + p.dist_m[cand, first]
               - float(np.linalg.norm(p.xyz[first] - pos)))
     for a, b in zip(nodes[:-1], nodes[1:]):
         detour = np.minimum(detour, p.dist_m[a, cand] + p.dist_m[cand, b] - p.dist_m[a, b])
-    cost = detour / vehicle.speed_mps + p.service_s[cand]
+    cost = detour / own.speed_mps + p.service_s[cand]
     return bool((cost <= slack_s).any())
-
-
-def cheapest_insertion(vehicle: Vehicle, route: list[int], task: int) -> list[int]:
-    """``route`` with ``task`` where it lengthens the remaining mission least (never before
-    the spot being injected)."""
-    start = 1 if route and route[0] == vehicle.injecting else 0
-    best, best_time = route, math.inf
-    for i in range(start, len(route) + 1):
-        cand = route[:i] + [task] + route[i:]
-        t = vehicle.time_to_finish_s(cand)
-        if t < best_time:
-            best, best_time = cand, t
-    return best

@@ -22,22 +22,22 @@ from __future__ import annotations
 from typing import Callable, Collection
 
 from fleet_agent.config import AgentConfig
-from fleet_agent.cooperation import (after_own, cheapest_insertion, cooperation_route,
-                                     detour_fits, live_peer, live_self, peer_etas,
-                                     takeover_share)
+from fleet_agent.cooperation import (after_own, cooperation_route, detour_fits, live_peer,
+                                     live_self, peer_etas, takeover_share)
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Outputs
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.radio import Radio
 from fleet_agent.records import Hold
-from fleet_agent.vehicle import Vehicle, fit_route
+from fleet_agent.motion import OwnVehicle
+from fleet_agent.routing import cheapest_insertion, fit_route
 
 
 class Decisions:
-    def __init__(self, fleet: Fleet, config: AgentConfig, vehicle: Vehicle, know: Knowledge,
+    def __init__(self, fleet: Fleet, config: AgentConfig, own: OwnVehicle, know: Knowledge,
                  radio: Radio, now: float, count: Callable[[str], None]) -> None:
-        self.fleet, self.config, self.vehicle, self.know, self.radio = (
-            fleet, config, vehicle, know, radio)
+        self.fleet, self.config, self.own, self.know, self.radio = (
+            fleet, config, own, know, radio)
         self.count = count  # the agent's counters (replans asked of the planner)
         index, k = know.index, know.k
         self.next_coop_s = now + config.coop_period_s * (1.0 + index / k)
@@ -46,7 +46,7 @@ class Decisions:
 
     @property
     def active(self) -> bool:
-        return not (self.vehicle.done or self.vehicle.aborted)
+        return not (self.own.done or self.own.aborted)
 
     def takeover(self, gone: int, now: float, out: Outputs, doubt: float = 0.0) -> None:
         """Replan the survivors over the spots freed by ``gone``; claim this vehicle's share.
@@ -69,7 +69,7 @@ class Decisions:
                  for v in know.active_peers()]
         # The same seed on every survivor: equal views give equal answers.
         self.count("replans")
-        mine = takeover_share(know.planner, live_self(self.vehicle), peers,
+        mine = takeover_share(know.planner, live_self(self.own), peers,
                               know.unavailable(now), know.held_map(),
                               seed=self.fleet.seed * 1000 + gone)
         gained = [t for t in mine if t in free]
@@ -83,7 +83,7 @@ class Decisions:
         if doubt <= self.config.takeover_doubt:
             self.set_route(after_own(mine, soon), now, out, why=why)
         else:
-            own = [t for t in self.vehicle.route if t not in know.cleared]
+            own = [t for t in self.own.route if t not in know.cleared]
             self.set_route(self.keeping_own(mine, own, soon), now, out, why=why,
                            protect=frozenset(own))
 
@@ -108,12 +108,12 @@ class Decisions:
         beliefs = know.beliefs
         finds = beliefs is not None and any(
             t >= beliefs.n and beliefs.finder(t) == know.index for t in free)
-        slack = self.vehicle.slack_s(cfg.battery_reserve_s)
+        slack = self.own.slack_s(cfg.battery_reserve_s)
         if not finds and (slack < cfg.coop_min_slack_s
-                          or not detour_fits(self.vehicle, free, slack)):
+                          or not detour_fits(self.own, free, slack)):
             return
         self.count("replans")
-        mine = cooperation_route(know.planner, live_self(self.vehicle),
+        mine = cooperation_route(know.planner, live_self(self.own),
                                  know.unavailable(now), know.held_map(),
                                  seed=self.fleet.seed * 1000 + 100 + know.index)
         gained = [t for t in mine if t in free]
@@ -124,7 +124,7 @@ class Decisions:
                 # giving it up for a find is the replanner's call
                 self.set_route(mine, now, out, why="cooperation")
                 return
-            own = [t for t in self.vehicle.route if t not in know.cleared]
+            own = [t for t in self.own.route if t not in know.cleared]
             self.set_route(self.keeping_own(mine, own, ()), now, out, why="cooperation",
                            protect=frozenset(own))
 
@@ -138,13 +138,13 @@ class Decisions:
         or a cooperation must never make a vehicle collect less than its own route would."""
         cand = after_own(planned, late)
         cand += [t for t in own if t not in cand]
-        fitted = fit_route(self.vehicle, cand, self.config.battery_reserve_s, own)
+        fitted = fit_route(self.own, cand, self.config.battery_reserve_s, own)
         if set(own) <= set(fitted):
             return cand
         route = list(own)
         for t in planned:
             if t not in own and t not in late:
-                route = cheapest_insertion(self.vehicle, route, t)
+                route = cheapest_insertion(self.own, route, t)
         return route + [t for t in planned if t in late and t not in own]
 
     def hold(self, tasks: list[int], claim: bool, now: float, out: Outputs) -> None:
@@ -164,24 +164,24 @@ class Decisions:
         if not self.active or not self.dirty:
             return
         self.dirty = False
-        know, vehicle = self.know, self.vehicle
-        injecting = vehicle.injecting
+        know, own = self.know, self.own
+        injecting = own.injecting
         alias = {} if know.beliefs is None else know.beliefs.alias
-        route = [t for t in vehicle.route if t not in know.cleared
+        route = [t for t in own.route if t not in know.cleared
                  and (t == injecting or (know.holder(t) == know.index and t not in alias))]
         orphans = [t for t in know.held_by(know.index) if t not in route and t not in know.cleared]
         for t in orphans:
-            route = cheapest_insertion(vehicle, route, t)
+            route = cheapest_insertion(own, route, t)
         self.set_route(route, now, out, why="sync")
 
     def set_route(self, route: list[int], now: float, out: Outputs, why: str,
                   protect: frozenset[int] = frozenset()) -> None:
-        fitted = fit_route(self.vehicle, route, self.config.battery_reserve_s, protect)
+        fitted = fit_route(self.own, route, self.config.battery_reserve_s, protect)
         # Whatever this vehicle holds but will not treat is released for the others.
         dropped = [t for t in self.know.held_by(self.know.index) if t not in fitted]
         if dropped:
             self.hold(dropped, False, now, out)
-        if fitted != self.vehicle.route:
-            self.vehicle.set_route(fitted)
+        if fitted != self.own.route:
+            self.own.set_route(fitted)
             if why != "sync":
                 out.event(now, "replan", detail=why)

@@ -1,8 +1,8 @@
 """What an agent does with what its camera shows, in a dynamic mission (the map is a prior).
 
 One part of the agent (`fleet_agent.agent`), one idea: the reef as the vehicle learns it.
-Sightings and looks come in as `Sensed` inputs (from the driver's `sensor.World`); finds come
-in as FOUND frames. It keeps the beliefs (`fleet_agent.beliefs`) and the working problem the
+Sightings and the ends of looks come in as vehicle reports (`fleet_bus.vehicle_port`: the
+camera's `Sighted` and `Looked`); finds come in as FOUND frames. It keeps the beliefs (`fleet_agent.beliefs`) and the working problem the
 vehicle and the planner use in step with them, names new finds and owes them to the fleet,
 folds aliases, and turns the end of a look into an empty spot (cleared for everyone) or an
 injection. Nothing here runs in a mission without a hidden reef.
@@ -13,12 +13,12 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from fleet_agent.beliefs import UNKNOWN
-from fleet_agent.io_types import Outputs, Sensed
+from fleet_agent.io_types import Outputs
+from fleet_agent.motion import Inspected
 from fleet_agent.records import Clear, FoundSpot
-from fleet_agent.sensor import Sighting
-from fleet_agent.vehicle import Inspected
 from fleet_agent.wire import MAX_TENTHS, Found
 from fleet_bus.telemetry import position_detail
+from fleet_bus.vehicle_port import Looked, Sighted
 
 if TYPE_CHECKING:
     from fleet_agent.agent import Agent
@@ -45,7 +45,8 @@ class Discovery:
         if b is None or b.version == self.version:
             return
         self.version = b.version
-        self.a.problem = self.a.vehicle.problem = b.problem
+        self.a.problem = b.problem
+        self.a.own.rebind(b.problem)
 
     def settled(self, now: float) -> None:
         """A find that finished settling may now be planned: look for work."""
@@ -55,34 +56,36 @@ class Discovery:
             self.a.decide.coop_soon = True
             self.a.decide.dirty = True
 
-    def on_sensed(self, inp: Sensed, now: float, out: Outputs) -> None:
+    def on_looked(self, r: Looked, out: Outputs) -> None:
+        """A look ended: learn what is there, then inject it or move on (`OwnVehicle`)."""
+        b, own = self.a.know.beliefs, self.a.own
+        if b is None or not self.a.decide.active or own.inspecting != r.task:
+            self.a.count("inspection_stale")  # the look was abandoned meanwhile
+            return
+        if r.present:
+            b.learn(r.task, True, r.priority, r.service_s)
+        ev = own.looked(r.task, r.service_s if r.present else None, r.t_s)
+        if ev is not None:
+            self.a.decide.dirty = True
+            self.on_inspected(ev, out)
+
+    def on_sighted(self, seen: Sighted, now: float, out: Outputs) -> None:
         b = self.a.know.beliefs
         if b is None or not self.a.decide.active:
             self.a.count("sensed_ignored")
             return
-        ins = inp.inspection
-        if ins is not None:
-            if self.a.vehicle.inspecting != ins.task:
-                self.a.count("inspection_stale")  # the look was abandoned meanwhile
-            else:
-                self.a.vehicle.reveal(ins.task, ins.service_s if ins.present else None)
-                if ins.present:
-                    b.learn(ins.task, True, ins.priority, ins.service_s)
-        if not inp.sightings:
-            return
         if not self.a.config.discovery:
-            self.a.count("sightings_ignored", len(inp.sightings))
+            self.a.count("sightings_ignored")
             return
-        for seen in inp.sightings:
-            what = b.match(seen.pos)
-            if what is None:
-                self._discover(seen, now, out)
-            elif what[0] == "task" and b.state[what[1]] == UNKNOWN \
-                    and what[1] not in self.a.know.cleared:
-                b.learn(what[1], True, seen.priority, seen.service_s)
-                self.a.decide.dirty = True
+        what = b.match(seen.pos)
+        if what is None:
+            self._discover(seen, now, out)
+        elif what[0] == "task" and b.state[what[1]] == UNKNOWN \
+                and what[1] not in self.a.know.cleared:
+            b.learn(what[1], True, seen.priority, seen.service_s)
+            self.a.decide.dirty = True
 
-    def _discover(self, seen: Sighting, now: float, out: Outputs) -> None:
+    def _discover(self, seen: Sighted, now: float, out: Outputs) -> None:
         """An aggregation the map missed: name it, tell the fleet, plan it once settled."""
         b, codec = self.a.know.beliefs, self.a.fleet.codec
         assert b is not None

@@ -1,27 +1,36 @@
 """The one shell around an agent: inputs in, outputs carried out, the same under every backend.
 
-A backend supplies a `Transport` (send a frame on the radio, publish telemetry) and a
+A backend supplies the vehicle (a `fleet_bus.vehicle_port.VehiclePort`: the simulated vehicle,
+a MOOS-IvP or a ROS 2 helm), a `Transport` (frames to the modem, telemetry to the bus) and a
 `JournalSink`; it feeds `AgentDriver.step` with inputs at mission times and ticks the agent at
 `next_wakeup`. Two backends exist: the Zenoh node (`fleet_agent.node`, one OS process per
 vehicle on the shared warp clock) and the in-process simulation (`cotsfleet.mission.inprocess`,
 the whole fleet on a discrete-event loop). Both go through `carry_out`, so what a vehicle
-journals, sends and reports, and in which order, never depends on the backend.
+journals, sends, reports and commands, and in which order, never depends on the backend.
 
-In a dynamic mission the driver also carries the world's camera (`fleet_agent.sensor.World`):
-after each step it sweeps the track the vehicle just ran and answers a look that began, and
-feeds what the camera saw back to the agent as a `Sensed` input at the same mission time. So
-the agent learns the reef only through its sensor, the same way under both backends.
+Before each input the driver polls the vehicle and hands its reports to the agent with the
+input. A simulated vehicle knows when its next report is due (`next_report_s`): the driver
+first runs every report due before the input at its own time, so the agent decides at the
+exact moment an arrival or the end of an injection happens, however late the host runs.
+
+Where the vehicle is simulated (``truth``), the driver also publishes where it really is
+(``fleet/truth``: the channel's positions, the ground station's picture) every
+``truth_period_s``, before the frames of the same step: the relay places a sender before its
+frames. The agent itself only ever knows its navigation estimate.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable, Protocol, Sequence
 
 from fleet_agent.agent import Agent
-from fleet_agent.io_types import (Command, Frame, Input, Output, Publish, Record, Send, Sensed,
-                                  Tick)
-from fleet_agent.sensor import World
+from fleet_agent.io_types import Command, Frame, Helm, Input, Output, Publish, Record, Send, Tick
 from fleet_bus.telemetry import Event, Status, Truth
+from fleet_bus.vehicle_port import NavFix, VehiclePort
+
+Point3 = tuple[float, float, float]
+TruePose = Callable[[], tuple[Point3, float, float]]  # where the vehicle is: pos, yaw, pitch
 
 
 class Transport(Protocol):
@@ -38,14 +47,18 @@ class JournalSink(Protocol):
 
 
 class AgentDriver:
-    """Steps one agent and carries out what it decides."""
+    """Steps one agent with its vehicle's reports and carries out what it decides."""
 
-    def __init__(self, agent: Agent, transport: Transport, journal: JournalSink,
-                 tap: Callable[[Sequence[Output]], None] | None = None,
-                 world: World | None = None) -> None:
-        self.agent, self.transport, self.journal = agent, transport, journal
+    def __init__(self, agent: Agent, vehicle: VehiclePort, transport: Transport,
+                 journal: JournalSink, *, truth: TruePose | None = None,
+                 truth_period_s: float = 5.0,
+                 tap: Callable[[Sequence[Output]], None] | None = None) -> None:
+        self.agent, self.vehicle, self.transport, self.journal = (
+            agent, vehicle, transport, journal)
+        self.truth, self.truth_period_s = truth, truth_period_s
         self.tap = tap  # sees every step's outputs (tests, debugging)
-        self.world = world  # the simulated camera (dynamic missions), else None
+        self.nav_fixes = 0  # fixes the agent took from its vehicle
+        self._next_truth = agent.t if truth is not None else math.inf
 
     def tick(self, now: float) -> None:
         self.step(Tick(now))
@@ -57,28 +70,32 @@ class AgentDriver:
         self.step(Command(name, now))
 
     def step(self, inp: Input) -> None:
-        self.carry_out(self.agent.step(inp))
-        if self.world is not None:
-            self._sense()
-
-    def _sense(self) -> None:
-        """What the camera saw since the last step, and the answer of a look just begun."""
-        agent, world = self.agent, self.world
-        assert world is not None
-        v = agent.vehicle
-        sightings = tuple(world.sweep(v.pos))
-        task = v.inspecting
-        inspection = world.inspect(task) if task is not None and task not in v.readings \
-            else None
-        if sightings or inspection is not None:
-            self.carry_out(agent.step(Sensed(agent.t, sightings, inspection)))
+        while (due := self.vehicle.next_report_s()) is not None and due < inp.now:
+            self._step(Tick(max(due, self.agent.t)))  # the vehicle's news, at its own time
+        self._step(inp)
 
     def next_wakeup(self) -> float:
-        return self.agent.next_wakeup()
+        due = self.vehicle.next_report_s()
+        return min(self.agent.next_wakeup(), math.inf if due is None else due, self._next_truth)
+
+    def _step(self, inp: Input) -> None:
+        reports = self.vehicle.poll(inp.now)
+        self.nav_fixes += sum(1 for r in reports if isinstance(r, NavFix))
+        outputs = self.agent.step(inp, reports)
+        self._publish_truth()
+        self.carry_out(outputs)
+
+    def _publish_truth(self) -> None:
+        now = self.agent.t
+        if self.truth is None or now < self._next_truth:
+            return
+        self._next_truth = now + self.truth_period_s
+        pos, yaw, pitch = self.truth()
+        self.transport.publish("truth", Truth(now, pos, yaw, pitch, self.agent.state))
 
     def carry_out(self, outputs: Sequence[Output]) -> None:
         """Journal first (what is announced is already on record if the process dies right
-        after), then radio and telemetry in the order the agent produced them."""
+        after), then radio, telemetry and the vehicle in the order the agent produced them."""
         if self.tap is not None:
             self.tap(outputs)
         for o in outputs:
@@ -89,6 +106,8 @@ class AgentDriver:
                 self.transport.send(o.frame, o.kind, o.sent_s)
             elif isinstance(o, Publish):
                 self.transport.publish(o.topic, o.payload)
+            elif isinstance(o, Helm):
+                self.vehicle.command(o.command, self.agent.t)
 
     def final_status(self, now: float) -> None:
         """The last word on the way out (shutdown): a status at ``now``."""

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
-from fleet_agent.vehicle import PathFn, path_function
 from fleet_agent.wire import Codec
+from hfc_core.paths import PathFn, path_function
 from hfc_core.problem import Problem
 
 

@@ -6,8 +6,8 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Union
 
 from fleet_agent.records import JournalRecord
-from fleet_agent.sensor import Inspection, Sighting
 from fleet_bus.telemetry import Event, Status, Truth
+from fleet_bus.vehicle_port import HelmCommand
 
 
 @dataclass(frozen=True)
@@ -33,18 +33,7 @@ class Command:
     now: float
 
 
-@dataclass(frozen=True)
-class Sensed:
-    """What the camera showed at ``now`` (dynamic missions; the driver's `sensor.World`):
-    aggregations seen along the track since the last step, and the answer of the look under
-    way at a predicted spot, if one began."""
-
-    now: float
-    sightings: tuple[Sighting, ...] = ()
-    inspection: Inspection | None = None
-
-
-Input = Union[Tick, Frame, Command, Sensed]
+Input = Union[Tick, Frame, Command]
 
 
 @dataclass(frozen=True)
@@ -75,7 +64,14 @@ class Record:
     durable: bool = False
 
 
-Output = Union[Send, Publish, Record]
+@dataclass(frozen=True)
+class Helm:
+    """A command for the vehicle (`fleet_bus.vehicle_port`), from the step's time on."""
+
+    command: HelmCommand
+
+
+Output = Union[Send, Publish, Record, Helm]
 
 
 class Outputs(list):

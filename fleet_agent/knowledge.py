@@ -35,7 +35,8 @@ class PeerPose:
 
 
 class Knowledge:
-    def __init__(self, fleet: Fleet, index: int, config: AgentConfig, cycle_s: float) -> None:
+    def __init__(self, fleet: Fleet, index: int, config: AgentConfig, cycle_s: float,
+                 beliefs: Beliefs | None = None) -> None:
         p = fleet.problem
         self.fleet, self.index = fleet, index
         self.k = p.n_vehicles
@@ -49,7 +50,7 @@ class Knowledge:
         self.peer_pose: dict[int, PeerPose] = {}
         self.peer_digest: dict[int, Digest] = {}
         # Dynamic missions: what this vehicle believes of the reef (None: the map is exact).
-        self.beliefs: Beliefs | None = None
+        self.beliefs = beliefs
 
     @property
     def problem(self):  # -> Problem: the working problem in a dynamic mission

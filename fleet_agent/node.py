@@ -37,7 +37,8 @@ from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
 from fleet_agent.journal import Journal
 from fleet_agent.plans import set_planning_hook
-from fleet_agent.sensor import Camera, World
+from fleet_agent.helms.sim import sim_vehicle
+from fleet_agent.sensor import Camera
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
 from fleet_bus.clock import WarpClock
@@ -171,9 +172,11 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
             agent = Agent(fleet, problem.vehicle_index[vid], config, now, journal.records)
             transport = ZenohTransport(session, vid, auth)
             set_planning_hook(transport.planning)
-            driver = AgentDriver(agent, transport, journal,
-                                 world=None if reef is None else
-                                 World(reef, mission.seed, problem.vehicle_index[vid]))
+            index = problem.vehicle_index[vid]
+            vehicle = sim_vehicle(problem, index, seed=mission.seed, reef=reef, t_s=now,
+                                  pos=agent.own.pos, odometer_m=agent.own.distance_m)
+            driver = AgentDriver(agent, vehicle, transport, journal, truth=vehicle.true_pose,
+                                 truth_period_s=config.truth_period_s)
             start = f"restart, {len(journal.records)} records" if journal.records else "fresh"
             damage = journal.describe_damage()
             if damage:  # what the restart could not read, and where the evidence is

@@ -60,7 +60,7 @@ class Live:
 class Planner:
     """Plans for the battery less ``reserve_s`` (the agent's `battery_reserve_s`): every route
     it returns reaches the rendezvous with that margin, so fitting a fresh plan to the battery
-    (`fleet_agent.vehicle.fit_route`) drops nothing."""
+    (`fleet_agent.routing.fit_route`) drops nothing."""
 
     def __init__(self, problem: Problem, seed: int, plan_iterations: int,
                  replan_iterations: int, reserve_s: float = 0.0, polish: bool = True) -> None:

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 from fleet_agent.config import AgentConfig
 from fleet_agent.knowledge import Knowledge
-from fleet_agent.vehicle import Vehicle
+from fleet_agent.motion import OwnVehicle
 from fleet_agent.wire import (Abort, Claim, ClearedSegment, Digest, Found, Heard, Message,
                               Pose, Release)
 from fleet_bus.tdma import TdmaSchedule
@@ -187,24 +187,24 @@ class Radio:
         self.last_seq = max(self.last_seq + 1, int(now))
         return self.last_seq
 
-    def choose(self, now: float, vehicle: Vehicle, know: Knowledge) -> Message | None:
+    def choose(self, now: float, own: OwnVehicle, know: Knowledge) -> Message | None:
         """One frame for the slot just taken, most urgent first (see the module docstring)."""
         cfg = self.config
         heard = know.members.heard_field(now)
         me = know.index
-        if vehicle.aborted:
+        if own.aborted:
             if self.own_abort_left > 0:
                 self.own_abort_left -= 1
                 return Abort(me, self.next_seq(now), int(now), heard)
             if self.push_cleared > 0:
                 self.push_cleared -= 1
                 return self._cleared(now, know, heard)
-            return self._watch(now, vehicle, know, heard)
-        if vehicle.done:
+            return self._watch(now, own, know, heard)
+        if own.done:
             if self.home_left > 0:
                 self.home_left -= 1
-                return self._pose(now, vehicle, know, heard)
-            return self._watch(now, vehicle, know, heard)
+                return self._pose(now, own, know, heard)
+            return self._watch(now, own, know, heard)
         self.since_pose += 1
         fresh = self._fresh_claim(now, know, heard)
         if fresh is not None:
@@ -213,7 +213,7 @@ class Radio:
             news = self.aborts.popleft()
             return Abort(me, self.next_seq(now), news.t_s, heard, news.subject)
         if self.since_pose >= cfg.pose_every_cycles:
-            return self._pose(now, vehicle, know, heard)
+            return self._pose(now, own, know, heard)
         beliefs = know.beliefs
         first = self._new_find(now, know, heard, repeats=False)
         if first is not None:
@@ -259,7 +259,7 @@ class Radio:
                     self.queue_holding(True, c, tasks, fresh=False)
                 entry = self.holdings.popleft()
                 return entry.cls(me, self.next_seq(now), entry.t_s, entry.tasks, heard)
-        return self._pose(now, vehicle, know, heard)
+        return self._pose(now, own, know, heard)
 
     def _fresh_claim(self, now: float, know: Knowledge, heard: Heard) -> Claim | None:
         """A claim not on the air yet, before a pose, a find or news: a vehicle that claimed
@@ -296,18 +296,18 @@ class Radio:
                 return self._found(now, know, heard, slot_no)
         return None
 
-    def _watch(self, now: float, vehicle: Vehicle, know: Knowledge, heard: Heard) -> Pose | None:
+    def _watch(self, now: float, own: OwnVehicle, know: Knowledge, heard: Heard) -> Pose | None:
         """Out of the mission, announcements done: a pose now and then, if keeping watch."""
         every = self.config.watch_every_cycles
         self.since_pose += 1
         if every and self.since_pose >= every:
-            return self._pose(now, vehicle, know, heard)
+            return self._pose(now, own, know, heard)
         return None
 
-    def _pose(self, now: float, vehicle: Vehicle, know: Knowledge, heard: Heard) -> Pose:
+    def _pose(self, now: float, own: OwnVehicle, know: Knowledge, heard: Heard) -> Pose:
         self.since_pose = 0
-        return Pose(know.index, self.next_seq(now), vehicle.pos, int(round(vehicle.yaw_deg)),
-                    vehicle.state(), know.cleared.digest(), heard)
+        return Pose(know.index, self.next_seq(now), own.pos, int(round(own.yaw_deg)),
+                    own.state(), know.cleared.digest(), heard)
 
     def owe_finds(self, know: Knowledge, peer_digest: Digest) -> None:
         """A peer's finds digest differs from ours. If it may lack some of ours (a smaller or

@@ -25,7 +25,7 @@ def restore(agent: "Agent", journal: Sequence[Mapping[str, Any]], now: float,
             out: Outputs) -> None:
     """Rebuild ``agent`` (fresh, at ``now``) from ``journal``; the restart's own records and
     event go to ``out``."""
-    know, vehicle = agent.know, agent.vehicle
+    know, own = agent.know, agent.own
     n_tasks = agent.problem.n_tasks
     ckpt: rec.Checkpoint | None = None
     aborted = False
@@ -61,10 +61,9 @@ def restore(agent: "Agent", journal: Sequence[Mapping[str, Any]], now: float,
     if ckpt is not None:
         agent.radio.last_seq = ckpt.seq
         know.replay.restore(dict(ckpt.high_water))
-        vehicle.restore(now, ckpt.pos, ckpt.distance_m, list(ckpt.route), aborted, home_at)
+        own.restore(now, ckpt.pos, ckpt.distance_m, list(ckpt.route), aborted, home_at)
     else:
-        vehicle.restore(now, vehicle.pos, 0.0, agent.fleet.base_routes[agent.index], aborted,
-                        home_at)
+        own.restore(now, own.pos, 0.0, agent.fleet.base_routes[agent.index], aborted, home_at)
     if aborted:
         agent.radio.own_abort_left = agent.config.abort_repeats
     agent.radio.push_cleared = 1  # tell the fleet what we know as soon as we can

@@ -36,6 +36,7 @@ EVENT_KINDS = (
     "takeover",  # spots of a lost vehicle taken into this vehicle's route
     "replan",  # local route changed
     "restart",  # the agent process restarted from its log
+    "refused",  # the vehicle did not carry out a command (detail: which, and why)
     # dynamic missions (a hidden reef): what the camera showed
     "found",  # an aggregation the map missed (tasks: its find id; detail: "x,y,z rho r")
     "empty",  # a predicted spot inspected and found empty

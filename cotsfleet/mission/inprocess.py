@@ -28,12 +28,14 @@ from cotsfleet.mission.runner import Outcome, horizon_of, run_mission
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
 from fleet_agent.driver import AgentDriver
+from fleet_agent.helms.sim import sim_vehicle
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Output
 from fleet_agent.journal import MemoryJournal
+from fleet_agent.motion import Conduct, OwnVehicle
 from fleet_agent.plans import Live, Planner
-from fleet_agent.vehicle import Vehicle, fit_route
-from fleet_agent.sensor import Camera, World
+from fleet_agent.routing import fit_route
+from fleet_agent.sensor import Camera
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition
 from fleet_bus.telemetry import Event, Status, Truth
@@ -157,9 +159,10 @@ class InProcessBackend:
         # no link at all; the reference a lossy link must never fall below).
         plan = []
         for v, r in enumerate(self.fleet.base_routes):
-            vehicle = Vehicle(self.problem, v, self.fleet.paths)
-            vehicle.set_route(list(r))
-            plan += fit_route(vehicle, list(r), self.config.battery_reserve_s)
+            own = OwnVehicle(self.problem, v, self.fleet.paths,
+                             Conduct(lambda task: 0.0, lambda task: False))
+            own.set_route(list(r))
+            plan += fit_route(own, list(r), self.config.battery_reserve_s)
         out: dict[str, Any] = {"baseline": {
             "priority": round(float(sum(self.problem.priority[t] for t in plan)), 2),
             "spots": len(plan)}}
@@ -189,11 +192,15 @@ class InProcessBackend:
             self.net.attach(vid, lambda data, t, vid=vid: self._deliver(vid, data, t))
         seat.journal = journal
         agent = Agent(self.fleet, index, self.config, now, journal.records)
-        seat.driver = AgentDriver(agent, _SeatTransport(self, seat), journal,
+        # The vehicle is where the agent last knew it was (a restarted agent: its last
+        # checkpoint; the vehicle was dead in the water meanwhile).
+        vehicle = sim_vehicle(self.problem, index, seed=self.seed, reef=self.reef, t_s=now,
+                              pos=agent.own.pos, odometer_m=agent.own.distance_m)
+        seat.driver = AgentDriver(agent, vehicle, _SeatTransport(self, seat), journal,
+                                  truth=vehicle.true_pose,
+                                  truth_period_s=self.config.truth_period_s,
                                   tap=None if self.tap is None else
-                                  lambda outputs, vid=vid: self.tap(vid, outputs),
-                                  world=None if self.reef is None else
-                                  World(self.reef, self.seed, index))
+                                  lambda outputs, vid=vid: self.tap(vid, outputs))
         self._step(seat, lambda d: d.tick(now))
 
     def _deliver(self, vid: str, data: bytes, t_s: float) -> None:
@@ -280,7 +287,7 @@ class InProcessBackend:
             return
         agents = {v: s.agent for v, s in self.seats.items()}
         survivors = [a for v, a in agents.items() if v != vid and a is not None
-                     and not a.vehicle.done and not a.vehicle.aborted]
+                     and not a.own.done and not a.own.aborted]
         cleared = frozenset(t for a in agents.values() if a is not None
                             for t, _ in a.know.treated) | frozenset(
             self.problem.task_index[x] for vid, s in self.seats.items()
@@ -288,7 +295,7 @@ class InProcessBackend:
             for x in self.ledger.statuses[vid].treated)
         live = []
         for a in survivors:
-            v = a.vehicle
+            v = a.own
             locked = (v.injecting,) if v.injecting is not None else ()
             live.append(Live(a.index, tuple(v.pos), v.battery_left_s(now), tuple(v.route),
                              locked))

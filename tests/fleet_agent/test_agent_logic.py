@@ -21,6 +21,7 @@ from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import InProcessBackend
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
+from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Frame, Publish, Record, Send, Tick
 from fleet_agent.journal import MemoryJournal
@@ -28,6 +29,7 @@ from fleet_agent.wire import Abort, Codec, Pose, WireError
 from hfc_core.generate import paper_preset_doc
 from hfc_core.problem import Problem
 from hfc_core.scenario import problem_from_dict
+from reef_sim.vehicle import SimVehicle
 
 KEY = bytes(range(16))
 CONFIG = AgentConfig().with_key(KEY)
@@ -116,8 +118,8 @@ def test_restart_from_the_journal_forgets_nothing() -> None:
     reborn = Agent(fleet(), 1, CONFIG, 1400.0, journal)
     assert set(reborn.know.cleared) >= set(before.know.cleared)
     assert reborn.know.treated == before.know.treated
-    assert reborn.vehicle.distance_m == pytest.approx(before.vehicle.distance_m, abs=20.0)
-    assert reborn.vehicle.battery_left_s(1400.0) == pytest.approx(3600.0 - 1400.0)
+    assert reborn.own.distance_m == pytest.approx(before.own.distance_m, abs=20.0)
+    assert reborn.own.battery_left_s(1400.0) == pytest.approx(3600.0 - 1400.0)
     # its replay window came back: frames it took before the restart are refused
     old = [f for vid in ("auv1", "auv3") for f in world.sent(vid)[-3:]]
     out = []
@@ -147,7 +149,7 @@ def test_abort_announces_then_keeps_watch_and_goes_home() -> None:
                          for m in watch)
     slots = (4000.0 - 600.0) / (3 * CONFIG.slot_s)
     assert len(watch) <= slots / CONFIG.watch_every_cycles + 2
-    assert world.agent("auv3").vehicle.done and world.agent("auv3").quiet
+    assert world.agent("auv3").own.done and world.agent("auv3").quiet
     for vid in ("auv1", "auv2"):
         assert world.agent(vid).know.members.status(2) == "aborted"
         assert world.agent(vid).status().peers["auv3"] == "aborted"
@@ -187,13 +189,27 @@ def test_without_a_watcher_the_last_working_vehicle_only_suspects() -> None:
     assert not any(e.kind == "takeover" and e.peer == "auv2" for e in events)
 
 
-def test_truth_goes_out_before_the_first_frame() -> None:
+class Recorder:
+    """A driver's transport that keeps what went out, in order."""
+
+    def __init__(self) -> None:
+        self.sent: list[str] = []
+
+    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
+        self.sent.append("frame")
+
+    def publish(self, topic: str, payload: object) -> None:
+        self.sent.append(topic)
+
+
+def test_the_simulated_vehicles_truth_goes_out_before_the_first_frame() -> None:
     a = Agent(fleet(), 0, CONFIG, 0.0, MemoryJournal().records)
-    out = a.step(Tick(0.0))
-    topics = [o.topic if isinstance(o, Publish) else type(o).__name__ for o in out]
-    assert "truth" in topics
-    if "Send" in topics:
-        assert topics.index("truth") < topics.index("Send")
+    vehicle = SimVehicle(problem(), 0)
+    out = Recorder()
+    driver = AgentDriver(a, vehicle, out, MemoryJournal(), truth=vehicle.true_pose)
+    while "frame" not in out.sent:
+        driver.tick(driver.next_wakeup())
+    assert "truth" in out.sent and out.sent.index("truth") < out.sent.index("frame")
 
 
 def test_every_frame_an_agent_sends_decodes_within_the_limits() -> None:

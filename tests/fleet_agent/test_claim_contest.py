@@ -64,7 +64,7 @@ def test_a_claim_on_a_spot_we_cleared_gets_that_segment_of_the_cleared_set() -> 
     hear(agent, Claim(1, 301, 280, (spot,)))
     assert list(agent.radio.segments_owed) == [agent.know.cleared.segment_of(spot)]
     agent.radio.since_pose = 0  # not the heartbeat's turn
-    msg = agent.radio.choose(301.0, agent.vehicle, agent.know)
+    msg = agent.radio.choose(301.0, agent.own, agent.know)
     assert isinstance(msg, ClearedSegment) and msg.segment == agent.know.cleared.segment_of(spot)
     assert not agent.radio.segments_owed
 
@@ -75,9 +75,9 @@ def test_a_new_claim_takes_the_next_slot_even_when_a_pose_is_due() -> None:
     _, agent, spot = claimed_by_auv1()
     radio = agent.radio
     radio.since_pose = agent.config.pose_every_cycles  # the heartbeat is due
-    msg = radio.choose(301.0, agent.vehicle, agent.know)
+    msg = radio.choose(301.0, agent.own, agent.know)
     assert isinstance(msg, Claim) and (msg.t_s, msg.tasks) == (250, (spot,))
-    assert type(radio.choose(302.0, agent.vehicle, agent.know)).__name__ == "Pose"
+    assert type(radio.choose(302.0, agent.own, agent.know)).__name__ == "Pose"
 
 
 def test_standing_claims_sent_again_do_not_jump_the_queue() -> None:
@@ -86,7 +86,7 @@ def test_standing_claims_sent_again_do_not_jump_the_queue() -> None:
     radio.holdings.clear()
     radio.queue_holding(True, 250, [spot], fresh=False)  # a refresh of a standing claim
     radio.since_pose = agent.config.pose_every_cycles
-    assert type(radio.choose(301.0, agent.vehicle, agent.know)).__name__ == "Pose"
+    assert type(radio.choose(301.0, agent.own, agent.know)).__name__ == "Pose"
 
 
 def test_a_late_claim_settles_a_cycle_and_a_slot_after_it_and_the_initial_plan_at_once() -> None:
@@ -94,7 +94,7 @@ def test_a_late_claim_settles_a_cycle_and_a_slot_after_it_and_the_initial_plan_a
     know, cfg = agent.know, agent.config
     cycle = cfg.slot_s * agent.problem.n_vehicles
     assert know.settled_s(spot) == 250 + cfg.claim_settle_cycles * cycle + cfg.slot_s + 1.0
-    own = agent.vehicle.route[0] if agent.vehicle.route else next(
+    own = agent.own.route[0] if agent.own.route else next(
         t for t in range(know.holdings.n_tasks) if know.holder(t) == know.index)
     assert know.settled_s(own) == 0.0
-    assert agent.vehicle.not_before(spot) == know.settled_s(spot)  # the vehicle obeys it
+    assert agent.own.conduct.not_before(spot) == know.settled_s(spot)  # the vehicle obeys it

@@ -13,13 +13,17 @@ from cotsfleet.mission.inprocess import simulate
 from fleet_agent.agent import Agent
 from fleet_agent.beliefs import EMPTY, MERGE_M, PRESENT, Beliefs
 from fleet_agent.config import AgentConfig
+from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
-from fleet_agent.io_types import Frame, Send, Sensed, Tick
-from fleet_agent.sensor import Camera, Sighting
+from fleet_agent.io_types import Frame, Tick
+from fleet_agent.journal import MemoryJournal
+from fleet_agent.sensor import Camera
 from fleet_agent.wire import Codec, Digest, Found
+from fleet_bus.vehicle_port import GoTo, Sighted
 from hfc_core.generate import DynamicParams, GeneratorParams, generate_dynamic_doc
 from hfc_core.scenario import problem_from_dict
 from hfc_core.truth import reef_from_doc
+from reef_sim.vehicle import SimVehicle
 
 KEY = bytes(range(16))
 RUN = "test-dyn"
@@ -100,8 +104,8 @@ def test_finds_beyond_the_vehicles_slots_are_counted_not_kept(fleet):
     small = Fleet.build(fleet.dynamic.scenario, KEY, 4, config, run_id=RUN,
                         camera=fleet.dynamic.camera)
     agent = Agent(small, 1, config)
-    seen = tuple(Sighting(off_map(fleet, k), 30.0, 60.0) for k in range(4))
-    agent.step(Sensed(1.0, seen))
+    seen = [Sighted(1.0, off_map(fleet, k), 30.0, 60.0) for k in range(4)]
+    agent.step(Tick(1.0), seen)
     assert len(agent.know.beliefs.finds) == 2
     assert agent.counters["finds_dropped"] == 2
 
@@ -122,7 +126,27 @@ def test_a_malformed_or_forged_find_is_dropped_and_counted(fleet):
 # -- gossip -----------------------------------------------------------------------------------
 
 
-def exchange(agents: list[Agent], t0: float, t1: float, rng: np.random.Generator,
+class Mate:
+    """An agent driving its simulated vehicle, as in a mission; the frames it sends are kept
+    for `exchange` to carry."""
+
+    def __init__(self, fleet: Fleet, index: int) -> None:
+        self.agent = Agent(fleet, index, CONFIG)
+        self.outbox: list[bytes] = []
+        self.driver = AgentDriver(self.agent, SimVehicle(fleet.problem, index), self,
+                                  MemoryJournal())
+
+    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
+        self.outbox.append(frame)
+
+    def publish(self, topic: str, payload: object) -> None:
+        pass
+
+    def sees(self, t_s: float, sightings: list[Sighted]) -> None:
+        self.driver.carry_out(self.agent.step(Tick(t_s), sightings))
+
+
+def exchange(mates: list[Mate], t0: float, t1: float, rng: np.random.Generator,
              loss: float, dup: float, max_delay_s: float) -> None:
     """Step every agent every half second from t0 to t1; each frame reaches each peer unless
     lost, maybe twice, after a random delay (so frames overtake each other)."""
@@ -132,16 +156,16 @@ def exchange(agents: list[Agent], t0: float, t1: float, rng: np.random.Generator
         due = sorted((x for x in flight if x[0] <= t), key=lambda x: x[0])
         flight = [x for x in flight if x[0] > t]
         for at, dst, frame in due:
-            agents[dst].step(Frame(frame, at))
-        for i, a in enumerate(agents):
-            for o in a.step(Tick(t)):
-                if not isinstance(o, Send):
-                    continue
-                for j in range(len(agents)):
+            mates[dst].driver.frame(frame, at)
+        for i, m in enumerate(mates):
+            m.driver.tick(t)
+            sent, m.outbox = m.outbox, []
+            for frame in sent:
+                for j in range(len(mates)):
                     if j == i or rng.random() < loss:
                         continue
                     for _ in range(2 if rng.random() < dup else 1):
-                        flight.append((t + rng.uniform(0.0, max_delay_s), j, o.frame))
+                        flight.append((t + rng.uniform(0.0, max_delay_s), j, frame))
         t += 0.5
 
 
@@ -150,18 +174,18 @@ def exchange(agents: list[Agent], t0: float, t1: float, rng: np.random.Generator
        dup=st.floats(0.0, 0.5), max_delay_s=st.floats(0.0, 30.0), n_finds=st.integers(1, 4))
 def test_find_gossip_loses_nothing_under_loss_duplication_and_reordering(
         fleet, seed, loss, dup, max_delay_s, n_finds):
-    agents = [Agent(fleet, i, CONFIG) for i in range(3)]
+    mates = [Mate(fleet, i) for i in range(3)]
     rng = np.random.default_rng(seed)
     for k in range(n_finds):  # finds by several vehicles, at once
-        agents[k % 2 * 2].step(Sensed(0.0, (Sighting(off_map(fleet, k), 20.0 + k, 60.0),)))
-    exchange(agents, 0.0, 120.0, rng, loss, dup, max_delay_s)  # hostile water
-    exchange(agents, 120.0, 420.0, rng, 0.0, 0.0, 0.0)  # then it calms down
-    finds = [a.know.beliefs.finds for a in agents]
+        mates[k % 2 * 2].sees(0.0, [Sighted(0.0, off_map(fleet, k), 20.0 + k, 60.0)])
+    exchange(mates, 0.0, 120.0, rng, loss, dup, max_delay_s)  # hostile water
+    exchange(mates, 120.0, 420.0, rng, 0.0, 0.0, 0.0)  # then it calms down
+    finds = [m.agent.know.beliefs.finds for m in mates]
     assert len(finds[0]) == n_finds
     for f in finds[1:]:
         assert {s: (x.pos, x.priority, x.service_s) for s, x in f.items()} == \
             {s: (x.pos, x.priority, x.service_s) for s, x in finds[0].items()}
-    assert len({a.know.beliefs.digest() for a in agents}) == 1
+    assert len({m.agent.know.beliefs.digest() for m in mates}) == 1
 
 
 # -- the fleet ------------------------------------------------------------------------------
@@ -241,7 +265,7 @@ def test_a_new_claim_goes_out_first_and_its_repeats_before_the_find_repeats(flee
     sent = []
     for i in range(2 * CONFIG.find_repeats + CONFIG.claim_repeats):
         radio.since_pose = 0  # not the heartbeat's turn
-        msg = radio.choose(130.0 + i, agent.vehicle, agent.know)
+        msg = radio.choose(130.0 + i, agent.own, agent.know)
         sent.append(("claim", msg.tasks) if isinstance(msg, Claim) else ("found", msg.slot))
     claims = [("claim", (slots[0],))] * CONFIG.claim_repeats
     repeats = [("found", s) for s in slots for _ in range(CONFIG.find_repeats - 1)]
@@ -258,8 +282,10 @@ def test_a_restarted_agent_gets_its_finds_back_and_heads_for_the_one_it_was_goin
     agent = Agent(fleet, 1, CONFIG, now=100.0, journal=journal)
     assert agent.know.beliefs.finds[slot].priority == 44.0
     assert agent.know.beliefs.own_found == 2  # its next find takes the slot after
-    assert agent.vehicle.route[:1] == [slot]
-    assert agent.vehicle._waypoints[-1][:2] == pytest.approx(pos[:2])
+    assert agent.own.route[:1] == [slot]
+    goto = agent.own.command()
+    assert isinstance(goto, GoTo) and goto.target == slot
+    assert goto.waypoints[-1][:2] == pytest.approx(pos[:2])
 
 
 def test_a_find_on_land_is_refused_and_counted_and_the_problem_stays_plannable():

@@ -4,10 +4,11 @@ import pytest
 
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Live, Planner, set_planning_hook
-from fleet_agent.vehicle import Vehicle, fit_route, path_function
+from fleet_agent.routing import fit_route
 from hfc_core.feasibility import fits
 from hfc_core.generate import paper_preset_doc
 from hfc_core.scenario import problem_from_dict
+from vehicle_loop import Loop
 
 RESERVE_S = AgentConfig().battery_reserve_s
 
@@ -23,13 +24,12 @@ def problem():
 def test_the_initial_plan_fits_with_the_reserve_so_fitting_drops_nothing(problem) -> None:
     cfg = AgentConfig()
     planner = Planner(problem, 0, cfg.plan_iterations, cfg.replan_iterations, RESERVE_S)
-    paths = path_function(problem)
     for v, route in enumerate(planner.initial_routes()):
         battery = problem.vehicles[v].battery_s
         assert fits(problem.route_time_s(v, route), battery - RESERVE_S), v
-        vehicle = Vehicle(problem, v, paths)
-        vehicle.set_route(list(route))
-        assert fit_route(vehicle, list(route), RESERVE_S) == list(route)
+        own = Loop(problem, v).own
+        own.set_route(list(route))
+        assert fit_route(own, list(route), RESERVE_S) == list(route)
 
 
 def test_without_the_reserve_the_plan_is_tighter_than_the_vehicle_flies(problem) -> None:

@@ -7,8 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from fleet_agent.vehicle import Vehicle as VehicleModel
-from fleet_agent.vehicle import position_along
+from fleet_agent.reckoning import position_along
 from hfc_core.best.instance import instance_from_problem
 from hfc_core.check import check_routes
 from hfc_core.current import (
@@ -34,6 +33,7 @@ from hfc_core.travel import (
     segment_times,
     tide_range,
 )
+from vehicle_loop import Loop
 
 
 def grid_doc(seed: int, cell_m: float = 250.0, size: int = 5, peak: float = 0.4) -> dict:
@@ -219,14 +219,14 @@ def test_planner_checker_and_vehicle_agree_on_plans_in_a_current(kind):
         planned = inst.route_time_s(v, route)
         assert fits(planned, problem.vehicles[v].battery_s)
         assert flown == pytest.approx(planned, abs=1e-6)  # a tide is clocked as flown
-        auv = VehicleModel(problem, v)
-        assert auv.time_to_finish_s(route) == pytest.approx(flown, abs=1e-6)
+        auv = Loop(problem, v)
+        assert auv.own.time_to_finish_s(route) == pytest.approx(flown, abs=1e-6)
         auv.set_route(route)
         t, arrived = 0.0, None
-        while not auv.done:
+        while not auv.own.done:
             t += 47.3
-            for event in auv.advance(t):
-                arrived = getattr(event, "t_s", arrived)
+            for event in auv.run_until(t):
+                arrived = event.t_s
         assert arrived == pytest.approx(flown, abs=1e-6)
     assert check_routes(problem, ids(problem, result.plan.routes)) == []
 
@@ -236,26 +236,26 @@ def test_planner_checker_and_vehicle_agree_on_plans_in_a_current(kind):
 def test_positions_in_a_current_do_not_depend_on_the_stepping(kind, step_s):
     problem = paper_with(CURRENTS[kind])
     route = [0, 5, 9, 14]
-    ref, auv = VehicleModel(problem, 0), VehicleModel(problem, 0)
+    ref, auv = Loop(problem, 0), Loop(problem, 0)
     ref.set_route(route)
     auv.set_route(route)
     t = 0.0
     while t < 2000.0:
         t += step_s
-        auv.advance(t)
-    ref.advance(t)  # one jump
-    assert auv.pos == pytest.approx(ref.pos, abs=1e-9)
-    assert auv.distance_m == pytest.approx(ref.distance_m, abs=1e-9)
+        auv.run_until(t)
+    ref.run_until(t)  # from one event to the next only
+    assert auv.own.pos == pytest.approx(ref.own.pos, abs=1e-9)
+    assert auv.own.distance_m == pytest.approx(ref.own.distance_m, abs=1e-9)
 
 
 @pytest.mark.parametrize("kind", sorted(CURRENTS))
 def test_dead_reckoning_in_a_current_follows_the_vehicle(kind):
     problem = paper_with(CURRENTS[kind])
-    auv = VehicleModel(problem, 0)
+    auv = Loop(problem, 0)
     auv.set_route([3, 7])
-    auv.advance(700.0)
+    auv.run_until(700.0)
     assert position_along(problem, 0, problem.vehicles[0].start, [3, 7], 700.0) == \
-        pytest.approx(auv.pos, abs=1e-6)
+        pytest.approx(auv.own.pos, abs=1e-6)
 
 
 @pytest.mark.parametrize("kind", sorted(CURRENTS))
@@ -263,10 +263,12 @@ def test_dead_reckoning_in_a_current_follows_the_vehicle(kind):
 def test_replan_in_a_current_fits_what_the_vehicle_will_fly(kind, clocked):
     problem = paper_with(CURRENTS[kind])
     plan = solve(problem, "best", max_iterations=40, seed=0).plan.routes
-    auvs = [VehicleModel(problem, v) for v in range(problem.n_vehicles)]
-    for auv, route in zip(auvs, plan):
-        auv.set_route(route)
-        auv.advance(1200.0)
+    auvs = []
+    for v, route in enumerate(plan):
+        loop = Loop(problem, v)
+        loop.set_route(route)
+        loop.run_until(1200.0)
+        auvs.append(loop.own)
     survivors = [LiveVehicle(problem.vehicles[v].id, auv.pos, auv.battery_left_s(),
                              route=tuple(problem.tasks[u].id for u in auv.route),
                              locked=(() if auv.injecting is None

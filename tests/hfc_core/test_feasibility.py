@@ -13,8 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from fleet_agent.vehicle import Vehicle as VehicleModel
-from fleet_agent.vehicle import fit_route
+from fleet_agent.routing import fit_route
 from hfc_core.best.construct import screen as best_screen
 from hfc_core.best.insert import fill
 from hfc_core.best.instance import instance_from_problem
@@ -28,6 +27,7 @@ from hfc_core.problem import Problem, Task, Vehicle
 from hfc_core.replan import LiveVehicle, replan
 from hfc_core.solve import solve
 from hfc_core.top import parse_top
+from vehicle_loop import Loop
 
 EXACT_ID, NEAR_ID = 1, 2
 SERVICE_S = 90.0
@@ -135,13 +135,13 @@ def test_replan_uses_the_exact_route(seed):
 def test_vehicle_model_keeps_and_flies_the_exact_route():
     problem = exact_budget_problem(0)
     u = problem.task_index[EXACT_ID]
-    auv = VehicleModel(problem, 0)
-    assert auv.time_to_finish_s([u]) == EXACT_TIME_S
-    assert fit_route(auv, [u], reserve_s=0.0) == [u]
+    auv = Loop(problem, 0)
+    assert auv.own.time_to_finish_s([u]) == EXACT_TIME_S
+    assert fit_route(auv.own, [u], reserve_s=0.0) == [u]
     auv.set_route([u])
-    assert auv.slack_s() == pytest.approx(FEASIBILITY_TOL_S, abs=1e-12)
-    events = auv.advance(10 * EXACT_TIME_S)
-    assert events[-1].t_s == EXACT_TIME_S and auv.battery_left_s() == 0.0
+    assert auv.own.slack_s() == pytest.approx(FEASIBILITY_TOL_S, abs=1e-12)
+    events = auv.run_home()
+    assert events[-1].t_s == EXACT_TIME_S and auv.own.battery_left_s() == 0.0
 
 
 @pytest.mark.parametrize("seed", range(4))
@@ -161,7 +161,7 @@ def test_a_budget_summed_in_another_order_still_fits_everywhere(seed):
     assert check_routes(problem, {"v0": route_ids}) == []
     assert abs(problem.route_time_s(0, route) - budget) < FEASIBILITY_TOL_S / 100
     assert State(instance_from_problem(problem), [route]).feasible()
-    assert fit_route(VehicleModel(problem, 0), route, reserve_s=0.0) == route
+    assert fit_route(Loop(problem, 0).own, route, reserve_s=0.0) == route
     kept = replan(problem, [LiveVehicle("v0", start, budget, route=tuple(route_ids))],
                   max_iterations=0)["v0"]
     assert set(kept) >= set(route_ids)

@@ -1,4 +1,4 @@
-"""The world's camera (`fleet_agent.sensor`) and the vehicle's inspecting phase."""
+"""The camera on the hidden reef (`reef_sim.camera`), and looks through the vehicle port."""
 
 from __future__ import annotations
 
@@ -7,10 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from fleet_agent.sensor import World, pass_seen, segment_distance_m
-from fleet_agent.vehicle import INJECTING, INSPECTING, TRANSIT, Cleared, Inspected, Vehicle
+from fleet_agent.motion import Activity, Cleared, Inspected
 from hfc_core.problem import Problem, Task, Vehicle as VehicleSpec
 from hfc_core.truth import Reef, TruthSpot
+from reef_sim.camera import ReefCamera, pass_seen, segment_distance_m
+from vehicle_loop import Loop, conduct
 
 
 def reef(spots, p_detect=1.0, radius=25.0, inspect_s=20.0) -> Reef:
@@ -22,7 +23,7 @@ def spot(x, y, task=None, priority=50.0, service=70.0) -> TruthSpot:
 
 
 def test_a_spot_exactly_at_the_detect_radius_is_seen_and_one_beyond_is_not():
-    w = World(reef([spot(100.0, 25.0), spot(200.0, 25.01)]), seed=1, vehicle=0)
+    w = ReefCamera(reef([spot(100.0, 25.0), spot(200.0, 25.01)]), seed=1, vehicle=0)
     w.sweep((0.0, 0.0, 0.0))
     seen = w.sweep((300.0, 0.0, 0.0))
     assert [s.pos for s in seen] == [(100.0, 25.0, 0.0)]
@@ -31,7 +32,7 @@ def test_a_spot_exactly_at_the_detect_radius_is_seen_and_one_beyond_is_not():
 @pytest.mark.parametrize("p, expected", [(0.0, 0), (1.0, 40)])
 def test_p_detect_zero_never_sees_and_one_always_sees(p, expected):
     # 40 spots along the track, each passed once
-    w = World(reef([spot(20.0 * i, 5.0) for i in range(40)], p_detect=p), seed=3, vehicle=1)
+    w = ReefCamera(reef([spot(20.0 * i, 5.0) for i in range(40)], p_detect=p), seed=3, vehicle=1)
     w.sweep((-50.0, 0.0, 0.0))
     assert len(w.sweep((900.0, 0.0, 0.0))) == expected
 
@@ -40,8 +41,8 @@ def test_each_pass_draws_once_and_the_draws_do_not_depend_on_step_times():
     spots = [spot(float(x), float(y)) for x, y in
              np.random.default_rng(0).uniform(0, 400, size=(30, 2))]
     track = [(0.0, 0.0, 0.0), (400.0, 400.0, 0.0), (0.0, 400.0, 0.0), (400.0, 0.0, 0.0)]
-    coarse = World(reef(spots, p_detect=0.5), seed=7, vehicle=2)
-    fine = World(reef(spots, p_detect=0.5), seed=7, vehicle=2)
+    coarse = ReefCamera(reef(spots, p_detect=0.5), seed=7, vehicle=2)
+    fine = ReefCamera(reef(spots, p_detect=0.5), seed=7, vehicle=2)
     got_coarse, got_fine = [], []
     for a, b in zip(track[:-1], track[1:]):
         got_coarse += coarse.sweep(a) + coarse.sweep(b)
@@ -55,7 +56,7 @@ def test_each_pass_draws_once_and_the_draws_do_not_depend_on_step_times():
 
 
 def test_leaving_and_coming_back_is_a_new_pass_with_its_own_draw():
-    w = World(reef([spot(0.0, 0.0)], p_detect=0.5), seed=11, vehicle=0)
+    w = ReefCamera(reef([spot(0.0, 0.0)], p_detect=0.5), seed=11, vehicle=0)
     results = []
     for k in range(40):
         w.sweep((100.0, 0.0, 0.0))
@@ -66,7 +67,7 @@ def test_leaving_and_coming_back_is_a_new_pass_with_its_own_draw():
 
 
 def test_inspection_says_what_the_truth_holds():
-    w = World(reef([spot(0.0, 0.0, task=1, priority=42.0, service=66.0)]), seed=0, vehicle=0)
+    w = ReefCamera(reef([spot(0.0, 0.0, task=1, priority=42.0, service=66.0)]), seed=0, vehicle=0)
     assert w.inspect(0).present is False
     found = w.inspect(1)
     assert found.present and found.priority == 42.0 and found.service_s == 66.0
@@ -78,7 +79,7 @@ def test_segment_distance():
     np.testing.assert_allclose(d, [3.0, 5.0, 4.0])
 
 
-# -- the vehicle's inspecting phase ---------------------------------------------------------
+# -- looks through the vehicle port ----------------------------------------------------------
 
 
 def line_problem() -> Problem:
@@ -87,60 +88,38 @@ def line_problem() -> Problem:
                                               3600.0, 1.0)], tasks)
 
 
-def run(v: Vehicle, until: float) -> list:
-    events = []
-    while True:
-        due = v.next_event_s()
-        if due is None or due > until:
-            break
-        events += v.advance(due)
-    events += v.advance(until)
-    return events
+def looking(truth: list[TruthSpot]) -> Loop:
+    """A vehicle that must look at every spot (its agent knows nothing), 20 s per look."""
+    camera = ReefCamera(reef(truth, inspect_s=20.0), seed=0, vehicle=0)
+    return Loop(line_problem(), rules=conduct(needs_look=lambda t: True, inspect_s=20.0),
+                camera=camera)
 
 
 def test_an_empty_spot_costs_the_look_and_nothing_more():
-    v = Vehicle(line_problem(), 0)
-    v.needs_look, v.inspect_s = (lambda t: True), 20.0
-    v.set_route([0, 1])
-    assert v.advance(100.0) == [] and v.mode == INSPECTING and v.inspecting == 0
-    assert v.next_event_s() == 120.0
-    v.reveal(0, None)
-    events = v.advance(120.0)
-    assert events == [Inspected(0, 120.0, False, False)] and v.mode == TRANSIT
-    assert v.route == [1]
+    loop = looking([])
+    loop.set_route([0, 1])
+    assert loop.run_until(100.0) == [] and loop.own.inspecting == 0
+    assert loop.next_s() == 120.0
+    assert loop.run_until(120.0) == [Inspected(0, 120.0, False, False)]
+    assert loop.own.activity is Activity.TRANSIT and loop.own.route == [1]
 
 
 def test_a_present_spot_is_injected_for_its_real_time():
-    v = Vehicle(line_problem(), 0)
-    v.needs_look, v.inspect_s = (lambda t: True), 20.0
-    v.set_route([0])
-    v.advance(100.0)
-    v.reveal(0, 33.0)  # the camera: COTS, 33 s of injection (the map said 80)
-    assert math.isclose(v.time_to_finish_s(), 20.0 + 33.0 + 100.0)
-    events = run(v, 160.0)
-    assert events == [Inspected(0, 120.0, True, True), Cleared(0, 153.0)]
-
-
-def test_without_the_cameras_answer_the_vehicle_waits_at_the_spot():
-    v = Vehicle(line_problem(), 0)
-    v.needs_look, v.inspect_s = (lambda t: True), 20.0
-    v.set_route([0])
-    v.advance(100.0)
-    assert v.advance(500.0) == [] and v.mode == INSPECTING and v.next_event_s() is None
-    v.reveal(0, 10.0)
-    assert v.advance(500.0) == [Inspected(0, 500.0, True, True)] and v.mode == INJECTING
+    loop = looking([spot(100.0, 0.0, task=0, service=33.0)])  # the map said 80 s
+    loop.set_route([0])
+    loop.run_until(100.0)
+    assert math.isclose(loop.own.time_to_finish_s(), 20.0 + (80.0 - 20.0) + 100.0)
+    assert loop.run_until(160.0) == [Inspected(0, 120.0, True, True), Cleared(0, 153.0)]
 
 
 def test_cots_beyond_the_battery_are_left_for_others():
-    v = Vehicle(line_problem(), 0)
-    v.needs_look, v.inspect_s = (lambda t: True), 20.0
-    v.set_route([0])
-    v.advance(100.0)
-    v.reveal(0, 3500.0)
-    assert v.advance(120.0) == [Inspected(0, 120.0, True, False)] and v.route == []
+    loop = looking([spot(100.0, 0.0, task=0, service=3500.0)])
+    loop.set_route([0])
+    assert loop.run_until(120.0) == [Inspected(0, 120.0, True, False)]
+    assert loop.own.route == []
 
 
 def test_a_known_spot_is_injected_at_once_as_before():
-    v = Vehicle(line_problem(), 0)
-    v.set_route([0])
-    assert run(v, 200.0) == [Cleared(0, 180.0)]
+    loop = Loop(line_problem())
+    loop.set_route([0])
+    assert loop.run_until(200.0) == [Cleared(0, 180.0)]

@@ -1,0 +1,24 @@
+"""The simulated vehicle as an agent's vehicle (``--helm sim``, the default in emulation).
+
+The vehicle lives in the simulated world (`reef_sim.vehicle`); this binds it to one agent's
+process: it starts where the agent last knew it was (a restarted agent: its last journal
+checkpoint, the vehicle having been dead in the water meanwhile) and carries the camera on the
+hidden reef when the mission has one.
+"""
+
+from __future__ import annotations
+
+from hfc_core.paths import Point3
+from hfc_core.problem import Problem
+from hfc_core.truth import Reef
+from reef_sim.camera import ReefCamera
+from reef_sim.vehicle import SimVehicle
+
+
+def sim_vehicle(scenario: Problem, index: int, *, seed: int, reef: Reef | None, t_s: float,
+                pos: Point3, odometer_m: float) -> SimVehicle:
+    """Vehicle ``index`` of ``scenario`` (its real water), at ``pos`` at mission time ``t_s``,
+    with a camera on ``reef`` (seeded by the mission ``seed``) if there is one."""
+    camera = None if reef is None else ReefCamera(reef, seed, index)
+    return SimVehicle(scenario, index, camera=camera, t_s=t_s, pos=pos, odometer_m=odometer_m)
+

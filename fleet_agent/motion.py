@@ -1,0 +1,363 @@
+"""What the agent expects of its own vehicle: where it is, what it is doing, what the rest takes.
+
+The agent never moves its vehicle. It reads the vehicle's navigation fixes and reports
+(`fleet_bus.vehicle_port`: arrived, looked, injected) and says what the vehicle should do next
+(`OwnVehicle.command`). In between, this is its model of the vehicle: the position of the
+last fix, the route ahead, and an explicit state machine over `Activity`:
+
+    TRANSIT --arrived--> WAITING --claim settled--> LOOKING --looked: COTS, fit--> INJECTING
+       ^                    |                          |  (nothing there, or      |
+       |                    +--known spot--> INJECTING +   no battery for them)   |
+       +---------------------------- next spot <----------------------------------+
+    RETURNING (no spot left, or aborted) --arrived home--> HOME
+
+Times come from the planner's travel model (`Problem.travel`, `Problem.travel_s`): still
+water, steady and tidal currents and land alike (still water is one piece of current), so a
+route the agent checks against the battery is timed as the planner and the checker time it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from typing import Callable, Sequence
+
+from fleet_bus.vehicle_port import (HOME_TARGET, Abort, GoTo, HelmCommand, NavFix, ReturnHome,
+                                    StationKeep, Work)
+from hfc_core.feasibility import fits, room_s
+from hfc_core.paths import PathFn, as_point3
+from hfc_core.problem import Problem
+from hfc_core.travel import LegError
+
+Point3 = tuple[float, float, float]
+
+
+class Activity(Enum):
+    TRANSIT = "transit"  # flying to the next spot of the route
+    RETURNING = "returning"  # flying to the rendezvous (no spot left, or aborted)
+    WAITING = "waiting"  # at the next spot until its claim has settled (`Conduct.not_before`)
+    LOOKING = "looking"  # at a predicted spot, the camera looking
+    INJECTING = "injecting"  # at a spot, injecting
+    HOME = "home"  # recovered at the rendezvous
+
+
+AT_SPOT = (Activity.WAITING, Activity.LOOKING, Activity.INJECTING)
+
+
+@dataclass(frozen=True)
+class Conduct:
+    """How this vehicle works a spot (the agent's rules, given at construction): when work
+    may begin (a spot claimed moments ago waits for the claim to settle), whether it must look
+    first (its agent knows nothing of the spot), how long a look takes, and the battery it
+    keeps back when deciding to inject what a look found."""
+
+    not_before: Callable[[int], float]
+    needs_look: Callable[[int], bool]
+    inspect_s: float = 0.0
+    reserve_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Cleared:
+    """The vehicle finished injecting ``task`` at ``t_s``."""
+
+    task: int
+    t_s: float
+
+
+@dataclass(frozen=True)
+class Inspected:
+    """The look at ``task`` ended at ``t_s``: COTS ``present`` or not, and whether the vehicle
+    stays to inject them (``treating``: False if they do not fit the battery)."""
+
+    task: int
+    t_s: float
+    present: bool
+    treating: bool
+
+
+@dataclass(frozen=True)
+class ReachedHome:
+    """The vehicle reached the rendezvous at ``t_s``."""
+
+    t_s: float
+
+
+class OwnVehicle:
+    """The agent's model of its vehicle. ``route`` holds task indices still to treat, in
+    order; the head is the spot being approached or worked."""
+
+    def __init__(self, problem: Problem, index: int, paths: PathFn, conduct: Conduct,
+                 t_s: float = 0.0) -> None:
+        spec = problem.vehicles[index]
+        self.problem = problem  # the working problem (rebound when beliefs change)
+        self.index, self.paths, self.conduct = index, paths, conduct
+        self.speed_mps = spec.speed_mps
+        self.capacity_s = spec.battery_s
+        self.rendezvous: Point3 = spec.rendezvous
+        self.t_s = float(t_s)
+        self.pos: Point3 = spec.start
+        self.sigma_m = 0.0
+        self.yaw_deg = 0.0
+        self.pitch_deg = 0.0
+        self.distance_m = 0.0
+        self.route: list[int] = []
+        self.activity = Activity.RETURNING
+        self.aborted = False
+        self.home_at_s: float | None = None
+        self.busy_until_s: float | None = None  # when the work at the spot ends
+        self.readings: dict[int, float | None] = {}  # looks' answers: injection time or None
+        self._legs: dict[int, float] = {}  # first-leg times from (pos, t_s), memoised
+        self._legs_from: tuple[Point3, float] | None = None
+
+    # -- what it is doing ------------------------------------------------------------------
+
+    @property
+    def done(self) -> bool:
+        return self.activity is Activity.HOME
+
+    @property
+    def injecting(self) -> int | None:
+        return self.route[0] if self.activity is Activity.INJECTING and self.route else None
+
+    @property
+    def inspecting(self) -> int | None:
+        return self.route[0] if self.activity is Activity.LOOKING and self.route else None
+
+    def state(self) -> str:
+        """The telemetry state (`fleet_bus.telemetry.STATES`): busy at a spot is injecting."""
+        if self.aborted and not self.done:
+            return "aborted"
+        return "injecting" if self.activity in AT_SPOT else self.activity.value
+
+    def battery_left_s(self, t_s: float | None = None) -> float:
+        t = self.t_s if t_s is None else t_s
+        if self.home_at_s is not None:
+            t = min(t, self.home_at_s)
+        return self.capacity_s - t
+
+    def command(self) -> HelmCommand | None:
+        """What the vehicle should be doing now (None once home)."""
+        act = self.activity
+        if act is Activity.HOME:
+            return None
+        if act is Activity.RETURNING:
+            waypoints = tuple(self.paths(self.pos, self.rendezvous)[1])
+            return Abort(waypoints) if self.aborted else ReturnHome(waypoints)
+        task = self.route[0]
+        if act is Activity.TRANSIT:
+            goal = self._target_pos(task)
+            ahead = tuple(self._target_pos(t) for t in self.route[1:])
+            return GoTo(task, tuple(self.paths(self.pos, goal)[1]), ahead)
+        work = {Activity.WAITING: Work.WAIT, Activity.LOOKING: Work.LOOK,
+                Activity.INJECTING: Work.INJECT}[act]
+        assert self.busy_until_s is not None
+        return StationKeep(work, task, max(0.0, self.busy_until_s - self.t_s))
+
+    def command_key(self) -> tuple[Activity, int | None, bool]:
+        """What changes the command: the activity and the spot it is about."""
+        return self.activity, (self.route[0] if self.route else None), self.aborted
+
+    def rebind(self, problem: Problem) -> None:
+        """Beliefs changed: time routes on the new working problem (finds move slots)."""
+        self.problem, self._legs_from = problem, None
+
+    # -- what the vehicle reports ------------------------------------------------------------
+
+    def fix(self, nav: NavFix) -> None:
+        """A navigation fix: where the vehicle believes it is."""
+        if nav.odometer_m is not None:
+            self.distance_m = float(nav.odometer_m)
+        elif nav.t_s >= self.t_s:
+            self.distance_m += math.dist(self.pos, nav.pos)
+        self.pos = as_point3(nav.pos)
+        self.sigma_m, self.yaw_deg, self.pitch_deg = nav.sigma_m, nav.yaw_deg, nav.pitch_deg
+        self.t_s = max(self.t_s, float(nav.t_s))
+
+    def at_time(self, t_s: float) -> None:
+        self.t_s = max(self.t_s, float(t_s))
+
+    def arrived(self, target: int, t_s: float) -> ReachedHome | None:
+        """The vehicle reached ``target``: home, or the next spot (wait, look or inject);
+        an arrival the route has moved on from is ignored."""
+        self.at_time(t_s)
+        if target == HOME_TARGET:
+            if self.activity is Activity.RETURNING:
+                self.activity, self.home_at_s, self.route = Activity.HOME, self.t_s, []
+                return ReachedHome(self.t_s)
+            return None
+        if self.activity is Activity.TRANSIT and self.route and self.route[0] == target:
+            wait_until = self.conduct.not_before(target)
+            if wait_until > self.t_s:
+                self.activity, self.busy_until_s = Activity.WAITING, wait_until
+            else:
+                self._begin(target, self.t_s)
+        return None
+
+    def wake(self, t_s: float) -> bool:
+        """Time passed: a wait for a claim to settle that is over begins the work at its end
+        (whenever the host gets to it). True if the activity changed."""
+        self.at_time(t_s)
+        if self.activity is Activity.WAITING and self.busy_until_s is not None \
+                and self.busy_until_s <= self.t_s:
+            self._begin(self.route[0], self.busy_until_s)
+            return True
+        return False
+
+    def looked(self, task: int, service_s: float | None, t_s: float) -> Inspected | None:
+        """The look at ``task`` ended: inject what is there (``service_s``) if it fits the
+        battery, else move on. None for a look the route has moved on from."""
+        self.at_time(t_s)
+        if self.inspecting != task:
+            return None
+        self.readings[task] = service_s
+        treating = service_s is not None and self.fits_here(service_s)
+        if treating:
+            assert service_s is not None
+            self.activity, self.busy_until_s = Activity.INJECTING, self.t_s + float(service_s)
+        else:  # nothing there, or more than the battery allows: on to the next spot
+            self.route.pop(0)
+            self._moving()
+        return Inspected(task, self.t_s, service_s is not None, treating)
+
+    def injected(self, task: int, t_s: float) -> Cleared | None:
+        """The injection at ``task`` ended (None: one the route has moved on from)."""
+        self.at_time(t_s)
+        if self.injecting != task:
+            return None
+        self.route.pop(0)
+        self._moving()
+        return Cleared(task, self.t_s)
+
+    # -- what the agent decides ------------------------------------------------------------
+
+    def set_route(self, route: Sequence[int]) -> None:
+        """Follow ``route`` from now on. Leaving the spot being worked abandons it."""
+        if self.done:
+            return
+        route = [int(t) for t in route]
+        if self.activity in AT_SPOT and (not route or route[0] != self.route[0]):
+            self.activity, self.busy_until_s = Activity.TRANSIT, None
+        self.route = [] if self.aborted else route
+        if self.activity not in AT_SPOT:
+            self._moving()
+
+    def abort(self) -> None:
+        """Give up the mission and head straight for the rendezvous."""
+        self.aborted = True
+        self.set_route([])
+
+    def restore(self, t_s: float, pos: Point3, distance_m: float, route: Sequence[int],
+                aborted: bool, home_at_s: float | None) -> None:
+        """Resume at ``t_s`` from a journal checkpoint (an injection in progress is started
+        again: it never completed)."""
+        self.t_s, self.pos, self.distance_m = float(t_s), pos, float(distance_m)
+        self.aborted, self.busy_until_s = aborted, None
+        if home_at_s is not None:
+            self.home_at_s, self.activity, self.route = float(home_at_s), Activity.HOME, []
+            return
+        self.route = [] if aborted else [int(t) for t in route]
+        self._moving()
+
+    # -- timing ----------------------------------------------------------------------------
+
+    def time_to_finish_s(self, route: Sequence[int] | None = None) -> float:
+        """Time from now to the rendezvous through ``route`` (default: the current one)."""
+        if self.done:
+            return 0.0
+        route = self.route if route is None else list(route)
+        p, nb = self.problem, self.conduct.not_before
+        t, rest = self.t_s, route
+        busy = self._busy_until_s(route)
+        if busy is not None:
+            t, rest = max(t, busy), route[1:]
+        elif route:
+            t = max(t + self._reach_s(route[0]), nb(route[0])) + float(p.service_s[route[0]])
+            rest = route[1:]
+        if not route:
+            return self._reach_s(HOME_TARGET)
+        prev = route[0]
+        for task in [*rest, HOME_TARGET]:
+            t += self._leg_s(prev, task, t)
+            if task != HOME_TARGET:
+                t = max(t, nb(task)) + float(p.service_s[task])
+            prev = task
+        return t - self.t_s
+
+    def slack_s(self, reserve_s: float = 0.0) -> float:
+        """Extra time the rest of the mission may take and still fit the battery less
+        ``reserve_s`` (`hfc_core.feasibility.room_s`): a detour of ``cost`` fits exactly when
+        ``cost <= slack_s(reserve_s)``, by the planner's one rule."""
+        return room_s(self.time_to_finish_s(), self.battery_left_s() - reserve_s)
+
+    def fits_here(self, service_s: float) -> bool:
+        """Can the vehicle inject for ``service_s`` here and still reach the rendezvous within
+        its battery (less the conduct's reserve)?"""
+        home_s = service_s + self._leg_time_s(self.pos, self.rendezvous, self.t_s + service_s)
+        return bool(fits(home_s, self.battery_left_s() - self.conduct.reserve_s))
+
+    def _busy_until_s(self, route: Sequence[int]) -> float | None:
+        """When the vehicle is done at the spot it is busy at, if ``route`` starts with it
+        (injecting; looking: the look and the injection it may reveal; waiting for a claim
+        to settle: the wait, then the work); else None."""
+        if not route or not self.route or route[0] != self.route[0] or \
+                self.activity not in AT_SPOT or self.busy_until_s is None:
+            return None
+        task, until = self.route[0], self.busy_until_s
+        service = float(self.problem.service_s[task])
+        if self.activity is Activity.INJECTING:
+            return until
+        if self.activity is Activity.WAITING:
+            work = max(self.conduct.inspect_s, service) if self.conduct.needs_look(task) \
+                else service
+            return max(self.t_s, until) + work
+        left = max(0.0, until - self.t_s)  # looking: the rest of the look, then the injection
+        if task in self.readings:
+            reading = self.readings[task]
+            return self.t_s + left + (0.0 if reading is None else reading)
+        return self.t_s + left + max(0.0, service - self.conduct.inspect_s)
+
+    def _reach_s(self, target: int) -> float:
+        """Time from here, now, to ``target`` (a task index, or the rendezvous)."""
+        here = (self.pos, self.t_s)
+        if self._legs_from != here:
+            self._legs_from, self._legs = here, {}
+        if target not in self._legs:
+            self._legs[target] = self._leg_time_s(self.pos, self._target_pos(target), self.t_s)
+        return self._legs[target]
+
+    def _leg_s(self, a: int, b: int, t_s: float) -> float:
+        """Planning time of the leg between two route nodes (spots, or the rendezvous),
+        started at ``t_s``: the planner's matrix, flown from ``t_s`` in a tidal current."""
+        p = self.problem
+        node = p.end_node(self.index) if b == HOME_TARGET else b
+        if p.current is not None and not p.current.steady:
+            return self._leg_time_s(p.xyz[a], p.xyz[node], t_s)
+        return float(p.travel_s[self.index][a, node])
+
+    def _leg_time_s(self, a: Sequence[float], b: Sequence[float], t_s: float) -> float:
+        assert self.problem.travel is not None
+        try:
+            return self.problem.travel.leg_time_s(a, b, self.speed_mps, t_s)
+        except LegError:
+            return math.inf  # the current makes the leg impossible: never there
+
+    def _target_pos(self, target: int) -> Point3:
+        if target == HOME_TARGET:
+            return self.rendezvous
+        return as_point3(self.problem.xyz[target])
+
+    # -- transitions -------------------------------------------------------------------------
+
+    def _begin(self, task: int, t_s: float) -> None:
+        """Work at the spot reached: look first if its agent knows nothing of it, else inject."""
+        if self.conduct.needs_look(task):
+            self.activity, self.busy_until_s = Activity.LOOKING, t_s + self.conduct.inspect_s
+        else:
+            self.activity = Activity.INJECTING
+            self.busy_until_s = t_s + float(self.problem.service_s[task])
+
+    def _moving(self) -> None:
+        self.activity = Activity.TRANSIT if self.route else Activity.RETURNING
+        self.busy_until_s = None

@@ -1,0 +1,300 @@
+"""The simulated vehicle: one AUV's body in the simulated world, behind the vehicle port.
+
+Kinematics (paper eq. 3-7): the AUV keeps its cruise speed |v| through the water
+(Assumption 1) along straight segments in 3-D, crabbing into a current so that its track stays
+on the segment; each segment is flown piece by piece as `hfc_core.travel.segment_pieces` cuts
+it (still water is one piece; a gridded field's pieces; the tide's 60 s steps), so it arrives
+exactly when the planner's checker says it does. Yaw and pitch are those of the track (eq. 5-6,
+roll neglected by Assumption 2); the odometer sums eq. 7 over the track.
+
+It does what the port's commands say (`fleet_bus.vehicle_port`): fly a `GoTo`'s waypoints,
+keep station to look or inject for a duration (or to wait), return home, abort. It reports
+when it arrives (`Arrived`), when a look or an injection ends (`Looked` with the camera's
+answer, `Injected`), what its camera sees on the way (`Sighted`) and, on every poll, a
+navigation fix. States are an explicit machine over `Phase`.
+
+Pure and exact: `poll` runs to any later time, settling arrivals and work ends at the moment
+they happen, so what it reports does not depend on how often it is polled (every position is
+computed from the current segment's origin and its precomputed pieces).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Sequence
+
+from fleet_bus.vehicle_port import (HOME_TARGET, Abort, Arrived, GoTo, HelmCommand, Injected,
+                                    Looked, NavFix, Refused, ReturnHome, Sighted, StationKeep,
+                                    VehicleReport, Work)
+from hfc_core.paths import PathFn, as_point3, path_function
+from hfc_core.problem import Problem
+from hfc_core.travel import LegError, segment_pieces
+from reef_sim.camera import ReefCamera
+
+Point3 = tuple[float, float, float]
+_EPS = 1e-9
+
+
+class Phase(Enum):
+    HOLDING = "holding"  # keeping station, nothing under way (before orders, after arriving)
+    FLYING = "flying"  # toward the target of a GoTo (or home) through waypoints
+    WORKING = "working"  # keeping station to look or inject until the work ends
+    HOME = "home"  # recovered: at the rendezvous, or at the surface after an abort
+
+
+@dataclass
+class _Segment:
+    """The straight segment under way: its origin, when and at what odometer reading it began,
+    and (mission time, metres run) at the end of each piece of constant ground speed."""
+
+    origin: Point3
+    t0_s: float
+    odometer0_m: float
+    pieces: list[tuple[float, float]] = field(default_factory=list)
+
+    @property
+    def end_s(self) -> float:
+        return self.pieces[-1][0] if self.pieces else self.t0_s
+
+    def run_m(self, t_s: float) -> float:
+        """Metres run along the segment at ``t_s`` (piece by piece from its origin)."""
+        t0, run0 = self.t0_s, 0.0
+        for t1, run1 in self.pieces:
+            if t_s < t1:
+                return run0 + (run1 - run0) * ((t_s - t0) / (t1 - t0)) if t1 > t0 else run0
+            t0, run0 = t1, run1
+        return run0
+
+
+class SimVehicle:
+    """A simulated AUV (a `fleet_bus.vehicle_port.VehiclePort`). ``camera``: its camera on
+    the hidden reef (dynamic missions), else it sees nothing."""
+
+    name = "sim"
+
+    def __init__(self, problem: Problem, index: int, *, camera: ReefCamera | None = None,
+                 t_s: float = 0.0, pos: Sequence[float] | None = None,
+                 odometer_m: float = 0.0) -> None:
+        spec = problem.vehicles[index]
+        self.index = index
+        self.speed_mps = spec.speed_mps
+        self.current = problem.current
+        self.camera = camera
+        self.t_s = float(t_s)
+        self.pos: Point3 = as_point3(spec.start if pos is None else pos)
+        self.odometer_m = float(odometer_m)
+        self.yaw_deg = 0.0
+        self.pitch_deg = 0.0
+        self.phase = Phase.HOLDING
+        self.target: int | None = None  # what the flight under way goes to
+        self.ahead: tuple[Point3, ...] = ()  # the route after it, as last commanded
+        self._waypoints: list[Point3] = []
+        self._segment = _Segment(self.pos, self.t_s, self.odometer_m)
+        self._work: StationKeep | None = None
+        self._work_end_s = math.inf
+        self._held: list[VehicleReport] = []  # reported while catching up to a command
+
+    # -- the port ----------------------------------------------------------------------------
+
+    def command(self, cmd: HelmCommand, t_s: float) -> None:
+        if t_s > self.t_s:  # orders for a later time: run there first, keep what happened
+            self._run(t_s, self._held)
+        if self.phase is Phase.HOME:
+            self._held.append(Refused(self.t_s, type(cmd).__name__, "recovered"))
+            return
+        if isinstance(cmd, GoTo):
+            if self.phase is Phase.FLYING and self.target == cmd.target:
+                self.ahead = cmd.ahead  # the same leg: fly on, only the route after it changed
+                return
+            self.ahead = cmd.ahead
+            self._fly_to(cmd.target, cmd.waypoints)
+        elif isinstance(cmd, StationKeep):
+            self._keep_station(cmd)
+        elif isinstance(cmd, Abort) and cmd.surface:
+            self.phase, self.target = Phase.HOME, HOME_TARGET
+            self._held.append(Arrived(self.t_s, HOME_TARGET))
+        elif isinstance(cmd, (ReturnHome, Abort)):
+            self.ahead = ()
+            self._fly_to(HOME_TARGET, cmd.waypoints)
+
+    def poll(self, until_s: float) -> list[VehicleReport]:
+        out, self._held = self._held, []
+        self._run(until_s, out)
+        out.append(self.fix())
+        return out
+
+    def next_report_s(self) -> float | None:
+        if self.phase is Phase.FLYING:
+            return max(self.t_s, self._flight_end_s())
+        if self.phase is Phase.WORKING:
+            return max(self.t_s, self._work_end_s)
+        return None
+
+    def close(self) -> None:
+        pass  # nothing held outside this object
+
+    # -- what the simulation itself reads ----------------------------------------------------
+
+    def fix(self) -> NavFix:
+        """The navigation estimate now: exact (the simulated vehicle knows where it is)."""
+        speed = self.speed_mps if self.phase is Phase.FLYING else 0.0
+        return NavFix(self.t_s, self.pos, 0.0, self.yaw_deg, self.pitch_deg, speed,
+                      self.odometer_m)
+
+    def true_pose(self) -> tuple[Point3, float, float]:
+        """Where the vehicle really is (the channel's and the ground station's truth)."""
+        return self.pos, self.yaw_deg, self.pitch_deg
+
+    # -- motion ----------------------------------------------------------------------------
+
+    def _run(self, until_s: float, out: list[VehicleReport]) -> None:
+        """Run to ``until_s``, reporting arrivals, ends of work and sightings as they happen."""
+        while True:
+            if self.phase is Phase.FLYING:
+                if not self._fly(until_s, out):
+                    break
+            elif self.phase is Phase.WORKING and self._work_end_s <= until_s:
+                self.t_s = max(self.t_s, self._work_end_s)
+                out.append(self._work_done())
+                self.phase, self._work = Phase.HOLDING, None
+            else:
+                break
+        self.t_s = max(self.t_s, until_s)
+        out += self._sightings(self.t_s)  # the camera is always on, holding station too
+
+    def _fly(self, until_s: float, out: list[VehicleReport]) -> bool:
+        """Fly toward the target until ``until_s``; True once arrived (reported)."""
+        seen: list[VehicleReport] = []  # sightings at the waypoint just reached
+        while self._waypoints:
+            reach_s = self._segment.end_s
+            out += seen
+            if reach_s > until_s:
+                self.t_s = max(self.t_s, until_s)
+                self._move_along(until_s)
+                return False
+            w = self._waypoints.pop(0)
+            seg_m = math.dist(self._segment.origin, w)
+            self.t_s = max(self.t_s, reach_s)
+            self._start_segment(w, self.t_s, self._segment.odometer0_m + seg_m)
+            seen = self._sightings(self.t_s)
+        assert self.target is not None
+        out.append(Arrived(self.t_s, self.target))  # then what the camera saw there
+        out += seen
+        self.phase = Phase.HOME if self.target == HOME_TARGET else Phase.HOLDING
+        return True
+
+    def _fly_to(self, target: int, waypoints: Sequence[Sequence[float]]) -> None:
+        self.phase, self.target, self._work = Phase.FLYING, target, None
+        self._waypoints = [as_point3(w) for w in waypoints] or [self.pos]
+        self._start_segment(self.pos, self.t_s, self.odometer_m)
+
+    def _start_segment(self, origin: Point3, t_s: float, odometer_m: float) -> None:
+        self.pos, self.odometer_m = origin, odometer_m
+        seg = self._segment = _Segment(origin, t_s, odometer_m)
+        if not self._waypoints:
+            return
+        self._heading(origin, self._waypoints[0])
+        try:
+            pieces = segment_pieces(self.current, origin, self._waypoints[0], self.speed_mps, t_s)
+        except LegError:
+            seg.pieces = [(math.inf, 0.0)]  # no headway against the current: never arrives
+            return
+        t, run = t_s, 0.0
+        for duration, length in pieces:
+            t, run = t + duration, run + length
+            seg.pieces.append((t, run))
+
+    def _move_along(self, t_s: float) -> None:
+        w, seg = self._waypoints[0], self._segment
+        seg_m = math.dist(seg.origin, w)
+        run_m = min(seg_m, seg.run_m(t_s))
+        f = run_m / seg_m if seg_m > _EPS else 1.0
+        self.pos = as_point3(a + (b - a) * f for a, b in zip(seg.origin, w))
+        self.odometer_m = seg.odometer0_m + run_m
+
+    def _flight_end_s(self) -> float:
+        """When the flight under way ends (from the segment's origin: independent of polling)."""
+        t = self._segment.end_s
+        prev = self._waypoints[0] if self._waypoints else self.pos
+        for w in self._waypoints[1:]:
+            try:
+                t += sum(d for d, _ in segment_pieces(self.current, prev, w, self.speed_mps, t))
+            except LegError:
+                return math.inf
+            prev = w
+        return t
+
+    def _heading(self, p: Point3, w: Point3) -> None:
+        """Yaw (eq. 5) and pitch (eq. 6) of the motion from ``p`` toward ``w``, degrees."""
+        dx, dy, dz = (b - a for a, b in zip(p, w))
+        if math.hypot(dx, dy, dz) <= _EPS:
+            return
+        horizontal = math.hypot(dx, dy)
+        if horizontal > _EPS:
+            self.yaw_deg = math.degrees(math.atan2(dy, dx))
+        self.pitch_deg = math.degrees(math.atan2(-dz, horizontal))
+
+    # -- station keeping and the camera ----------------------------------------------------
+
+    def _keep_station(self, cmd: StationKeep) -> None:
+        self._waypoints, self.target = [], None
+        if cmd.work is Work.WAIT:
+            self.phase, self._work = Phase.HOLDING, None
+            return
+        if cmd.work is Work.LOOK and self.camera is None:
+            self.phase = Phase.HOLDING
+            self._held.append(Refused(self.t_s, "StationKeep", "no camera to look with"))
+            return
+        self.phase, self._work = Phase.WORKING, cmd
+        self._work_end_s = self.t_s + max(0.0, float(cmd.duration_s))
+
+    def _work_done(self) -> VehicleReport:
+        work = self._work
+        assert work is not None
+        if work.work is Work.LOOK:
+            assert self.camera is not None
+            seen = self.camera.inspect(work.task)
+            return Looked(self.t_s, work.task, seen.present, seen.priority, seen.service_s)
+        return Injected(self.t_s, work.task)
+
+    def _sightings(self, t_s: float) -> list[VehicleReport]:
+        if self.camera is None:
+            return []
+        return [Sighted(t_s, s.pos, s.priority, s.service_s) for s in self.camera.sweep(self.pos)]
+
+
+def fly(problem: Problem, index: int, route: Sequence[int], paths: PathFn | None = None
+        ) -> list[Injected | Arrived]:
+    """Replay a plan: fly vehicle ``index`` of ``problem`` (its water: current and land) along
+    ``route`` (task indices, as planned, whatever water the plan assumed) from its start at
+    mission time 0 to the rendezvous, injecting each spot for its time, without replanning:
+    the `Injected` reports, then the `Arrived` home one. The battery does not stop it; compare
+    the arrival's time with the battery to see how late it ends."""
+    paths = paths or path_function(problem)
+    vehicle = SimVehicle(problem, index)
+    rendezvous = problem.vehicles[index].rendezvous
+    todo = [int(t) for t in route]
+    events: list[Injected | Arrived] = []
+
+    def onward() -> None:
+        goal = as_point3(problem.xyz[todo[0]]) if todo else rendezvous
+        waypoints = tuple(paths(vehicle.pos, goal)[1])
+        vehicle.command(GoTo(todo[0], waypoints) if todo else ReturnHome(waypoints),
+                        vehicle.t_s)
+
+    onward()
+    while (due := vehicle.next_report_s()) is not None and math.isfinite(due):
+        for r in vehicle.poll(due):
+            if isinstance(r, Arrived) and r.target == HOME_TARGET:
+                events.append(r)
+                return events
+            if isinstance(r, Arrived):
+                vehicle.command(StationKeep(Work.INJECT, r.target,
+                                            float(problem.service_s[r.target])), r.t_s)
+            elif isinstance(r, Injected):
+                events.append(r)
+                todo.pop(0)
+                onward()
+    return events  # a leg the current makes impossible: it never gets there
