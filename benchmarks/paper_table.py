@@ -15,11 +15,12 @@ from benchmarks.results import markdown_table, write_section
 from cotsfleet.commands.compare import (
     FAITHFUL_MODES, PAPER_TASKS, TABLE_HEADER, format_text, run_modes, table_rows,
 )
-from hfc_core.generate import paper_preset_doc
-from hfc_core.plan import vehicle_figures
-from hfc_core.problem import Problem
-from hfc_core.scenario import problem_from_dict
-from hfc_core.solve import SolveResult, solve
+from reef_sim.scenarios.field import paper_preset_doc
+from hfc_core.model.plan import vehicle_figures
+from hfc_core.model.problem import Problem
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.result import SolveResult
+from hfc_core.solve import solve
 
 CHECKPOINTS = (1, 10, 25, 50, 100, 150)
 

@@ -12,7 +12,7 @@ import importlib
 import sys
 from typing import Sequence
 
-from hfc_core.problem import ScenarioError
+from hfc_core.model.errors import ScenarioError
 
 # name -> module under cotsfleet.commands
 COMMANDS = {

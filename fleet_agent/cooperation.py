@@ -19,7 +19,7 @@ import numpy as np
 from fleet_agent.knowledge import PeerPose
 from fleet_agent.plans import Live, Planner
 from fleet_agent.vehicle import Vehicle, position_along
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 def live_self(vehicle: Vehicle) -> Live:
     """This vehicle as the replanner sees it (rounded: equal inputs memoise)."""

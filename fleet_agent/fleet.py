@@ -9,7 +9,7 @@ from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
 from fleet_agent.vehicle import PathFn, path_function
 from fleet_agent.wire import Codec
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 
 @dataclass(frozen=True)

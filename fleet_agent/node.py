@@ -46,9 +46,9 @@ from fleet_bus.link import TxTag
 from fleet_bus.mission import clock_of, fetch_clock, fetch_mission
 from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth, encode_busy
-from hfc_core.problem import ScenarioError
-from hfc_core.scenario import problem_from_dict
-from hfc_core.truth import reef_from_doc
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.errors import ScenarioError
+from reef_sim.truth import reef_from_doc
 
 MAX_WAIT_WALL_S = 0.25  # longest sleep between looks at the stop flag
 INBOX_LIMIT = 4096  # frames and commands waiting for the agent; beyond, the newest are dropped

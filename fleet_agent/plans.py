@@ -13,7 +13,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Iterator, Mapping, Sequence
 
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 if TYPE_CHECKING:
     from fleet_agent.config import AgentConfig

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hfc_core.truth import Reef
+from reef_sim.truth import Reef
 
 Point3 = tuple[float, float, float]
 SENSOR_STREAM = 0x5E50  # keeps the camera's draws apart from every other seeded stream

@@ -24,10 +24,10 @@ from typing import Callable, Collection, Sequence
 
 import numpy as np
 
-from hfc_core.current import CurrentField
-from hfc_core.feasibility import fits, room_s
-from hfc_core.problem import Problem
-from hfc_core.travel import LegError, segment_pieces
+from hfc_core.model.current import CurrentField
+from hfc_core.model.feasibility import fits, room_s
+from hfc_core.model.problem import Problem
+from hfc_core.model.travel import LegError, segment_pieces
 
 Point3 = tuple[float, float, float]
 # (from, to) -> (length_m, waypoints after ``from`` ending at ``to``)

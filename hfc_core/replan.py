@@ -4,7 +4,7 @@ The agents call this mid-mission: after a vehicle is lost (survivors share its s
 the online cooperation operator (one vehicle with spare battery inserts free spots into its own
 route: call it with that vehicle alone and mark the others' spots ``cleared`` or ``held``).
 
-How the inputs become a `best` search (`hfc_core.best`):
+How the inputs become a `best` search (`hfc_core.engines.best`):
 - each vehicle starts at its position (or, with ``locked`` spots, at the last of them: the
   locked chain is prepended unchanged and its time taken off the battery);
 - spots ``cleared``, locked by a vehicle, or held by another live vehicle are off limits;
@@ -29,15 +29,16 @@ from typing import Collection, Mapping, Sequence
 import numpy as np
 from scipy.spatial.distance import cdist
 
-from hfc_core.best.construct import construct, screen
-from hfc_core.best.engine import SearchParams, local_search, search, shorten
-from hfc_core.best.insert import fill
-from hfc_core.best.instance import Instance, clocked
-from hfc_core.best.state import State
-from hfc_core.current import TidalCurrent
-from hfc_core.problem import Problem, ScenarioError
-from hfc_core.tide_clock import TideClock
-from hfc_core.solve import Stop
+from hfc_core.engines.best.construct import construct, screen
+from hfc_core.engines.best.engine import SearchParams, local_search, search, shorten
+from hfc_core.engines.best.insert import fill
+from hfc_core.engines.best.instance import Instance, clocked
+from hfc_core.engines.best.state import State
+from hfc_core.model.current import TidalCurrent
+from hfc_core.model.errors import ScenarioError
+from hfc_core.model.problem import Problem
+from hfc_core.model.tide_clock import TideClock
+from hfc_core.stop import Stop
 
 DEFAULT_ITERATIONS = 60
 DEFAULT_STABILITY = 0.1
@@ -75,7 +76,7 @@ def replan(
     better). Without a budget, ``DEFAULT_ITERATIONS`` iterations are run.
 
     ``now_s``: the mission time the vehicles are at; it matters only in a tidal current, where
-    routes are then timed as flown from now (`hfc_core.tide_clock`). Without it a tide is
+    routes are then timed as flown from now (`hfc_core.model.tide_clock`). Without it a tide is
     planned with the longest leg times over the whole mission: safe, but it leaves battery
     unused.
     """

@@ -37,8 +37,8 @@ from fleet_agent.sensor import Camera, World
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition
 from fleet_bus.telemetry import Event, Status, Truth
-from hfc_core.problem import Problem
-from hfc_core.truth import Reef
+from hfc_core.model.problem import Problem
+from reef_sim.truth import Reef
 
 STEP_S = 60.0  # the runner looks at the mission (progress, end) this often
 Tap = Callable[[str, Sequence[Output]], None]  # (vehicle, outputs of one step): for tests

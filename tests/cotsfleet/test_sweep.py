@@ -21,8 +21,8 @@ from cotsfleet.sweep.local import LocalPool, describe_exit
 from cotsfleet.sweep.run import executor_for, run_sweep
 from cotsfleet.sweep.serial import Serial
 from fleet_agent.config import AgentConfig
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_to_dict
+from hfc_core.formats.scenario import problem_to_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
 
 SEEDS = range(3, 7)
 

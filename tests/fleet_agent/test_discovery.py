@@ -17,9 +17,10 @@ from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Frame, Send, Sensed, Tick
 from fleet_agent.sensor import Camera, Sighting
 from fleet_agent.wire import Codec, Digest, Found
-from hfc_core.generate import DynamicParams, GeneratorParams, generate_dynamic_doc
-from hfc_core.scenario import problem_from_dict
-from hfc_core.truth import reef_from_doc
+from hfc_core.formats.scenario import problem_from_dict
+from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
+from reef_sim.scenarios.field import GeneratorParams
+from reef_sim.truth import reef_from_doc
 
 KEY = bytes(range(16))
 RUN = "test-dyn"
@@ -191,7 +192,7 @@ def test_two_vehicles_claiming_one_find_seconds_apart_treat_it_once(seed):
     near a settled find claimed it 1-5 s apart and each was at it before hearing the other's
     claim (one waited 27 s behind a pose and a FOUND). Claims now leave in the next slot and
     a late claim is worked only once it has settled (`Knowledge.settled_s`)."""
-    from hfc_core.generate import dynamic_preset_doc
+    from reef_sim.scenarios.dynamic import dynamic_preset_doc
 
     doc = dynamic_preset_doc(seed)
     problem = problem_from_dict(doc)

@@ -5,9 +5,9 @@ import pytest
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Live, Planner, set_planning_hook
 from fleet_agent.vehicle import Vehicle, fit_route, path_function
-from hfc_core.feasibility import fits
-from hfc_core.generate import paper_preset_doc
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.feasibility import fits
+from reef_sim.scenarios.field import paper_preset_doc
 
 RESERVE_S = AgentConfig().battery_reserve_s
 

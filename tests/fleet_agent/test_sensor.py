@@ -9,8 +9,8 @@ import pytest
 
 from fleet_agent.sensor import World, pass_seen, segment_distance_m
 from fleet_agent.vehicle import INJECTING, INSPECTING, TRANSIT, Cleared, Inspected, Vehicle
-from hfc_core.problem import Problem, Task, Vehicle as VehicleSpec
-from hfc_core.truth import Reef, TruthSpot
+from hfc_core.model.problem import Problem, Task, Vehicle as VehicleSpec
+from reef_sim.truth import Reef, TruthSpot
 
 
 def reef(spots, p_detect=1.0, radius=25.0, inspect_s=20.0) -> Reef:

@@ -9,7 +9,7 @@ import pytest
 
 from fleet_agent.vehicle import (HOME, INJECTING, RETURNING, TRANSIT, WAITING, Arrived, Cleared,
                                  Vehicle, fit_route, position_along)
-from hfc_core.problem import Problem, Task, Vehicle as Spec
+from hfc_core.model.problem import Problem, Task, Vehicle as Spec
 
 
 def small_problem(battery_s: float = 3600.0) -> Problem:

@@ -7,12 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from hfc_core.check import _segment_enters
-from hfc_core.generate import paper_preset_doc
-from hfc_core.problem import Problem, ScenarioError, Task, Vehicle
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.check import _segment_enters
+from hfc_core.model.errors import ScenarioError
+from hfc_core.model.problem import Problem, Task, Vehicle
 from hfc_core.replan import LiveVehicle, replan
-from hfc_core.scenario import problem_from_dict
 from hfc_core.solve import solve
+from reef_sim.scenarios.field import paper_preset_doc
 
 
 @pytest.fixture(scope="module")
