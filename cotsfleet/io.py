@@ -12,7 +12,7 @@ import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.schemas import SchemaViolation, validate
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.formats.top import parse_top

@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.io import read_scenario
 from cotsfleet.reporting.progress import Progress
 from hfc_core.formats.scenario import problem_from_dict

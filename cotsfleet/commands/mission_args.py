@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.mission.faults import Fault, FaultError, check_schedule, parse_faults
 from cotsfleet.mission.runner import horizon_of
 from fleet_agent.config import AgentConfig

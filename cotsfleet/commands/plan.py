@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.io import read_scenario
 from hfc_core.model.check import check_routes
 from hfc_core.model.plan import plan_to_dict, vehicle_figures

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from fleet_agent.wire import MAX_VEHICLES
 from reef_sim.scenarios.area import AreaParams, generate_area_doc, out_of_reach
 from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc

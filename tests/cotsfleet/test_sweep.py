@@ -185,7 +185,7 @@ def test_executor_choice() -> None:
     assert isinstance(executor_for(5, None, None), Serial)
     assert isinstance(executor_for(5, 1, None), Serial)
     assert executor_for(3, 8, None).jobs == 3  # never more workers than runs
-    from cotsfleet.cli import UsageError
+    from cotsfleet.errors import UsageError
     with pytest.raises(UsageError):
         executor_for(5, 0, None)
 
