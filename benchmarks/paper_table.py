@@ -68,7 +68,7 @@ def main(seed: int = 0, quick: bool = False) -> str:
         f"`python -m benchmarks.paper_table` (seed {seed}{', quick' if quick else ''}): the "
         "`--paper` preset (90 spots, 3 AUVs, 3600 s, 1 m/s, 90 s injections, one small "
         "cluster), 150 iterations for HFC (population 100, nSc = 1), 200 generations for the GA. "
-        "Costs are eq. (9) with the same weights for every mode (`hfc_core/cost.py`). "
+        "Costs are eq. (9) with the same weights for every mode (`hfc_core/model/cost.py`). "
         f"Paper: {paper}; total cost NCM1 2.273e5, NCM2 0.714e5, CM 0.386e5; "
         "total T_diff NCM2 +838 s, CM +125 s, GA +1103 s.",
         markdown_table(TABLE_HEADER, rows),
