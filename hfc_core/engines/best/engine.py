@@ -5,8 +5,9 @@ adaptive weights), repairs it by greedy insertion, shortens the changed routes (
 and inserts again into the time that frees. A candidate close to acceptance is polished by
 moves between routes (tail exchange, relocate, swap) and searched again. A candidate is kept
 if it is within a threshold of the best plan's objective; the threshold shrinks to zero as the
-budget is spent, so the search wanders early and intensifies late. Acceptance uses no exp() or pow(): with an
-iteration budget the search is a pure function of its inputs on every IEEE machine.
+budget is spent, so the search wanders early and intensifies late. Acceptance uses no exp() or
+pow(): with an iteration budget the search is a pure function of its inputs on every IEEE
+machine.
 """
 
 from __future__ import annotations

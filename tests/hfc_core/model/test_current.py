@@ -28,7 +28,6 @@ from hfc_core.model.travel import (
     IMPOSSIBLE_S,
     ground_speed,
     path_time_s,
-    segment_pieces,
     segment_times,
     tide_range,
 )
@@ -202,13 +201,14 @@ def test_sample_for_the_dashboard():
     assert xy[0].tolist() == [0.0, 0.0] and xy[-1].tolist() == [1000.0, 500.0]
     np.testing.assert_array_equal(uv, np.tile([0.2, -0.1], (25, 1)))
     tide = TidalCurrent((0.5, 0.0), period_s=1200.0)
-    assert sample(tide, (0, 1, 0, 1), 2, 630.0)[1][0, 0] < 0 < sample(tide, (0, 1, 0, 1), 2, 0.0)[1][0, 0]
+    ebb, flood = sample(tide, (0, 1, 0, 1), 2, 630.0), sample(tide, (0, 1, 0, 1), 2, 0.0)
+    assert ebb[1][0, 0] < 0 < flood[1][0, 0]
     grid = current_from_dict(grid_doc(1))
     xy, uv = sample(grid, grid.bounds(), 5)
     np.testing.assert_allclose(uv[:, 0], np.asarray(grid.u).ravel())
 
 
-# --- every part agrees -----------------------------------------------------------------------------
+# --- every part agrees ------------------------------------------------------------------------
 @pytest.mark.parametrize("kind", sorted(CURRENTS))
 def test_planner_checker_and_vehicle_agree_on_plans_in_a_current(kind):
     problem = paper_with(CURRENTS[kind])
