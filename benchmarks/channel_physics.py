@@ -107,7 +107,7 @@ def fleet_figures(channel: ChannelConfig, n_vehicles: int, seeds: Sequence[int]
     from cotsfleet.commands.mission_args import scenario_doc
     from cotsfleet.mission.inprocess import simulate
     from fleet_agent.config import AgentConfig
-    from hfc_core.scenario import problem_from_dict
+    from hfc_core.formats.scenario import problem_from_dict
 
     priority, cleared, dups, treated, link = [], [], [], [], {}
     for seed in seeds:

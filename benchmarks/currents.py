@@ -28,12 +28,12 @@ import numpy as np
 from benchmarks.pinned import run_pinned
 from benchmarks.results import markdown_table, write_section
 from fleet_bus.vehicle_port import Arrived, Injected
-from reef_sim.vehicle import fly
-from hfc_core.current import M2_PERIOD_S
-from hfc_core.generate import paper_preset_doc
-from hfc_core.problem import Problem
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.current import M2_PERIOD_S
+from hfc_core.model.problem import Problem
 from hfc_core.solve import solve
+from reef_sim.scenarios.field import paper_preset_doc
+from reef_sim.vehicle import fly
 
 PEAKS_MPS = (0.3, 0.6)
 

@@ -8,7 +8,7 @@ the same reef, all scored on the truth (priority of the distinct truth spots tre
 
 - the fleet (`cotsfleet sim --scenario S --seed s`);
 - the clairvoyant plan: `best`, 10 s, planned on the truth as if every spot were known at
-  t = 0 (`hfc_core.truth.truth_problem`), the upper reference;
+  t = 0 (`reef_sim.truth.truth_problem`), the upper reference;
 - the fleet with ``--no-discovery`` (ignores sightings, does not reallocate freed time);
 - the fleet at 30 % extra loss.
 
@@ -27,10 +27,10 @@ from typing import Any
 from benchmarks.results import markdown_table, write_section
 from cotsfleet.mission.inprocess import simulate
 from fleet_agent.config import AgentConfig
-from hfc_core.generate import dynamic_preset_doc
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.solve import solve
-from hfc_core.truth import reef_from_doc, truth_problem
+from reef_sim.scenarios.dynamic import dynamic_preset_doc
+from reef_sim.truth import reef_from_doc, truth_problem
 
 CLAIRVOYANT_S = 10.0
 LOSS = 0.3

@@ -20,7 +20,7 @@ from cotsfleet.commands.mission_args import scenario_doc
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import simulate
 from fleet_agent.config import AgentConfig
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
 
 CONDITIONS = [
     ("loss 0 %", 0.0, ()),

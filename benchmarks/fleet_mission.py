@@ -18,7 +18,7 @@ from cotsfleet.mission.inprocess import simulate
 from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
 from cotsfleet.mission.runner import run_mission
 from fleet_agent.config import AgentConfig
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
 
 
 def main(seed: int, warp: float, quick: bool) -> None:

@@ -39,7 +39,7 @@ from cotsfleet.io import read_scenario
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import simulate
 from fleet_agent.config import AgentConfig
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 KILL_S = 3000.0
 PLAN_S = 20.0

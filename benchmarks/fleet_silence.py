@@ -43,7 +43,7 @@ from cotsfleet.commands.mission_args import scenario_doc
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import simulate
 from fleet_agent.config import AgentConfig
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
 
 LOSSES = (0.0, 0.3, 0.5, 0.7, 0.9, 1.0)
 FAULT_ROWS = [

@@ -26,9 +26,9 @@ import numpy as np
 from benchmarks.pinned import run_pinned
 from benchmarks.results import markdown_table, write_section
 from benchmarks.top_bench import score, warm_up
-from hfc_core.generate import paper_preset_doc
-from hfc_core.problem import Problem
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.problem import Problem
+from reef_sim.scenarios.field import paper_preset_doc
 
 ITERATIONS = {"hfc-cm": 150, "hfc-ncm2": 150, "ga": 200}
 MODES = ("best", "pyvrp", "pyvrp20", "hfc-cm", "hfc-ncm2", "ga")
@@ -130,7 +130,7 @@ def main(runs: int, time_limit_s: float, parallel: int, write: bool, base: int =
             f"`python -m benchmarks.paper_best`: `best` and PyVRP {time_limit_s:g} s each, "
             f"PyVRP also {long_s:g} s (`pyvrp20`), HFC 150 iterations, GA 200 generations; one "
             f"pinned process per run ({parallel} at a time). Priority collected and spots "
-            "treated; every plan checked by `hfc_core.check`. `best`'s parameters were tuned on "
+            "treated; every plan checked by `hfc_core.model.check`. `best`'s parameters were tuned on "
             "other scenarios (`paper_preset_doc(5000 + i)`), not these.\n\n"
             "Paper preset (`paper_preset_doc(0)`, planner seed 0):\n\n"
             + markdown_table(head_preset, preset_rows)

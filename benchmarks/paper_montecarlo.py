@@ -16,12 +16,12 @@ import numpy as np
 
 from benchmarks.results import markdown_table, write_section
 from cotsfleet.commands.compare import format_text
-from hfc_core.check import check_routes
-from hfc_core.cost import CostWeights, RouteModel
-from hfc_core.generate import paper_preset_doc
-from hfc_core.plan import vehicle_figures
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.check import check_routes
+from hfc_core.model.cost import CostWeights, RouteModel
+from hfc_core.model.plan import vehicle_figures
 from hfc_core.solve import solve
+from reef_sim.scenarios.field import paper_preset_doc
 
 MODES = {"hfc-cm": 150, "hfc-ncm2": 150, "ga": 200}
 
@@ -92,7 +92,7 @@ def main(runs: int = 30, quick: bool = False) -> str:
         "30 m, spots redrawn) with planner seed i; HFC 150 iterations, GA 200 generations. "
         "Paper (Fig. 9-12, CM): median 63/90 spots, violation centred on zero, T_diff small "
         "and mostly positive, operation time 3500-3600 s per vehicle. Each plan is also "
-        "checked by the independent checker (`hfc_core.check`).",
+        "checked by the independent checker (`hfc_core.model.check`).",
         markdown_table(header, rows),
         markdown_table(totals_header, totals),
         f"CM treats more spots than NCM2 in {wins}/{runs} runs (ties: {ties}).",

@@ -15,11 +15,12 @@ from benchmarks.results import markdown_table, write_section
 from cotsfleet.commands.compare import (
     FAITHFUL_MODES, PAPER_TASKS, TABLE_HEADER, format_text, run_modes, table_rows,
 )
-from hfc_core.generate import paper_preset_doc
-from hfc_core.plan import vehicle_figures
-from hfc_core.problem import Problem
-from hfc_core.scenario import problem_from_dict
-from hfc_core.solve import SolveResult, solve
+from reef_sim.scenarios.field import paper_preset_doc
+from hfc_core.model.plan import vehicle_figures
+from hfc_core.model.problem import Problem
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.result import SolveResult
+from hfc_core.solve import solve
 
 CHECKPOINTS = (1, 10, 25, 50, 100, 150)
 
@@ -67,7 +68,7 @@ def main(seed: int = 0, quick: bool = False) -> str:
         f"`python -m benchmarks.paper_table` (seed {seed}{', quick' if quick else ''}): the "
         "`--paper` preset (90 spots, 3 AUVs, 3600 s, 1 m/s, 90 s injections, one small "
         "cluster), 150 iterations for HFC (population 100, nSc = 1), 200 generations for the GA. "
-        "Costs are eq. (9) with the same weights for every mode (`hfc_core/cost.py`). "
+        "Costs are eq. (9) with the same weights for every mode (`hfc_core/model/cost.py`). "
         f"Paper: {paper}; total cost NCM1 2.273e5, NCM2 0.714e5, CM 0.386e5; "
         "total T_diff NCM2 +838 s, CM +125 s, GA +1103 s.",
         markdown_table(TABLE_HEADER, rows),

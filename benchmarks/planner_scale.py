@@ -1,7 +1,7 @@
 """`best` against PyVRP on larger areas: 200 spots x 4 AUVs, 400 x 6, 1000 x 10, 10 s each.
 
 Issue 14's check (d): the planner keeps at least PyVRP's priority at equal wall time on
-scenarios of the large-area generator (`hfc_core.generate.generate_area_doc`, the one behind
+scenarios of the large-area generator (`reef_sim.scenarios.area.generate_area_doc`, the one behind
 `cotsfleet scenario --vehicles K --spots N --area-m A --battery-s B`): median ratio >= 1.00,
 every ratio >= 0.98. Each solver run is a separate process pinned to one core (two at a time),
 every plan checked by the exact-float checker (PyVRP's after its integer rounding, repaired if
@@ -22,9 +22,9 @@ import numpy as np
 from benchmarks.pinned import run_pinned
 from benchmarks.results import markdown_table, write_section
 from benchmarks.top_bench import score, warm_up
-from hfc_core.generate import AreaParams, generate_area_doc
-from hfc_core.problem import Problem
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.problem import Problem
+from reef_sim.scenarios.area import AreaParams, generate_area_doc
 
 # (spots, vehicles, area side m, battery s): service alone (60-90 s a spot) exceeds the
 # fleet's battery in each, so the planners must choose.

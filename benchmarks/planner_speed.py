@@ -25,12 +25,12 @@ import numpy as np
 
 from benchmarks.pinned import run_pinned
 from benchmarks.results import markdown_table, write_section
-from hfc_core.check import check_routes
-from hfc_core.generate import GeneratorParams, generate_doc, paper_preset_doc
-from hfc_core.problem import Problem
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.check import check_routes
+from hfc_core.model.problem import Problem
 from hfc_core.replan import LiveVehicle, replan
-from hfc_core.scenario import problem_from_dict
 from hfc_core.solve import solve
+from reef_sim.scenarios.field import GeneratorParams, generate_doc, paper_preset_doc
 
 LIMITS_S = (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)
 LARGE = GeneratorParams(name="large", n_tasks=1000, n_vehicles=10, size_m=3000.0,

@@ -2,7 +2,7 @@
 
 Both solvers want integers, so distances, durations and budgets are scaled by ``SCALE`` and
 rounded to the nearest integer. Rounding can let a route through that is a hair too long in
-exact arithmetic: callers must check every returned plan with `hfc_core.check` (the
+exact arithmetic: callers must check every returned plan with `hfc_core.model.check` (the
 benchmarks do, and report how many needed a repair).
 
 - PyVRP: prize-collecting; every spot is an optional client whose prize is its priority. The
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 SCALE = 10_000  # 1e-4 m and 1e-4 s resolution
 

@@ -33,8 +33,8 @@ from fleet_bus import keys
 from fleet_bus.clock import ManualClock
 from fleet_bus.credentials import load_auth, load_login, write_run_credentials
 from fleet_bus.telemetry import Truth
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
 
 VEHICLES = ("auv1", "auv2", "auv3")
 

@@ -23,8 +23,8 @@ from statistics import mean, median
 from benchmarks.pinned import run_pinned
 from benchmarks.results import markdown_table, write_section
 from benchmarks.top_common import TopInstance, gap_pct, instances
-from hfc_core.check import check_routes
-from hfc_core.problem import Problem
+from hfc_core.model.check import check_routes
+from hfc_core.model.problem import Problem
 
 SOLVERS = ("best", "pyvrp", "ortools")
 QUICK = ("p2.3.g", "p3.3.m", "p4.2.m", "p4.3.m", "p5.3.u", "p6.4.n", "p7.2.p", "p7.4.h", "p7.2.a")
@@ -47,8 +47,7 @@ def warm_up(solver: str) -> None:
     import importlib
 
     modules = {"pyvrp": ["pyvrp"], "ortools": ["ortools.constraint_solver.pywrapcp"]}
-    for module in modules.get(solver, ["hfc_core.solve", "hfc_core.best", "hfc_core.hfc",
-                                       "hfc_core.ga"]):
+    for module in modules.get(solver, ["hfc_core.solve"]):  # it imports every engine
         importlib.import_module(module)
 
 
@@ -67,8 +66,8 @@ def worker(solver: str, name: str, time_limit_s: float, seed: int) -> None:
 
 def repaired(problem: Problem, routes: list[list[int]]) -> list[list[int]]:
     """Drop the spot earning least per second saved from each route until it fits."""
-    from hfc_core.best.construct import screen
-    from hfc_core.best.instance import instance_from_problem
+    from hfc_core.engines.best.construct import screen
+    from hfc_core.engines.best.instance import instance_from_problem
 
     inst = instance_from_problem(problem)
     return [screen(inst, v, r) for v, r in enumerate(routes)]

@@ -6,8 +6,8 @@ import csv
 from dataclasses import dataclass
 from pathlib import Path
 
-from hfc_core.problem import Problem
-from hfc_core.top import parse_top
+from hfc_core.formats.top import parse_top
+from hfc_core.model.problem import Problem
 
 TOP_DIR = Path(__file__).resolve().with_name("top")
 

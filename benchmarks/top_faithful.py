@@ -15,8 +15,8 @@ import time
 from benchmarks.results import markdown_table, write_section
 from benchmarks.top_common import gap_pct, instances
 from cotsfleet.commands.compare import format_text
-from hfc_core.check import check_routes
-from hfc_core.plan import vehicle_figures
+from hfc_core.model.check import check_routes
+from hfc_core.model.plan import vehicle_figures
 from hfc_core.solve import solve
 
 MODES = {"hfc-ncm2": 150, "hfc-cm": 150, "ga": 200}

@@ -1,4 +1,4 @@
-"""How far could any planner still improve? A certified upper bound (`hfc_core.bound`) on the
+"""How far could any planner still improve? A certified upper bound (`benchmarks.bound`) on the
 paper preset and its Monte Carlo scenarios, beside `best`'s plan.
 
 Scenario i of the Monte Carlo is `paper_preset_doc(base + i)` (as in `paper_best`), the single
@@ -19,11 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.bound import upper_bound
 from benchmarks.results import markdown_table
-from hfc_core.bound import upper_bound
-from hfc_core.generate import paper_preset_doc
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.solve import solve
+from reef_sim.scenarios.field import paper_preset_doc
 
 OUT = Path(__file__).with_name("bounds_paper.json")
 

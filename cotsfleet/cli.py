@@ -12,7 +12,8 @@ import importlib
 import sys
 from typing import Sequence
 
-from hfc_core.problem import ScenarioError
+from cotsfleet.errors import UsageError
+from hfc_core.model.errors import ScenarioError
 
 # name -> module under cotsfleet.commands
 COMMANDS = {
@@ -48,10 +49,6 @@ def build_parser() -> argparse.ArgumentParser:
         mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
     return parser
-
-
-class UsageError(Exception):
-    """Bad input from the user: printed as one line, exit code 2, no traceback."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -12,12 +12,13 @@ import tomllib
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.schemas import SchemaViolation, validate
-from hfc_core.problem import Problem, ScenarioError
-from hfc_core.scenario import problem_from_dict
-from hfc_core.top import parse_top
-from hfc_core.truth import reef_from_doc
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.formats.top import parse_top
+from hfc_core.model.errors import ScenarioError
+from hfc_core.model.problem import Problem
+from reef_sim.truth import reef_from_doc
 
 if TYPE_CHECKING:
     from comms_sim.config import ChannelConfig

@@ -26,7 +26,7 @@ from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
 from fleet_agent.wire import Digest
-from hfc_core.problem import Problem, Task
+from hfc_core.model.problem import Problem, Task
 
 Point3 = tuple[float, float, float]
 UNKNOWN, PRESENT, EMPTY = "unknown", "present", "empty"
@@ -285,7 +285,7 @@ class Beliefs:
             if sc.land is not None:
                 self._dist = sc.land.distance_matrix(xyz)
             else:
-                from hfc_core.geometry import distance_matrix
+                from hfc_core.model.geometry import distance_matrix
 
                 self._dist = distance_matrix(xyz)
             self._dist_finds = len(self.finds)

@@ -64,7 +64,7 @@ class AgentConfig:
     coop_period_s: float = 120.0  # online cooperation operator: how often to look for work
     coop_min_slack_s: float = 60.0  # below this spare battery, do not even look
     battery_reserve_s: float = 1.0  # keep this much battery at the rendezvous
-    # Dynamic missions (a scenario with a hidden reef, `hfc_core.truth`): the map is a prior.
+    # Dynamic missions (a scenario with a hidden reef, `reef_sim.truth`): the map is a prior.
     # A predicted spot is planned at its expected value, p_cots * rho (eq. 2's priority times
     # the chance it holds COTS), and costs the look (the camera's inspect_s) plus p_cots times
     # its injection time; within aggregation_radius_m of a find its value uses

@@ -19,8 +19,8 @@ from fleet_agent.knowledge import PeerPose
 from fleet_agent.motion import OwnVehicle
 from fleet_agent.plans import Live, Planner
 from fleet_agent.reckoning import position_along
-from hfc_core.paths import as_point3
-from hfc_core.problem import Problem
+from hfc_core.model.paths import as_point3
+from hfc_core.model.problem import Problem
 
 
 def live_self(own: OwnVehicle) -> Live:

@@ -8,8 +8,8 @@ from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
 from fleet_agent.wire import Codec
-from hfc_core.paths import PathFn, path_function
-from hfc_core.problem import Problem
+from hfc_core.model.paths import PathFn, path_function
+from hfc_core.model.problem import Problem
 
 
 @dataclass(frozen=True)

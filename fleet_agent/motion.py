@@ -25,10 +25,10 @@ from typing import Callable, Sequence
 
 from fleet_bus.vehicle_port import (HOME_TARGET, Abort, GoTo, HelmCommand, NavFix, ReturnHome,
                                     StationKeep, Work)
-from hfc_core.feasibility import fits, room_s
-from hfc_core.paths import PathFn, as_point3
-from hfc_core.problem import Problem
-from hfc_core.travel import LegError
+from hfc_core.model.feasibility import fits, room_s
+from hfc_core.model.paths import PathFn, as_point3
+from hfc_core.model.problem import Problem
+from hfc_core.model.travel import LegError
 
 Point3 = tuple[float, float, float]
 

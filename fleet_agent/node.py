@@ -37,8 +37,7 @@ from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
 from fleet_agent.journal import Journal
 from fleet_agent.plans import set_planning_hook
-from fleet_agent.helms.sim import sim_vehicle
-from fleet_agent.sensor import Camera
+from fleet_agent.helms.sim import camera_figures, sim_vehicle
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
 from fleet_bus.clock import WarpClock
@@ -47,9 +46,9 @@ from fleet_bus.link import TxTag
 from fleet_bus.mission import clock_of, fetch_clock, fetch_mission
 from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth, encode_busy
-from hfc_core.problem import ScenarioError
-from hfc_core.scenario import problem_from_dict
-from hfc_core.truth import reef_from_doc
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.errors import ScenarioError
+from reef_sim.truth import reef_from_doc
 
 MAX_WAIT_WALL_S = 0.25  # longest sleep between looks at the stop flag
 INBOX_LIMIT = 4096  # frames and commands waiting for the agent; beyond, the newest are dropped
@@ -154,7 +153,7 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
             return 2
         fleet = Fleet.build(problem, config.fleet_key, mission.seed, config,  # initial plan
                             run_id=mission.run_id,  # the wire keys bind the run
-                            camera=None if reef is None else Camera.of(reef))
+                            camera=None if reef is None else camera_figures(reef))
         clocked = threading.Event()
         threading.Thread(target=_announce_ready, args=(session, vid, auth, clocked),
                          name="ready", daemon=True).start()

@@ -13,7 +13,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Iterator, Mapping, Sequence
 
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 if TYPE_CHECKING:
     from fleet_agent.config import AgentConfig
@@ -100,20 +100,15 @@ class Planner:
         hit = self._memo.get(key)
         if hit is not None:
             return {v: list(r) for v, r in hit.items()}
-        from hfc_core.replan import LiveVehicle, replan
+        from hfc_core.model.live import IndexedVehicle
+        from hfc_core.replan import replan_indexed
 
-        p = self.problem
-        tid = [t.id for t in p.tasks]
-        vid = [v.id for v in p.vehicles]
-        live = [LiveVehicle(vid[v.index], tuple(v.pos), max(0.0, v.battery_s - self.reserve_s),
-                            route=tuple(tid[t] for t in v.route),
-                            locked=tuple(tid[t] for t in v.locked)) for v in vehicles]
+        live = [IndexedVehicle(v.index, tuple(v.pos), max(0.0, v.battery_s - self.reserve_s),
+                               route=v.route, locked=v.locked) for v in vehicles]
         with _planning():
-            routes = replan(p, live, cleared=tuple(tid[t] for t in sorted(unavailable)),
-                            held={tid[t]: vid[h] for t, h in held.items()},
-                            max_iterations=self.replan_iterations, seed=seed)
+            out = replan_indexed(self.problem, live, cleared=unavailable, held=held,
+                                 max_iterations=self.replan_iterations, seed=seed)
         self.calls += 1
-        out = {p.vehicle_index[v]: [p.task_index[t] for t in r] for v, r in routes.items()}
         if len(self._memo) > 256:
             self._memo.clear()
         self._memo[key] = out

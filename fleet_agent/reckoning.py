@@ -11,9 +11,9 @@ from __future__ import annotations
 import math
 from typing import Sequence
 
-from hfc_core.paths import as_point3
-from hfc_core.problem import Problem
-from hfc_core.travel import LegError, segment_pieces
+from hfc_core.model.paths import as_point3
+from hfc_core.model.problem import Problem
+from hfc_core.model.travel import LegError, segment_pieces
 
 Point3 = tuple[float, float, float]
 

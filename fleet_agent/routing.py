@@ -10,7 +10,7 @@ import math
 from typing import Collection, Sequence
 
 from fleet_agent.motion import OwnVehicle
-from hfc_core.feasibility import fits
+from hfc_core.model.feasibility import fits
 
 
 def fit_route(own: OwnVehicle, route: Sequence[int], reserve_s: float,

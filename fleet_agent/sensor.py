@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from hfc_core.truth import Reef
-
 
 @dataclass(frozen=True)
 class Camera:
@@ -21,7 +19,3 @@ class Camera:
     detect_radius_m: float
     p_detect: float
     inspect_s: float
-
-    @staticmethod
-    def of(reef: Reef) -> "Camera":
-        return Camera(reef.detect_radius_m, reef.p_detect, reef.inspect_s)

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Callable, Sequence, Union
 
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 VERSION = 2
 MAC_BYTES = 8  # 2^-64 per forged frame: online forging at acoustic rates is hopeless

@@ -16,10 +16,10 @@ from typing import Any, Mapping
 import numpy as np
 
 from ground_station import palette
-from hfc_core.cotsmap import ProbabilityMap, cots_map_of, points_in_polygon
-from hfc_core.current import CurrentField, current_from_dict, peak_speed_mps
-from hfc_core.current import sample as sample_current
-from hfc_core.problem import ScenarioError
+from hfc_core.model.current import CurrentField, current_from_dict, peak_speed_mps
+from hfc_core.model.current import sample as sample_current
+from hfc_core.model.errors import ScenarioError
+from reef_sim.cotsmap import ProbabilityMap, cots_map_of, points_in_polygon
 
 FIELD_CELLS = 200  # cells along the longer side of the field image
 SPOT_RADIUS_M = (4.0, 14.0)  # radius of the lowest and highest priority spot
@@ -53,7 +53,7 @@ class CurrentLayer:
     field: CurrentField
     bounds: tuple[float, float, float, float]
     n: int
-    sea: np.ndarray  # (n * n,) bool: grid points off land, in `hfc_core.current.sample` order
+    sea: np.ndarray  # (n * n,) bool: grid points off land, in `hfc_core.model.current.sample` order
     scale_s: float
     peak_mps: float
 
@@ -240,7 +240,7 @@ def map_layers(doc: Mapping[str, Any]) -> MapLayers:
 
 def _truth(raw: Any, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[int, int]]:
     """The hidden reef's positions, priorities and which predicted spot each one is (``task``
-    is an index in ``tasks``, `hfc_core.truth`); empty without a ``truth`` section."""
+    is an index in ``tasks``, `reef_sim.truth`); empty without a ``truth`` section."""
     if not isinstance(raw, Mapping):
         return np.zeros((0, 2)), np.zeros(0), {}
     try:

@@ -15,10 +15,10 @@ from ground_station import palette
 from ground_station.blueprint import plan_blueprint
 from ground_station.mapview import MapLayers, map_layers
 from ground_station.rerun_log import log_map
-from hfc_core.plan import plan_to_dict
-from hfc_core.problem import Problem
-from hfc_core.scenario import problem_to_dict
-from hfc_core.solve import SolveResult
+from hfc_core.formats.scenario import problem_to_dict
+from hfc_core.model.plan import plan_to_dict
+from hfc_core.model.problem import Problem
+from hfc_core.result import SolveResult
 
 TIMELINE = "iteration"
 TOTAL_COLOR: palette.Rgb = (110, 110, 110)  # readable on the plot's light and dark themes

@@ -31,7 +31,7 @@ from ground_station.drawing import (
 from ground_station.inputs import Record
 from ground_station.mapview import MapLayers
 from ground_station.series import Policy, SeriesThinner
-from hfc_core.current import TIDE_STEP_S
+from hfc_core.model.current import TIDE_STEP_S
 
 STOPPED = ("aborted", "dead")  # states in which a vehicle's route is abandoned
 FINISHED = ("home",)

@@ -17,7 +17,7 @@ from fleet_bus.mission import Mission
 from ground_station import inputs, rerun_log
 from ground_station.mapview import MapLayers, map_layers
 from ground_station.state import FleetPicture, Tuning
-from hfc_core.problem import ScenarioError
+from hfc_core.model.errors import ScenarioError
 
 APPLICATION_ID = "cotsfleet"
 

@@ -4,7 +4,8 @@ Paper: Abbasi, MahmoudZadeh, Yazdani, "A Cooperative Dynamic Task Assignment Fra
 COTSBot AUVs" (``../shared/paper/hfc_cotsbot_paper.md``).
 """
 
-from hfc_core.plan import Plan, plan_to_dict, vehicle_figures
-from hfc_core.problem import Problem, ScenarioError, Task, Vehicle
+from hfc_core.model.errors import ScenarioError
+from hfc_core.model.plan import Plan, plan_to_dict, vehicle_figures
+from hfc_core.model.problem import Problem, Task, Vehicle
 
 __all__ = ["Plan", "Problem", "ScenarioError", "Task", "Vehicle", "plan_to_dict", "vehicle_figures"]

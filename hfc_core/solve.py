@@ -1,74 +1,24 @@
 """`solve(problem, mode, ...)`: the one entry point to every planner mode.
 
 The seed becomes the one `numpy.random.Generator` here, at the entry point (PyVRP's rule);
-engines receive it explicitly and never touch global random state. A `Stop` carries the budget:
-an iteration count (deterministic on every machine, which the fleet's agents rely on to agree
-on a plan without messages) and/or a time limit (anytime use). The timer is injected so the
-planner owns no clock.
+engines receive it explicitly and never touch global random state. The budget becomes a
+`hfc_core.stop.Stop`; the engine returns a `hfc_core.result.SolveResult`.
 """
 
 from __future__ import annotations
 
-import importlib
 import time
-from dataclasses import dataclass, field, fields
-from typing import Any, Callable, Protocol, TypeVar
+from typing import Any, Callable, Protocol
 
 import numpy as np
 
-from hfc_core.plan import Plan
-from hfc_core.problem import Problem, ScenarioError
-
-
-@dataclass
-class Stop:
-    """When an engine must return its best plan so far."""
-
-    time_limit_s: float | None = None
-    max_iterations: int | None = None
-    timer: Callable[[], float] = time.perf_counter
-
-    def __post_init__(self) -> None:
-        if self.time_limit_s is None and self.max_iterations is None:
-            raise ValueError("Stop needs a time limit, an iteration budget, or both")
-        if self.time_limit_s is not None and not self.time_limit_s > 0:
-            raise ValueError(f"time limit must be positive, got {self.time_limit_s}")
-        if self.max_iterations is not None and self.max_iterations < 0:
-            raise ValueError(f"iteration budget must be >= 0, got {self.max_iterations}")
-        self._started = self.timer()
-
-    def elapsed_s(self) -> float:
-        return self.timer() - self._started
-
-    def done(self, iteration: int) -> bool:
-        """True once ``iteration`` iterations are spent or time is up."""
-        if self.max_iterations is not None and iteration >= self.max_iterations:
-            return True
-        return self.time_limit_s is not None and self.elapsed_s() >= self.time_limit_s
-
-
-@dataclass(frozen=True)
-class IterationRecord:
-    """One point of the convergence history (the paper's Fig. 7-8): per-vehicle eq. 9 cost,
-    violation (seconds overdue) and T_diff (eq. 12) of the best plan after ``iteration``."""
-
-    iteration: int
-    elapsed_s: float
-    cost: tuple[float, ...]
-    violation_s: tuple[float, ...]
-    t_diff_s: tuple[float, ...]
-    priority: float  # priority collected by the best plan
-
-
-@dataclass
-class SolveResult:
-    plan: Plan
-    mode: str
-    seed: int
-    iterations: int
-    elapsed_s: float
-    history: list[IterationRecord] = field(default_factory=list)
-    extra: dict[str, Any] = field(default_factory=dict)  # engine-specific figures
+from hfc_core.engines.best import solve_best
+from hfc_core.engines.ga import solve_ga
+from hfc_core.engines.hfc import solve_cm, solve_ncm1, solve_ncm2
+from hfc_core.model.errors import ScenarioError
+from hfc_core.model.problem import Problem
+from hfc_core.result import SolveResult
+from hfc_core.stop import Stop
 
 
 class Engine(Protocol):
@@ -77,26 +27,12 @@ class Engine(Protocol):
     ) -> SolveResult: ...
 
 
-P = TypeVar("P")
-
-
-def engine_params(cls: type[P], params: dict[str, Any]) -> P:
-    """``cls(**params)`` for an engine's parameter dataclass, refusing unknown names with
-    the list of known ones (a typo must not silently fall back to a default)."""
-    known = {f.name for f in fields(cls)}  # type: ignore[arg-type]
-    unknown = set(params) - known
-    if unknown:
-        raise ValueError(f"unknown {cls.__name__} field(s) {sorted(unknown)}; known: {sorted(known)}")
-    return cls(**params)
-
-
-# mode -> "module:function"; imported lazily so one broken engine never hides the others.
-MODES: dict[str, str] = {
-    "hfc-ncm1": "hfc_core.hfc:solve_ncm1",
-    "hfc-ncm2": "hfc_core.hfc:solve_ncm2",
-    "hfc-cm": "hfc_core.hfc:solve_cm",
-    "ga": "hfc_core.ga:solve_ga",
-    "best": "hfc_core.best:solve_best",
+MODES: dict[str, Engine] = {
+    "hfc-ncm1": solve_ncm1,
+    "hfc-ncm2": solve_ncm2,
+    "hfc-cm": solve_cm,
+    "ga": solve_ga,
+    "best": solve_best,
 }
 
 # Modes whose plans may exceed the battery by design (NCM1 ignores the budget, paper IV-A).
@@ -106,8 +42,7 @@ BUDGET_FREE_MODES = frozenset({"hfc-ncm1"})
 def engine(mode: str) -> Engine:
     if mode not in MODES:
         raise ScenarioError(f"unknown mode {mode!r}; choose from {', '.join(MODES)}")
-    module, func = MODES[mode].split(":")
-    return getattr(importlib.import_module(module), func)
+    return MODES[mode]
 
 
 def solve(

@@ -1,4 +1,4 @@
-"""The camera on the hidden reef: what a simulated vehicle sees of `hfc_core.truth.Reef`.
+"""The camera on the hidden reef: what a simulated vehicle sees of `reef_sim.truth.Reef`.
 
 Two things the camera does, both pure and seeded:
 
@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hfc_core.truth import Reef
+from reef_sim.truth import Reef
 
 Point3 = tuple[float, float, float]
 SENSOR_STREAM = 0x5E50  # keeps the camera's draws apart from every other seeded stream

@@ -28,9 +28,9 @@ from typing import Sequence
 from fleet_bus.vehicle_port import (HOME_TARGET, Abort, Arrived, GoTo, HelmCommand, Injected,
                                     Looked, NavFix, Refused, ReturnHome, Sighted, StationKeep,
                                     VehicleReport, Work)
-from hfc_core.paths import PathFn, as_point3, path_function
-from hfc_core.problem import Problem
-from hfc_core.travel import LegError, segment_pieces
+from hfc_core.model.paths import PathFn, as_point3, path_function
+from hfc_core.model.problem import Problem
+from hfc_core.model.travel import LegError, segment_pieces
 from reef_sim.camera import ReefCamera
 
 Point3 = tuple[float, float, float]

@@ -1,7 +1,7 @@
 """Shared fixtures.
 
 Every plan a test produces through `hfc_core.solve.solve` is checked by the independent
-feasibility checker (`hfc_core.check`): the autouse fixture wraps the engine lookup, so no test
+feasibility checker (`hfc_core.model.check`): the autouse fixture wraps the engine lookup, so no test
 can forget to check, whatever it imports. Plans from other entry points (the replanner) use the
 `assert_feasible` fixture explicitly.
 """
@@ -13,8 +13,8 @@ from typing import Callable, Mapping, Sequence
 
 import pytest
 
-from hfc_core.check import check_routes
-from hfc_core.problem import Problem
+from hfc_core.model.check import check_routes
+from hfc_core.model.problem import Problem
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"

@@ -14,8 +14,8 @@ from typing import Callable, Sequence
 
 from fleet_agent.motion import Activity, Cleared, Conduct, Inspected, OwnVehicle, ReachedHome
 from fleet_bus.vehicle_port import Arrived, Injected, Looked, NavFix
-from hfc_core.paths import path_function
-from hfc_core.problem import Problem
+from hfc_core.model.paths import path_function
+from hfc_core.model.problem import Problem
 from reef_sim.camera import ReefCamera
 from reef_sim.vehicle import SimVehicle
 

@@ -8,15 +8,16 @@ import math
 from pathlib import Path
 from typing import Any
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.io import read_scenario
 from cotsfleet.reporting.progress import Progress
-from hfc_core.cost import CostWeights, RouteModel
-from hfc_core.generate import paper_preset_doc
-from hfc_core.plan import vehicle_figures
-from hfc_core.problem import Problem
-from hfc_core.scenario import problem_from_dict
-from hfc_core.solve import SolveResult, engine, solve
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.cost import CostWeights, RouteModel
+from hfc_core.model.plan import vehicle_figures
+from hfc_core.model.problem import Problem
+from hfc_core.result import SolveResult
+from hfc_core.solve import engine, solve
+from reef_sim.scenarios.field import paper_preset_doc
 
 HELP = ("compare the planners: NCM1, NCM2, CM, GA (and best) on the paper's scenario or "
         "yours: a Table I analog")

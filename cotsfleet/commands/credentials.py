@@ -12,8 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from cotsfleet.cli import UsageError
 from cotsfleet.commands.mission_args import scenario_doc
+from cotsfleet.errors import UsageError
 from fleet_bus.credentials import CredentialsError, write_run_credentials
 
 HELP = "make a mission's credentials beforehand (for --remote agents on other hosts)"

@@ -19,7 +19,7 @@ from typing import Any
 
 from comms_sim.acoustics.budget import crossing_range_m
 from comms_sim.config import PRESETS, ChannelConfig, load_config
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 
 HELP = "acoustic link budget of a modem: SNR and delivery at a range, or against range"
 

@@ -12,15 +12,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.mission.faults import Fault, FaultError, check_schedule, parse_faults
 from cotsfleet.mission.runner import horizon_of
 from fleet_agent.config import AgentConfig
 from fleet_agent.wire import MAX_TASKS, MAX_VEHICLES
 from fleet_bus.telemetry import Event
-from hfc_core.problem import Problem, ScenarioError
-from hfc_core.scenario import problem_from_dict
-from hfc_core.truth import Reef, reef_from_doc
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.errors import ScenarioError
+from hfc_core.model.problem import Problem
+from reef_sim.truth import Reef, reef_from_doc
 
 # The acoustic wire's limit (one byte of sender index) is the only cap on a fleet's size.
 MAX_PRESET_VEHICLES = MAX_VEHICLES
@@ -72,14 +73,14 @@ def scenario_doc(path: Path | None, vehicles: int | None, seed: int) -> dict[str
     paper preset drawn with ``seed`` (``vehicles`` changes its fleet size)."""
     if path is not None:
         from cotsfleet.io import read_scenario
-        from hfc_core.scenario import problem_to_dict
+        from hfc_core.formats.scenario import problem_to_dict
 
         problem, doc = read_scenario(path)  # validates, with a clear message
         return doc if doc is not None else problem_to_dict(problem)
 
     import numpy as np
 
-    from hfc_core.generate import PAPER_PRESET, generate_doc, paper_preset_doc
+    from reef_sim.scenarios.field import PAPER_PRESET, generate_doc, paper_preset_doc
 
     if vehicles is None or vehicles == PAPER_PRESET.n_vehicles:
         return paper_preset_doc(seed)

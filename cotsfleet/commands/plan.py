@@ -11,12 +11,13 @@ from typing import Any
 
 import numpy as np
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.io import read_scenario
-from hfc_core.check import check_routes
-from hfc_core.plan import plan_to_dict, vehicle_figures
-from hfc_core.problem import Problem
-from hfc_core.solve import BUDGET_FREE_MODES, MODES, SolveResult, engine, solve
+from hfc_core.model.check import check_routes
+from hfc_core.model.plan import plan_to_dict, vehicle_figures
+from hfc_core.model.problem import Problem
+from hfc_core.result import SolveResult
+from hfc_core.solve import BUDGET_FREE_MODES, MODES, engine, solve
 
 HELP = "plan a scenario: which AUV treats which COTS spots, in what order"
 

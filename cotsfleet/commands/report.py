@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 
 HELP = "render report.md and figures from a saved report.json (or sweep.md from a list)"
 

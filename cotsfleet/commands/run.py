@@ -9,8 +9,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from cotsfleet.cli import UsageError
 from cotsfleet.commands.mission_args import add_mission_arguments, mission_args, write_reports
+from cotsfleet.errors import UsageError
 from cotsfleet.mission.faults import FaultError
 
 HELP = "run an emulated mission: router, link emulator, one agent process per AUV, dashboard"

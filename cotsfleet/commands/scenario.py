@@ -14,14 +14,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from fleet_agent.wire import MAX_VEHICLES
-from hfc_core.generate import (PAPER_PRESET, AreaParams, DynamicParams, GeneratorParams,
-                                generate_area_doc, generate_doc, generate_dynamic_doc,
-                                out_of_reach)
-from hfc_core.problem import Problem, ScenarioError
-from hfc_core.scenario import problem_from_dict
-from hfc_core.truth import reef_from_doc
+from reef_sim.scenarios.area import AreaParams, generate_area_doc, out_of_reach
+from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
+from reef_sim.scenarios.field import PAPER_PRESET, GeneratorParams, generate_doc
+from hfc_core.model.errors import ScenarioError
+from hfc_core.model.problem import Problem
+from hfc_core.formats.scenario import problem_from_dict
+from reef_sim.truth import reef_from_doc
 
 if TYPE_CHECKING:
     from cotsfleet.geo import ReefOptions

@@ -8,8 +8,8 @@ import sys
 import time
 from pathlib import Path
 
-from cotsfleet.cli import UsageError
 from cotsfleet.commands.mission_args import add_mission_arguments, mission_args, write_reports
+from cotsfleet.errors import UsageError
 
 HELP = "simulate missions in-process (deterministic, seeded; --runs N for Monte Carlo)"
 

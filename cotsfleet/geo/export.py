@@ -1,7 +1,7 @@
 """A plan back on the globe: GeoJSON in longitude/latitude for QGIS, geojson.io, a chart plotter.
 
 Routes are LineStrings through every waypoint the vehicle really follows (legs bend around
-land and no-go polygons as `hfc_core.geometry.LandMap` routes them), with the depth as the
+land and no-go polygons as `hfc_core.model.geometry.LandMap` routes them), with the depth as the
 third coordinate (metres, negative down). Spots, stations and forbidden polygons come along
 with the same ``role`` properties a reef file uses.
 """
@@ -13,7 +13,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from cotsfleet.geo.frame import LocalFrame
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 DECIMALS = 7  # 1e-7 degree is about 1 cm
 

@@ -18,7 +18,7 @@ import numpy as np
 from pyproj import CRS, Transformer
 from pyproj.exceptions import CRSError
 
-from hfc_core.problem import ScenarioError
+from hfc_core.model.errors import ScenarioError
 
 LONLAT = "EPSG:4326"  # GeoJSON's coordinates (RFC 7946: WGS 84, longitude first)
 

@@ -20,7 +20,7 @@ from shapely.validation import explain_validity
 
 from cotsfleet.geo.frame import LocalFrame
 from fleet_agent.wire import MAX_VEHICLES
-from hfc_core.problem import ScenarioError
+from hfc_core.model.errors import ScenarioError
 
 ROLES = {
     "land": "Polygon or MultiPolygon: land (an island, a cay, the coast)",

@@ -28,19 +28,18 @@ from cotsfleet.mission.runner import Outcome, horizon_of, run_mission
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
 from fleet_agent.driver import AgentDriver
-from fleet_agent.helms.sim import sim_vehicle
+from fleet_agent.helms.sim import camera_figures, sim_vehicle
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Output
 from fleet_agent.journal import MemoryJournal
 from fleet_agent.motion import Conduct, OwnVehicle
 from fleet_agent.plans import Live, Planner
 from fleet_agent.routing import fit_route
-from fleet_agent.sensor import Camera
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition
 from fleet_bus.telemetry import Event, Status, Truth
-from hfc_core.problem import Problem
-from hfc_core.truth import Reef
+from hfc_core.model.problem import Problem
+from reef_sim.truth import Reef
 
 STEP_S = 60.0  # the runner looks at the mission (progress, end) this often
 Tap = Callable[[str, Sequence[Output]], None]  # (vehicle, outputs of one step): for tests
@@ -101,7 +100,7 @@ class InProcessBackend:
         # A simulated run is named by its seed, as its fleet key is: the same seed replays
         # the same mission bit for bit.
         self.fleet = Fleet.build(problem, key, seed, self.config, planner, run_id=f"sim-{seed}",
-                                 camera=None if reef is None else Camera.of(reef))
+                                 camera=None if reef is None else camera_figures(reef))
         self.loop = EventLoop()
         self.channel = Channel(replace(channel or ChannelConfig(), extra_loss=loss),
                                channel_rng(seed))

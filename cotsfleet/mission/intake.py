@@ -23,7 +23,7 @@ from fleet_bus import values as v
 from fleet_bus.auth import BusAuth
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.telemetry import STATES, Event, Status, decode_busy
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 T = TypeVar("T")
 

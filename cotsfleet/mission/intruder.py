@@ -12,7 +12,7 @@ import numpy as np
 
 from comms_sim.seeds import MISSION_STREAMS
 from fleet_agent.wire import Codec, Digest, Pose
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 NODE = "intruder"
 CAPTURE_LIMIT = 256

@@ -63,7 +63,7 @@ from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID,
 from fleet_bus.process import RELAY_READY, ROUTER_READY
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
 from fleet_agent.beliefs import find_ids
-from hfc_core.problem import Problem
+from hfc_core.model.problem import Problem
 
 POLL_WALL_S = 0.05
 ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router

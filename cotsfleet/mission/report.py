@@ -16,8 +16,8 @@ from cotsfleet.mission.faults import VEHICLE_FLAGS, Fault
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.telemetry import Event
 from fleet_bus.telemetry import detail_position as _fix
-from hfc_core.problem import Problem
-from hfc_core.truth import Reef
+from hfc_core.model.problem import Problem
+from reef_sim.truth import Reef
 
 FIX_TOLERANCE_M = 1.0  # a find's logged position (decimetres) names the truth spot this close
 

@@ -18,8 +18,8 @@ from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import Fault, check_schedule
 from cotsfleet.mission.report import build_report
 from fleet_bus.ledger import FleetLedger
-from hfc_core.problem import Problem
-from hfc_core.truth import Reef
+from hfc_core.model.problem import Problem
+from reef_sim.truth import Reef
 
 HORIZON_MARGIN_S = 120.0
 Progress = Callable[[float], None]

@@ -42,7 +42,7 @@ class Spots:
             battery_s={v["id"]: float(v["battery_s"]) for v in doc.get("vehicles", [])
                        if isinstance(v, Mapping) and "id" in v and "battery_s" in v},
             # Without a truth section the map is exact and nothing is inspected
-            # (`hfc_core.truth.exact_reef`); with one, its camera's figure.
+            # (`reef_sim.truth.exact_reef`); with one, its camera's figure.
             inspect_s=float(truth.get("inspect_s", DEFAULT_INSPECT_S)) if truth else 0.0,
         )
 

@@ -20,7 +20,7 @@ import uuid
 from importlib import metadata
 from typing import Any, Iterator, Sequence
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.sweep.spec import SweepSpec
 from cotsfleet.sweep.task import run_seed
 

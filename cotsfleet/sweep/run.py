@@ -14,7 +14,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import IO, Any, Iterator, Protocol, Sequence
 
-from cotsfleet.cli import UsageError
+from cotsfleet.errors import UsageError
 from cotsfleet.sweep.aggregate import by_seed
 from cotsfleet.sweep.spec import SweepSpec
 

@@ -52,8 +52,8 @@ def build_mission(spec: SweepSpec, seed: int) -> "MissionArgs":
     from cotsfleet.commands.mission_args import MissionArgs, scenario_doc
     from cotsfleet.mission.faults import check_schedule
     from cotsfleet.mission.runner import horizon_of
-    from hfc_core.scenario import problem_from_dict
-    from hfc_core.truth import reef_from_doc
+    from hfc_core.formats.scenario import problem_from_dict
+    from reef_sim.truth import reef_from_doc
 
     doc = dict(spec.scenario) if spec.scenario is not None else scenario_doc(
         None, spec.vehicles, seed)

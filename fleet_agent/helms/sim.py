@@ -8,11 +8,17 @@ hidden reef when the mission has one.
 
 from __future__ import annotations
 
-from hfc_core.paths import Point3
-from hfc_core.problem import Problem
-from hfc_core.truth import Reef
+from fleet_agent.sensor import Camera
+from hfc_core.model.paths import Point3
+from hfc_core.model.problem import Problem
+from reef_sim.truth import Reef
 from reef_sim.camera import ReefCamera
 from reef_sim.vehicle import SimVehicle
+
+
+def camera_figures(reef: Reef) -> Camera:
+    """What the agent may know of the simulated camera: its figures, never the reef."""
+    return Camera(reef.detect_radius_m, reef.p_detect, reef.inspect_s)
 
 
 def sim_vehicle(scenario: Problem, index: int, *, seed: int, reef: Reef | None, t_s: float,

@@ -8,8 +8,8 @@ import json
 import pytest
 
 from cotsfleet.cli import main
-from hfc_core.truth import reef_from_doc
-from hfc_core.scenario import problem_from_dict
+from reef_sim.truth import reef_from_doc
+from hfc_core.formats.scenario import problem_from_dict
 
 
 @pytest.fixture(scope="module")

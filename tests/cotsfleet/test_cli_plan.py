@@ -11,8 +11,8 @@ import pytest
 from cotsfleet.cli import main
 from cotsfleet.commands.plan import fits_alone
 from cotsfleet.io import read_scenario
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_from_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
+from hfc_core.formats.scenario import problem_from_dict
 
 FAST = ["--iterations", "15", "--population", "8"]
 

@@ -3,8 +3,8 @@ import json
 import pytest
 
 from cotsfleet.cli import main
-from hfc_core.cotsmap import cots_map_of
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from reef_sim.cotsmap import cots_map_of
 
 
 def test_paper_preset_to_file(tmp_path, capsys):
@@ -189,8 +189,9 @@ def test_a_large_area_mission_plans_and_flies(tmp_path, assert_feasible):
 
 def test_dynamic_paper_preset_is_the_demo_scenario(tmp_path, capsys):
     from cotsfleet.io import read_scenario
-    from hfc_core.generate import dynamic_preset_doc, paper_preset_doc
-    from hfc_core.truth import reef_from_doc
+    from reef_sim.scenarios.dynamic import dynamic_preset_doc
+    from reef_sim.scenarios.field import paper_preset_doc
+    from reef_sim.truth import reef_from_doc
 
     out = tmp_path / "dyn.json"
     assert main(["scenario", "--paper", "--dynamic", "--seed", "2", "-o", str(out)]) == 0
@@ -213,7 +214,7 @@ def test_static_scenarios_carry_no_truth(tmp_path, capsys):
 
 
 def test_dynamic_knobs_reach_the_truth(tmp_path):
-    from hfc_core.truth import reef_from_doc
+    from reef_sim.truth import reef_from_doc
 
     out = tmp_path / "dyn.json"
     assert main(["scenario", "--dynamic", "--tasks", "40", "--vehicles", "2", "--size", "600",
@@ -231,7 +232,7 @@ def test_dynamic_knobs_reach_the_truth(tmp_path):
 
 
 def test_dynamic_large_area(tmp_path, capsys):
-    from hfc_core.truth import reef_from_doc
+    from reef_sim.truth import reef_from_doc
 
     out = tmp_path / "area.json"
     assert main(["scenario", "--area-m", "3000", "--vehicles", "6", "--spots", "180",
@@ -266,7 +267,7 @@ def test_bad_dynamic_flags_exit_2_with_one_line(argv, message, capsys):
 
 
 def _with_truth(tmp_path, change):
-    from hfc_core.generate import dynamic_preset_doc
+    from reef_sim.scenarios.dynamic import dynamic_preset_doc
 
     doc = dynamic_preset_doc(0)
     change(doc["truth"])

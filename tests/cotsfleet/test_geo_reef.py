@@ -12,8 +12,8 @@ from shapely.geometry import LineString, Point, shape
 from cotsfleet.cli import main
 from cotsfleet.geo import LocalFrame, ReefOptions, scenario_from_geojson
 from cotsfleet.geo.frame import utm_crs
-from hfc_core.problem import ScenarioError
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.errors import ScenarioError
 
 MOORE_REEF = (146.2, -16.87)  # lon, lat: a reef off Cairns, UTM zone 55 south
 

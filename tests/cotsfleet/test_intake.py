@@ -15,8 +15,8 @@ from fleet_bus import keys
 from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, load_auth, new_run_id,
                                    write_run_credentials)
 from fleet_bus.telemetry import Event, Status, encode_busy
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_from_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
+from hfc_core.formats.scenario import problem_from_dict
 
 
 @dataclass

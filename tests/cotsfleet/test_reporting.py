@@ -17,8 +17,8 @@ from cotsfleet.reporting.timeline import (Spots, collected_over_time, down_inter
 from fleet_agent.config import AgentConfig
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import simulate
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_from_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
+from hfc_core.formats.scenario import problem_from_dict
 
 SCENARIO = GeneratorParams(n_tasks=24, n_vehicles=3, size_m=600.0, battery_s=1800.0)
 

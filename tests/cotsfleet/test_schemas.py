@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 
 from comms_sim.config import ChannelConfig, Partition, TdmaConfig
-from cotsfleet.cli import UsageError, main
+from cotsfleet.cli import main
+from cotsfleet.errors import UsageError
 from cotsfleet.io import read_agent_config, read_channel_config
 from cotsfleet.schemas import SchemaViolation, schema, validate
 from fleet_agent.config import AgentConfig
-from hfc_core.generate import GeneratorParams, generate_doc, paper_preset_doc
+from reef_sim.scenarios.field import GeneratorParams, generate_doc, paper_preset_doc
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -13,8 +13,8 @@ from cotsfleet.mission.faults import STALL_PERIOD_S, Fault, FaultError, check_sc
 from cotsfleet.mission.inprocess import simulate
 from fleet_agent.config import AgentConfig
 from fleet_agent.radio import Radio, Slots
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_from_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
+from hfc_core.formats.scenario import problem_from_dict
 
 
 def test_thaw_times_follow_the_period() -> None:

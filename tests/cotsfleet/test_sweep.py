@@ -21,8 +21,8 @@ from cotsfleet.sweep.local import LocalPool, describe_exit
 from cotsfleet.sweep.run import executor_for, run_sweep
 from cotsfleet.sweep.serial import Serial
 from fleet_agent.config import AgentConfig
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_to_dict
+from hfc_core.formats.scenario import problem_to_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
 
 SEEDS = range(3, 7)
 
@@ -185,7 +185,7 @@ def test_executor_choice() -> None:
     assert isinstance(executor_for(5, None, None), Serial)
     assert isinstance(executor_for(5, 1, None), Serial)
     assert executor_for(3, 8, None).jobs == 3  # never more workers than runs
-    from cotsfleet.cli import UsageError
+    from cotsfleet.errors import UsageError
     with pytest.raises(UsageError):
         executor_for(5, 0, None)
 

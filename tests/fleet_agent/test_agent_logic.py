@@ -26,9 +26,9 @@ from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Frame, Publish, Record, Send, Tick
 from fleet_agent.journal import MemoryJournal
 from fleet_agent.wire import Abort, Codec, Pose, WireError
-from hfc_core.generate import paper_preset_doc
-from hfc_core.problem import Problem
-from hfc_core.scenario import problem_from_dict
+from reef_sim.scenarios.field import paper_preset_doc
+from hfc_core.model.problem import Problem
+from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.vehicle import SimVehicle
 
 KEY = bytes(range(16))

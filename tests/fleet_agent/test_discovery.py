@@ -17,12 +17,13 @@ from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Frame, Tick
 from fleet_agent.journal import MemoryJournal
-from fleet_agent.sensor import Camera
+from fleet_agent.helms.sim import camera_figures
 from fleet_agent.wire import Codec, Digest, Found
+from hfc_core.formats.scenario import problem_from_dict
+from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
+from reef_sim.scenarios.field import GeneratorParams
+from reef_sim.truth import reef_from_doc
 from fleet_bus.vehicle_port import GoTo, Sighted
-from hfc_core.generate import DynamicParams, GeneratorParams, generate_dynamic_doc
-from hfc_core.scenario import problem_from_dict
-from hfc_core.truth import reef_from_doc
 from reef_sim.vehicle import SimVehicle
 
 KEY = bytes(range(16))
@@ -42,7 +43,7 @@ def fleet() -> Fleet:
     doc = small_doc()
     problem = problem_from_dict(doc)
     return Fleet.build(problem, KEY, 4, CONFIG, run_id=RUN,
-                       camera=Camera.of(reef_from_doc(doc, problem)))
+                       camera=camera_figures(reef_from_doc(doc, problem)))
 
 
 def off_map(fleet: Fleet, k: int) -> tuple[float, float, float]:
@@ -215,7 +216,7 @@ def test_two_vehicles_claiming_one_find_seconds_apart_treat_it_once(seed):
     near a settled find claimed it 1-5 s apart and each was at it before hearing the other's
     claim (one waited 27 s behind a pose and a FOUND). Claims now leave in the next slot and
     a late claim is worked only once it has settled (`Knowledge.settled_s`)."""
-    from hfc_core.generate import dynamic_preset_doc
+    from reef_sim.scenarios.dynamic import dynamic_preset_doc
 
     doc = dynamic_preset_doc(seed)
     problem = problem_from_dict(doc)
@@ -296,7 +297,7 @@ def test_a_find_on_land_is_refused_and_counted_and_the_problem_stays_plannable()
     problem = problem_from_dict(doc)
     assert problem.land is not None
     reef = reef_from_doc(doc, problem)
-    b = Beliefs(problem, Camera.of(reef), CONFIG, 0, 0, 7.5)
+    b = Beliefs(problem, camera_figures(reef), CONFIG, 0, 0, 7.5)
     poly = problem.forbidden[0]
     rng = np.random.default_rng(0)
     lo, hi = poly.min(axis=0), poly.max(axis=0)

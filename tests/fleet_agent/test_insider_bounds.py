@@ -15,8 +15,8 @@ from cotsfleet.mission.inprocess import InProcessBackend
 from fleet_agent.config import AgentConfig
 from fleet_agent.wire import (MAC_BYTES, MAX_LEAD_S, MAX_SEQ, Claim, Codec, Digest, Kind, Pose,
                               WireError, sender_key)
-from hfc_core.generate import paper_preset_doc
-from hfc_core.scenario import problem_from_dict
+from reef_sim.scenarios.field import paper_preset_doc
+from hfc_core.formats.scenario import problem_from_dict
 
 KEY = bytes(range(16))
 LOSSLESS = ChannelConfig(range_d50_m=1e9, max_range_m=1e9)

@@ -15,9 +15,9 @@ from fleet_agent.cleared import ClearedSet
 from fleet_agent.radio import Radio, Slots
 from fleet_agent.wire import MAX_FRAME_BYTES, NO_HEARD
 from fleet_bus.tdma import TdmaSchedule
-from hfc_core.check import check_routes
-from hfc_core.generate import AreaParams, generate_area_doc
-from hfc_core.scenario import problem_from_dict
+from hfc_core.model.check import check_routes
+from reef_sim.scenarios.area import AreaParams, generate_area_doc
+from hfc_core.formats.scenario import problem_from_dict
 
 KILL_S = 600.0
 

@@ -12,7 +12,7 @@ import pytest
 from fleet_agent.motion import Activity, Cleared, ReachedHome
 from fleet_agent.reckoning import position_along
 from fleet_agent.routing import fit_route
-from hfc_core.problem import Problem, Task, Vehicle as Spec
+from hfc_core.model.problem import Problem, Task, Vehicle as Spec
 from vehicle_loop import Loop, conduct
 
 

@@ -4,10 +4,10 @@ import pytest
 
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Live, Planner, set_planning_hook
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.feasibility import fits
+from reef_sim.scenarios.field import paper_preset_doc
 from fleet_agent.routing import fit_route
-from hfc_core.feasibility import fits
-from hfc_core.generate import paper_preset_doc
-from hfc_core.scenario import problem_from_dict
 from vehicle_loop import Loop
 
 RESERVE_S = AgentConfig().battery_reserve_s

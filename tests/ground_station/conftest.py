@@ -7,7 +7,7 @@ from typing import Any
 import pytest
 
 from gs_scripted import small_scenario
-from hfc_core.generate import paper_preset_doc
+from reef_sim.scenarios.field import paper_preset_doc
 
 
 @pytest.fixture

@@ -14,7 +14,8 @@ from ground_station.mapview import map_layers
 from ground_station.recording_reader import read_recording
 from ground_station.rerun_log import RerunDashboard, log_map
 from ground_station.state import FleetPicture
-from hfc_core.generate import DynamicParams, GeneratorParams, generate_dynamic_doc
+from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
+from reef_sim.scenarios.field import GeneratorParams
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,8 @@ import pytest
 
 from ground_station import palette
 from ground_station.mapview import FIELD_CELLS, map_layers
-from hfc_core.cotsmap import cots_map_of
-from hfc_core.problem import ScenarioError
+from hfc_core.model.errors import ScenarioError
+from reef_sim.cotsmap import cots_map_of
 
 
 def test_paper_scenario_draws_the_probability_field_with_land_in_black(paper_doc):

@@ -9,7 +9,7 @@ from rerun.chunk import RrdReader
 from ground_station import palette
 from ground_station.plan_recording import record_plan
 from ground_station.recording_reader import read_recording
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.solve import solve
 
 

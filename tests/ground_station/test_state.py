@@ -13,7 +13,7 @@ from ground_station.drawing import Current, Links, LogLine, Mark, Routes, Series
     Stations, Trails, Vehicles
 from ground_station.mapview import map_layers
 from ground_station.state import FleetPicture, Tuning
-from hfc_core.current import TIDE_STEP_S
+from hfc_core.model.current import TIDE_STEP_S
 
 
 def status(t: float, vid: str, route=(), treated=(), claims=(), state="transit",

@@ -7,12 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from hfc_core.check import _segment_enters
-from hfc_core.generate import paper_preset_doc
-from hfc_core.problem import Problem, ScenarioError, Task, Vehicle
-from hfc_core.replan import LiveVehicle, replan
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.check import _segment_enters
+from hfc_core.model.errors import ScenarioError
+from hfc_core.model.live import IndexedVehicle
+from hfc_core.model.problem import Problem, Task, Vehicle
+from hfc_core.replan import LiveVehicle, replan, replan_indexed
 from hfc_core.solve import solve
+from reef_sim.scenarios.field import paper_preset_doc
 
 
 @pytest.fixture(scope="module")
@@ -182,6 +184,43 @@ def test_unknown_ids_are_errors(paper):
         replan(paper, [LiveVehicle("nope", v.start, 100.0)])
     with pytest.raises(ScenarioError, match="unknown task"):
         replan(paper, [LiveVehicle(v.id, v.start, 100.0)], cleared=[123456])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_index_core_is_the_id_edge_without_the_ids(paper, paper_plan, seed):
+    """`replan_indexed` on indices gives exactly `replan`'s routes on the same ids, held spots
+    of gone vehicles and locked chains included."""
+    rng = np.random.default_rng(seed)
+    ids = [t.id for t in paper.tasks]
+    live, cleared = midway(paper, paper_plan, int(rng.integers(1, 4)))
+    live.pop(int(rng.integers(len(live))))
+    live = [LiveVehicle(v.id, v.pos, v.battery_s, route=v.route,
+                        locked=tuple(int(t) for t in rng.choice(ids, 2))) for v in live]
+    held = {int(t): str(rng.choice([v.id for v in paper.vehicles])) for t in rng.choice(ids, 8)}
+    by_id = replan(paper, live, cleared=cleared, held=held, max_iterations=20, seed=seed)
+    task = paper.task_index
+    indexed = [IndexedVehicle(paper.vehicle_index[v.id], v.pos, v.battery_s,
+                              route=tuple(task[t] for t in v.route),
+                              locked=tuple(task[t] for t in v.locked)) for v in live]
+    by_index = replan_indexed(paper, indexed, cleared={task[t] for t in cleared},
+                              held={task[t]: paper.vehicle_index[v] for t, v in held.items()},
+                              max_iterations=20, seed=seed)
+    assert list(by_index) == [paper.vehicle_index[v.id] for v in live]
+    assert {paper.vehicles[v].id: [ids[u] for u in r] for v, r in by_index.items()} == by_id
+
+
+def test_bad_indices_are_errors(paper):
+    start = paper.vehicles[0].start
+    for index in (3, -1, True, 0.0):
+        with pytest.raises(ScenarioError, match="no vehicle with index"):
+            replan_indexed(paper, [IndexedVehicle(index, start, 100.0)])
+    with pytest.raises(ScenarioError, match="listed twice"):
+        replan_indexed(paper, [IndexedVehicle(0, start, 100.0), IndexedVehicle(0, start, 9.0)])
+    for bad in ({"cleared": [paper.n_tasks]}, {"held": {-1: 0}}):
+        with pytest.raises(ScenarioError, match="no task with index"):
+            replan_indexed(paper, [IndexedVehicle(0, start, 100.0)], **bad)
+    with pytest.raises(ScenarioError, match="no task with index"):
+        replan_indexed(paper, [IndexedVehicle(0, start, 100.0, route=(paper.n_tasks,))])
 
 
 def island_problem() -> Problem:

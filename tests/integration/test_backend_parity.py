@@ -17,8 +17,8 @@ from cotsfleet.mission.inprocess import simulate
 from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
 from cotsfleet.mission.runner import run_mission
 from fleet_agent.config import AgentConfig
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
 
 pytestmark = pytest.mark.integration
 SEED = 4

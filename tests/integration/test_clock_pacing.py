@@ -19,8 +19,8 @@ import pytest
 from cotsfleet.commands.run import run_warnings
 from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
 from cotsfleet.mission.runner import run_mission
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_from_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
+from hfc_core.formats.scenario import problem_from_dict
 from leftovers import kill_children
 
 pytestmark = pytest.mark.integration

@@ -14,9 +14,10 @@ import pytest
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
 from cotsfleet.mission.runner import run_mission
-from hfc_core.generate import DynamicParams, GeneratorParams, generate_dynamic_doc
-from hfc_core.scenario import problem_from_dict
-from hfc_core.truth import reef_from_doc
+from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
+from reef_sim.scenarios.field import GeneratorParams
+from hfc_core.formats.scenario import problem_from_dict
+from reef_sim.truth import reef_from_doc
 from leftovers import alive, kill_children
 
 pytestmark = pytest.mark.integration

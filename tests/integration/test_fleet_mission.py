@@ -22,8 +22,8 @@ from fleet_agent.config import AgentConfig
 from fleet_agent.wire import Abort, Codec, Digest, Pose
 from fleet_bus import keys as bus
 from fleet_bus.session import client_config
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_from_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
+from hfc_core.formats.scenario import problem_from_dict
 from leftovers import kill_children
 
 pytestmark = pytest.mark.integration

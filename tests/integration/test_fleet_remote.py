@@ -21,8 +21,8 @@ from fleet_agent.config import AgentConfig, dump_config
 from fleet_bus.credentials import write_run_credentials
 from fleet_bus.process import ROUTER_READY as READY
 from fleet_bus.session import free_tcp_endpoint, local_endpoint
-from hfc_core.generate import GeneratorParams, generate_doc
-from hfc_core.scenario import problem_from_dict
+from hfc_core.formats.scenario import problem_from_dict
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
 
 pytestmark = pytest.mark.integration
 KEY_HEX = "00112233445566778899aabbccddeeff"

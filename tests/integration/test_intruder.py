@@ -26,7 +26,7 @@ import pytest
 from cotsfleet.mission.bus_intruder import BusIntruder
 from fleet_bus.credentials import load_login
 from fleet_bus.session import free_tcp_endpoint
-from hfc_core.generate import GeneratorParams, generate_doc
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
 from leftovers import alive
 
 REPO = Path(__file__).resolve().parents[2]

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hfc_core.generate import GeneratorParams, generate_doc
+from reef_sim.scenarios.field import GeneratorParams, generate_doc
 from leftovers import alive
 
 REPO = Path(__file__).resolve().parents[2]

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from fleet_agent.motion import Activity, Cleared, Inspected
-from hfc_core.problem import Problem, Task, Vehicle as VehicleSpec
-from hfc_core.truth import Reef, TruthSpot
+from hfc_core.model.problem import Problem, Task, Vehicle as VehicleSpec
 from reef_sim.camera import ReefCamera, pass_seen, segment_distance_m
+from reef_sim.truth import Reef, TruthSpot
 from vehicle_loop import Loop, conduct
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from fleet_bus.vehicle_port import (HOME_TARGET, Abort, Arrived, GoTo, Injected, NavFix,
                                     Refused, ReturnHome, StationKeep, Work)
-from hfc_core.problem import Problem, Task, Vehicle as Spec
+from hfc_core.model.problem import Problem, Task, Vehicle as Spec
 from reef_sim.vehicle import Phase, SimVehicle, fly
 
 

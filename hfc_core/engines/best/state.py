@@ -1,0 +1,177 @@
+"""The search state: routes with cached travel times, and cached best insertions per route.
+
+Routes hold task nodes only; a vehicle's terminals come from the instance. Each route's travel
+time is recomputed from the vehicle's travel times whenever the route changes (never
+accumulated), so feasibility never drifts. ``ins_s[v, u]`` / ``ins_pos[v, u]`` cache the
+cheapest insertion of every task into route ``v`` (extra travel seconds, position); a route's
+row is refreshed lazily after it changes, which is what makes repeated greedy insertion cheap.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hfc_core.engines.best.instance import Instance
+from hfc_core.model.feasibility import fits, room_s
+
+UNASSIGNED = -1
+
+
+class State:
+    """Mutable; operators work on a `copy` and return it."""
+
+    __slots__ = ("inst", "routes", "travel_s", "service_s", "owner", "ins_s", "ins_pos", "stale",
+                 "_nodes", "_values")
+
+    def __init__(self, inst: Instance, routes: list[list[int]] | None = None) -> None:
+        self.inst = inst
+        k, n = inst.k, inst.n
+        self.routes = [list(r) for r in routes] if routes else [[] for _ in range(k)]
+        self.owner = np.full(n, UNASSIGNED, dtype=np.int64)
+        for v, route in enumerate(self.routes):
+            self.owner[route] = v
+        self._nodes = [self._terminals(v) for v in range(k)]
+        self._values = [self._route_values(v) for v in range(k)]
+        self.service_s = [self._service(v) for v in range(k)]
+        self.travel_s = [self._travel(v) for v in range(k)]
+        self.ins_s = np.zeros((k, n))
+        self.ins_pos = np.zeros((k, n), dtype=np.int64)
+        self.stale = np.ones(k, dtype=bool)
+
+    def copy(self) -> "State":
+        other = State.__new__(State)
+        other.inst = self.inst
+        other.routes = [list(r) for r in self.routes]
+        other._nodes = list(self._nodes)  # arrays are never modified in place
+        other._values = list(self._values)
+        other.travel_s = list(self.travel_s)
+        other.service_s = list(self.service_s)
+        other.owner = self.owner.copy()
+        other.ins_s = self.ins_s.copy()
+        other.ins_pos = self.ins_pos.copy()
+        other.stale = self.stale.copy()
+        return other
+
+    # --- figures -------------------------------------------------------------------------
+    def nodes(self, v: int) -> np.ndarray:
+        """Route ``v`` with its terminals: start, tasks..., end (read only)."""
+        return self._nodes[v]
+
+    def _terminals(self, v: int) -> np.ndarray:
+        inst = self.inst
+        return np.array([inst.start[v], *self.routes[v], inst.end[v]], dtype=np.int64)
+
+    def _route_values(self, v: int) -> np.ndarray:
+        return self.inst.value[v, self.routes[v]]
+
+    def _travel(self, v: int) -> float:
+        nodes = self.nodes(v)
+        if self.inst.clock is not None:  # as flown through the tide, less the injections
+            return self.inst.clock.route_time_s(v, nodes) - self.service_s[v]
+        return float(self.inst.travel_s[v][nodes[:-1], nodes[1:]].sum())
+
+    def _service(self, v: int) -> float:
+        route = self.routes[v]
+        return float(self.inst.service_s[route].sum()) if route else 0.0
+
+    def _changed(self, v: int) -> None:
+        self._nodes[v] = self._terminals(v)
+        self._values[v] = self._route_values(v)
+        self.service_s[v] = self._service(v)
+        self.travel_s[v] = self._travel(v)
+        self.stale[v] = True
+
+    def time_s(self, v: int) -> float:
+        return self.travel_s[v] + self.service_s[v]
+
+    def slack_s(self, v: int) -> float:
+        """Extra time route ``v`` may take and still fit (`hfc_core.model.feasibility.room_s`)."""
+        return room_s(self.time_s(v), float(self.inst.budget_s[v]))
+
+    def fits(self, v: int) -> bool:
+        """Route ``v`` fits its budget, by its own sum (`hfc_core.model.feasibility.fits`)."""
+        return bool(fits(self.time_s(v), float(self.inst.budget_s[v])))
+
+    def value(self) -> float:
+        """Value collected, summed task after task in route order (a sequential cumsum: the
+        same bits on every Python, where builtin ``sum`` of floats changed in 3.12)."""
+        picked = np.concatenate(self._values)
+        return float(np.cumsum(picked)[-1]) if len(picked) else 0.0
+
+    def total_time_s(self) -> float:
+        return sum(self.time_s(v) for v in range(self.inst.k))
+
+    def objective(self, tie_weight: float) -> float:
+        """Value collected, less a tie-breaking touch of mission time (`Instance.tie_weight`)."""
+        return self.value() - tie_weight * self.total_time_s()
+
+    def feasible(self) -> bool:
+        return all(self.fits(v) for v in range(self.inst.k))
+
+    def positions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Every routed task, route after route: (task, its vehicle, its index in the route,
+        the node before it, the node after it; terminals included)."""
+        terms = [self.nodes(v) for v in range(self.inst.k)]
+        lengths = [len(r) for r in self.routes]
+        return (np.concatenate([t[1:-1] for t in terms]),
+                np.repeat(np.arange(self.inst.k), lengths),
+                np.concatenate([np.arange(n) for n in lengths]),
+                np.concatenate([t[:-2] for t in terms]),
+                np.concatenate([t[2:] for t in terms]))
+
+    # --- edits ---------------------------------------------------------------------------
+    def set_route(self, v: int, route: list[int]) -> None:
+        """Replace route ``v`` (its tasks must be unassigned or already its own)."""
+        self.owner[self.routes[v]] = UNASSIGNED
+        self.routes[v] = list(route)
+        self.owner[route] = v
+        self._changed(v)
+
+    def insert(self, v: int, u: int, pos: int) -> None:
+        self.routes[v].insert(pos, u)
+        self.owner[u] = v
+        self._changed(v)
+
+    def try_insert(self, v: int, u: int) -> bool:
+        """Insert ``u`` at its cached cheapest position in route ``v`` if the route's own sum
+        still fits; the cached estimate can fit where the sum does not (rounding): undone."""
+        self.insert(v, u, int(self.ins_pos[v, u]))
+        if self.fits(v):
+            return True
+        self.remove([u])
+        return False
+
+    def remove(self, tasks: list[int]) -> None:
+        """Unassign ``tasks`` from whatever routes hold them."""
+        drop = set(tasks)
+        for v in {int(self.owner[u]) for u in drop if self.owner[u] >= 0}:
+            self.routes[v] = [u for u in self.routes[v] if u not in drop]
+            self._changed(v)
+        self.owner[list(drop)] = UNASSIGNED
+
+    # --- insertion cache -----------------------------------------------------------------
+    def refresh_route(self, v: int) -> None:
+        """Recompute the cheapest insertion of every task into route ``v``."""
+        n = self.inst.n
+        time = self.inst.travel_s[v]
+        nodes = self.nodes(v)
+        to_tasks = time[nodes, :n]  # (L, n)
+        if self.inst.symmetric:
+            extra = to_tasks[:-1] + to_tasks[1:]
+        else:  # edge a -> b becomes a -> u -> b
+            extra = to_tasks[:-1] + time[:n, nodes[1:]].T
+        extra -= time[nodes[:-1], nodes[1:]][:, None]
+        pos = extra.argmin(axis=0)
+        self.ins_pos[v] = pos
+        self.ins_s[v] = extra[pos, np.arange(n)]
+        self.stale[v] = False
+
+    def refresh(self) -> None:
+        """Recompute the cheapest insertions into each changed route."""
+        for v in np.flatnonzero(self.stale):
+            self.refresh_route(int(v))
+
+    def insertion_time_s(self) -> np.ndarray:
+        """(k, n) extra mission time of each task's cheapest insertion into each route."""
+        self.refresh()
+        return self.ins_s + self.inst.service_s[None, :]
