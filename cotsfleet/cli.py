@@ -24,6 +24,7 @@ COMMANDS = {
     "report": "report",
     "link": "link",
     "credentials": "credentials",
+    "water": "water",
 }
 
 
