@@ -132,6 +132,7 @@ class _Link:
     inbuf: bytearray = field(default_factory=bytearray)
     address_known: bool = False
     config_deadline: float = 0.0
+    discarding: bool = False  # inside an over-long line: dropped up to its end
 
 
 class MicroModem:
@@ -319,13 +320,17 @@ class MicroModem:
                 break
             line = bytes(link.inbuf[:cut]).strip()
             del link.inbuf[:cut + 1]
-            if line:
+            if link.discarding:
+                link.discarding = False
+            elif line:
                 self._on_line(line)
             if self._link is not link:
                 return
         if len(link.inbuf) > MAX_LINE_CHARS:
-            self.counters["nmea_too_long"] += 1
             link.inbuf.clear()
+            if not link.discarding:
+                link.discarding = True
+                self.counters["nmea_too_long"] += 1
 
     def _on_line(self, line: bytes) -> None:
         try:
