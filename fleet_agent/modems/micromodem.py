@@ -25,88 +25,24 @@ from __future__ import annotations
 
 import os
 import select
-import socket
 import threading
 import time
 from collections import Counter, deque
-from dataclasses import dataclass, field
-from typing import Protocol, Sequence
+from dataclasses import dataclass
+from typing import Sequence
 
+from fleet_agent.modems.link import DEFAULT_BAUD, REPLY_TIMEOUT_S, NmeaLink, parse_link
 from fleet_bus import nmea
 from fleet_bus.clock import Clock
 from fleet_bus.modem_port import (Acked, Dropped, ModemReport, ModemSpec, Received,
                                   ReportSink, Sent)
-from fleet_bus.nmea import BROADCAST, MAX_LINE_CHARS, RATES, NmeaError
+from fleet_bus.nmea import BROADCAST, RATES
 
-REPLY_TIMEOUT_S = 3.0  # wall seconds a modem may take to answer a sentence
 TXF_MARGIN_S = 5.0  # wall seconds past a packet's airtime before its $CATXF is given up
 SILENT_CYCLES = 3  # cycles in a row without an answer: the link is reopened
 RECONNECT_S = 1.0
 MAX_QUEUED = 8  # transmissions waiting for the modem
-DEFAULT_BAUD = 19200  # the Micro-Modem's default serial rate [Goby MMDriver DEFAULT_BAUD]
 SUPERSEDABLE = "pose"
-
-
-class _Stream(Protocol):
-    def fileno(self) -> int: ...
-    def read_available(self) -> bytes: ...
-    def write(self, data: bytes) -> None: ...
-    def close(self) -> None: ...
-
-
-class _TcpStream:
-    def __init__(self, host: str, port: int) -> None:
-        self.sock = socket.create_connection((host, port), timeout=REPLY_TIMEOUT_S)
-        self.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-
-    def fileno(self) -> int:
-        return self.sock.fileno()
-
-    def read_available(self) -> bytes:
-        data = self.sock.recv(4096)
-        if not data:
-            raise ConnectionError("the modem closed the link")
-        return data
-
-    def write(self, data: bytes) -> None:
-        self.sock.sendall(data)
-
-    def close(self) -> None:
-        self.sock.close()
-
-
-class _SerialStream:
-    def __init__(self, device: str, baud: int) -> None:
-        try:
-            import serial  # optional dependency: only a serial modem needs it
-        except ImportError:
-            raise OSError("a serial Micro-Modem needs pyserial (pip install pyserial)") from None
-        self.port = serial.Serial(device, baud, timeout=0, write_timeout=REPLY_TIMEOUT_S)
-
-    def fileno(self) -> int:
-        return self.port.fileno()
-
-    def read_available(self) -> bytes:
-        return self.port.read(4096)
-
-    def write(self, data: bytes) -> None:
-        self.port.write(data)
-
-    def close(self) -> None:
-        self.port.close()
-
-
-def parse_link(link: str) -> tuple[str, str, int]:
-    """``tcp:HOST:PORT`` -> ("tcp", host, port); a device path -> ("serial", path, 0).
-    Raises ValueError."""
-    if link.startswith("tcp:"):
-        host, _, port = link[4:].rpartition(":")
-        if not host or not port.isdigit() or not 1 <= int(port) <= 65535:
-            raise ValueError(f"modem link {link!r}: expected tcp:HOST:PORT")
-        return "tcp", host, int(port)
-    if not link or ":" in link:
-        raise ValueError(f"modem link {link!r}: expected tcp:HOST:PORT or a device path")
-    return "serial", link, 0
 
 
 @dataclass
@@ -124,15 +60,6 @@ class _Cycle:
     given: int = 0
     started_s: float | None = None
     t_s: float = 0.0
-
-
-@dataclass
-class _Link:
-    stream: _Stream
-    inbuf: bytearray = field(default_factory=bytearray)
-    address_known: bool = False
-    config_deadline: float = 0.0
-    discarding: bool = False  # inside an over-long line: dropped up to its end
 
 
 class MicroModem:
@@ -173,7 +100,7 @@ class MicroModem:
         self._clock = clock
         self._lock = threading.Lock()
         self._queue: deque[_Packet] = deque()
-        self._link: _Link | None = None
+        self._link: NmeaLink | None = None
         self._cycle: _Cycle | None = None
         self._last_sent_s = 0.0
         self._silent = 0
@@ -240,7 +167,7 @@ class MicroModem:
             if self._link is None and time.monotonic() >= next_try:
                 next_try = time.monotonic() + RECONNECT_S
                 self._open_link()
-            fds = [self._wake_r] + ([self._link.stream.fileno()] if self._link else [])
+            fds = [self._wake_r] + ([self._link.fileno()] if self._link else [])
             try:
                 readable, _, _ = select.select(fds, [], [], self._wait_s(next_try))
             except (OSError, ValueError):
@@ -251,7 +178,7 @@ class MicroModem:
                     os.read(self._wake_r, 512)
                 except OSError:
                     pass
-            if self._link is not None and self._link.stream.fileno() in readable:
+            if self._link is not None and self._link.fileno() in readable:
                 self._read()
             self._check_deadlines()
             self._next_cycle()
@@ -267,15 +194,14 @@ class MicroModem:
 
     def _open_link(self) -> None:
         try:
-            stream: _Stream = _TcpStream(self._where, self._port) if self._kind == "tcp" \
-                else _SerialStream(self._where, self.baud)
+            link = NmeaLink.open(self._kind, self._where, self._port, self.baud, self.counters)
         except OSError as exc:
             self.counters["connect_failed"] += 1
             self._drop_queue("no_modem")
             self.last_error = str(exc)
             return
         with self._lock:
-            self._link = _Link(stream)
+            self._link = link
         self.counters["connects"] += 1
         self._configure()
 
@@ -293,10 +219,7 @@ class MicroModem:
         with self._lock:
             link, self._link = self._link, None
         if link is not None:
-            try:
-                link.stream.close()
-            except OSError:
-                pass
+            link.close()
 
     def _lost(self, why: str) -> None:
         self.counters[f"link_lost_{why}"] += 1
@@ -308,43 +231,20 @@ class MicroModem:
         link = self._link
         assert link is not None
         try:
-            data = link.stream.read_available()
+            messages = link.read()
         except (OSError, ConnectionError):
             self._lost("read")
             return
-        link.inbuf += data
-        while True:
-            cut = min((i for i in (link.inbuf.find(b"\r"), link.inbuf.find(b"\n")) if i >= 0),
-                      default=-1)
-            if cut < 0:
-                break
-            line = bytes(link.inbuf[:cut]).strip()
-            del link.inbuf[:cut + 1]
-            if link.discarding:
-                link.discarding = False
-            elif line:
-                self._on_line(line)
+        for message in messages:
+            self.counters["lines"] += 1
+            self._silent = 0
+            handler = getattr(self, "_on_" + type(message).__name__, None)
+            if handler is None:
+                self.counters["ignored"] += 1
+            else:
+                handler(message)
             if self._link is not link:
                 return
-        if len(link.inbuf) > MAX_LINE_CHARS:
-            link.inbuf.clear()
-            if not link.discarding:
-                link.discarding = True
-                self.counters["nmea_too_long"] += 1
-
-    def _on_line(self, line: bytes) -> None:
-        try:
-            m = nmea.decode(line)
-        except NmeaError as exc:
-            self.counters[f"nmea_{exc.reason}"] += 1
-            return
-        self.counters["lines"] += 1
-        self._silent = 0
-        handler = getattr(self, "_on_" + type(m).__name__, None)
-        if handler is None:
-            self.counters["ignored"] += 1
-        else:
-            handler(m)
 
     # -- what the modem says ---------------------------------------------------------------
 
@@ -486,7 +386,7 @@ class MicroModem:
         if link is None:
             return
         try:
-            link.stream.write(nmea.encode(message))
+            link.send(message)
         except OSError:
             self._lost("write")
 
