@@ -67,6 +67,7 @@ class _Reception:
     audible: bool
     collided: bool = False
     deaf: bool = False  # the receiver transmitted meanwhile
+    tag: object = None  # the submitter's annotation, handed back in the LinkEvent
     # physical model
     power: float = 0.0  # mean received power, uPa^2: what it adds to others' interference
     gain: float = 1.0  # this frame's fading power gain on this link
@@ -180,26 +181,30 @@ class Channel:
     # -- traffic ---------------------------------------------------------------------------
 
     def submit(self, src: str, frame: bytes, t_s: float, kind: str = "data", *,
-               keep_time: bool = False) -> list[LinkEvent]:
+               keep_time: bool = False, tag: object = None) -> list[LinkEvent]:
         """Queue ``frame`` for transmission by ``src`` from ``t_s`` on. Returns the immediate
-        refusal (oversize) if any; everything else settles in later `advance` calls.
+        refusal (oversize) if any; everything else settles in later `advance` calls. ``tag``
+        comes back untouched in every `LinkEvent` of the frame (a face's own header: the
+        frame's bytes are what occupies the water, the tag what the face must know of them).
 
         A ``t_s`` the channel has already moved past is clamped to its time, unless
         ``keep_time``: a frame an emulated sender handed over late (its host lagged behind the
         mission clock) keeps its place. Receptions still pending interfere with it as ever;
         those already settled are history: they neither hurt it nor are hurt by it."""
         if keep_time and t_s < self._now_s:
-            return self._queue(src, frame, t_s, kind)
+            return self._queue(src, frame, t_s, kind, tag)
         self._catch_up(t_s)
         t_s = max(t_s, self._now_s)
         self._now_s = t_s
-        return self._queue(src, frame, t_s, kind)
+        return self._queue(src, frame, t_s, kind, tag)
 
-    def _queue(self, src: str, frame: bytes, t_s: float, kind: str) -> list[LinkEvent]:
+    def _queue(self, src: str, frame: bytes, t_s: float, kind: str,
+               tag: object = None) -> list[LinkEvent]:
         node = self._node(src)
         frame = bytes(frame)
         if len(frame) > self.config.max_frame_bytes:
-            event = LinkEvent(src, BROADCAST, t_s, t_s, len(frame), False, "oversize", frame)
+            event = LinkEvent(src, BROADCAST, t_s, t_s, len(frame), False, "oversize", frame,
+                              tag=tag)
             self._stats.record(event)
             return [event]
         if self.config.tdma is not None and src not in self._slots:
@@ -209,7 +214,7 @@ class Channel:
             # frames; memory stays bounded and no other sender waits longer for it.
             self._stats.add(src, BROADCAST, "queue_full")
             return []
-        superseded = node.queue.push(QueuedFrame(frame, kind, t_s))
+        superseded = node.queue.push(QueuedFrame(frame, kind, t_s, tag))
         if superseded:
             self._stats.add(src, BROADCAST, "superseded", superseded)
         self._schedule_next(src, node, t_s)
@@ -313,11 +318,11 @@ class Channel:
                     r.deaf = True
         for dst, dst_node in self._nodes.items():
             if dst != src:
-                self._receive(src, node, dst, dst_node, head.frame, t_s)
+                self._receive(src, node, dst, dst_node, head.frame, t_s, head.tag)
         self._schedule_next(src, node, end)
 
     def _receive(self, src: str, node: _Node, dst: str, dst_node: _Node, frame: bytes,
-                 t_s: float) -> None:
+                 t_s: float, tag: object = None) -> None:
         cfg = self.config
         # a fixed number of draws per frame and link, used or not: stable streams
         draws = self._link_rng(src, dst).random(4 if self._physical else 2).tolist()
@@ -338,6 +343,7 @@ class Channel:
                 r.fate = "range"
             elif draws[1] < self._extra_loss:
                 r.fate = "random"
+        r.tag = tag
         if r.audible:
             if cfg.half_duplex and dst_node.tx_end_s > r.start_s and dst_node.tx_start_s < r.end_s:
                 r.deaf = True
@@ -382,7 +388,7 @@ class Channel:
         if reason not in ("partition", "range", "sinr"):
             reason = "half_duplex" if r.deaf else "collision" if r.collided else reason
         event = LinkEvent(r.src, r.dst, r.t_sent_s, r.end_s, len(r.frame), reason is None,
-                          reason, r.frame, snr_db, sinr_db)
+                          reason, r.frame, snr_db, sinr_db, r.tag)
         self._stats.record(event)
         return event
 

@@ -6,7 +6,7 @@ handed to listeners of the in-process network.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import msgpack
@@ -37,6 +37,9 @@ class LinkEvent:
     frame: bytes
     snr_db: float | None = None
     sinr_db: float | None = None
+    # The submitter's own annotation of the frame (`Channel.submit` ``tag``), handed back
+    # untouched and never encoded: e.g. the Micro-Modem face's packet header.
+    tag: Any = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.delivered != (self.reason is None):

@@ -13,15 +13,18 @@ is bounded (`comms_sim.channel.MAX_QUEUED_FRAMES`) and so is the number of parti
 flood costs the flooder's own queue, never another sender's.
 
 `Relay` holds the logic and is driven by plain calls (tests drive it without Zenoh); `serve`
-wires it to a session. Zenoh callbacks run on Zenoh's threads, the scheduler on the caller's,
-so the channel is guarded by one lock and nothing is published while holding it.
+wires it to a session. It stands on a `comms_sim.water.Water` (the channel behind one lock,
+the scheduler): Zenoh callbacks run on Zenoh's threads, the scheduler on the caller's, and
+nothing is published while holding the lock. The emulated Micro-Modems stand on the same
+water (`comms_sim.micromodem`), with a relay that publishes link events but no deliveries.
 """
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import threading
-from typing import Callable, Protocol, Sequence
+from typing import Callable, Sequence
 
 import msgpack
 import zenoh
@@ -31,6 +34,7 @@ from comms_sim.config import ChannelConfig, with_tdma
 from comms_sim.control import apply_control
 from comms_sim.link_event import LinkEvent
 from comms_sim.seeds import channel_rng
+from comms_sim.water import SimClock, Water
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, Refused, seal
 from fleet_bus.clock import WarpClock
@@ -51,38 +55,39 @@ MAX_PARTITIONS = 64  # scheduled partitions the channel holds; more link control
 MAX_LATE_S = 60.0
 
 
-class SimClock(Protocol):
-    def now(self) -> float: ...
-    def wall_delay(self, sim_dt_s: float) -> float: ...
-
-
 def delivery_attachment(event: LinkEvent) -> bytes:
     """Metadata put beside a delivered frame on ``fleet/rx/<dst>`` (the frame stays raw)."""
     return msgpack.packb({"src": event.src, "t_s": event.t_s, "t_sent_s": event.t_sent_s})
 
 
 class Relay:
-    """The channel behind a lock, fed by bus samples, publishing through ``put``.
+    """The bus face of a `Water`: bus samples in, deliveries and link events out through
+    ``put``.
 
     ``vehicles`` is the roster: frames and truths of other ids are dropped as unknown. A
     roster vehicle whose truth has not come yet is still heard by the channel (which counts
     its frames as out of range until it is located: its first truth may race its first
     frame). Without a roster a vehicle is known once its truth has been seen, so that garbage
-    ids do not become phantom receivers."""
+    ids do not become phantom receivers. ``deliver=False`` publishes link events only: another
+    face (the emulated Micro-Modems) delivers the frames; ``water`` shares an existing one."""
 
     def __init__(self, channel: Channel, clock: SimClock, put: Put,
-                 vehicles: frozenset[str] | None = None, auth: BusAuth | None = None) -> None:
+                 vehicles: frozenset[str] | None = None, auth: BusAuth | None = None, *,
+                 deliver: bool = True, water: Water | None = None) -> None:
+        self.water = Water(channel, clock) if water is None else water
+        if self.water.channel is not channel or self.water.clock is not clock:
+            raise ValueError("a shared water must hold the relay's channel and clock")
         self.channel = channel
         self.auth = auth
         self.clock = clock
         self._put = put
+        self._deliver = deliver
         self._vehicles = vehicles
         self._located: set[str] = set()
-        self._lock = threading.Lock()
-        self._wakeup = threading.Condition(self._lock)
-        self._dirty = False
+        self._lock = self.water.lock
         self.counters = dict.fromkeys(RELAY_COUNTERS, 0)
         self.max_late_s = 0.0  # the most a frame was placed back from its arrival (late_tx)
+        self.water.add_listener(self._publish)
 
     # -- inputs (any thread) ---------------------------------------------------------------
 
@@ -106,18 +111,18 @@ class Relay:
         late: counted ``late_tx``), at the relay's time if not yet or if undated; dated more
         than `MAX_LATE_S` back, it is sent now and counted ``misdated_tx``."""
         frame = self._open(keys.tx_key(vid), envelope) if vid else envelope
-        with self._lock:
+
+        def submit(channel: Channel, now: float) -> list[LinkEvent]:
             self.counters["tx"] += 1
             if frame is None:
-                return
+                return []
             if not vid or not frame:
                 self.counters["malformed_tx"] += 1
-                return
+                return []
             known = self._located if self._vehicles is None else self._vehicles
             if vid not in known:
                 self.counters["unknown_tx"] += 1
-                return
-            now = self.clock.now()
+                return []
             t_s, keep = now, False
             if sent_s is not None and sent_s < now:
                 if sent_s >= now - MAX_LATE_S:
@@ -126,10 +131,9 @@ class Relay:
                     self.max_late_s = max(self.max_late_s, now - sent_s)
                 else:
                     self.counters["misdated_tx"] += 1
-            refused = self.channel.submit(vid, frame, t_s, kind, keep_time=keep)
-            self._dirty = True
-            self._wakeup.notify()
-        self._publish(refused)
+            return channel.submit(vid, frame, t_s, kind, keep_time=keep)
+
+        self.water.act(submit)
 
     def on_truth(self, vid: str, envelope: bytes) -> None:
         payload = self._open(keys.truth_key(vid), envelope) if vid else envelope
@@ -150,28 +154,26 @@ class Relay:
 
     def on_ctl(self, envelope: bytes) -> None:
         payload = self._open(keys.LINK_CTL, envelope)
-        with self._lock:
+
+        def control(channel: Channel, now: float) -> list[LinkEvent]:
             self.counters["ctl"] += 1
             if payload is None:
-                return
+                return []
             try:
-                now = self.clock.now()
                 control = LinkControl.decode(payload, now)
                 if control.partition is not None and not control.clear_partitions and \
-                        len(self.channel.partitions) >= MAX_PARTITIONS:
+                        len(channel.partitions) >= MAX_PARTITIONS:
                     self.counters["ctl_too_many_partitions"] += 1
-                    return
-                apply_control(control, self.channel, now)
-                refused = []
+                    return []
+                apply_control(control, channel, now)
                 if control.inject is not None and control.inject_at is not None:
-                    self.channel.set_position(INTRUDER, control.inject_at, now)
-                    refused = self.channel.submit(INTRUDER, control.inject, now, "data")
+                    channel.set_position(INTRUDER, control.inject_at, now)
+                    return channel.submit(INTRUDER, control.inject, now, "data")
             except ValueError:
                 self.counters["malformed_ctl"] += 1
-                return
-            self._dirty = True
-            self._wakeup.notify()
-        self._publish(refused)
+            return []
+
+        self.water.act(control)
 
     def stats_payload(self) -> bytes:
         with self._lock:
@@ -182,40 +184,21 @@ class Relay:
                 "extra_loss": self.channel.extra_loss,
                 "partitions": [p.to_dict() for p in self.channel.partitions]})
 
-    # -- scheduler (one thread) ------------------------------------------------------------
+    # -- scheduler (one thread): the water's --------------------------------------------
 
     def step(self) -> float | None:
         """Settle everything due now and publish it; return the next due simulation time."""
-        with self._lock:
-            now = self.clock.now()
-            events = self.channel.advance(now)
-            due = self.channel.next_due_s()
-        self._publish(events)
-        return due
+        return self.water.step()
 
     def run(self, stop: threading.Event, max_wait_s: float = 0.5) -> None:
-        """Step at each due time until ``stop`` is set (bounded waits keep stop prompt)."""
-        while not stop.is_set():
-            due = self.step()
-            with self._lock:
-                if self._dirty:
-                    self._dirty = False
-                    continue
-                wait = max_wait_s if due is None else min(
-                    max_wait_s, self.clock.wall_delay(due - self.clock.now()))
-                if wait > 0:
-                    self._wakeup.wait(wait)
-                self._dirty = False
+        self.water.run(stop, max_wait_s)
 
     def wake(self) -> None:
-        """Make `run` look at the channel (and at its stop event) now."""
-        with self._lock:
-            self._dirty = True
-            self._wakeup.notify()
+        self.water.wake()
 
     def _publish(self, events: list[LinkEvent]) -> None:
         for event in events:
-            if event.delivered:
+            if event.delivered and self._deliver:
                 self._put(keys.rx_key(event.dst), event.frame, delivery_attachment(event))
             self._put(keys.link_event_key(event.src, event.dst), link_record(event).encode(),
                       None)
@@ -227,15 +210,10 @@ def link_record(event: LinkEvent) -> LinkRecord:
                       event.delivered, event.reason, getattr(event, "snr_db", None))
 
 
-def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threading.Event,
-          vehicles: frozenset[str] | None = None,
-          on_ready: Callable[[Relay], None] | None = None,
-          auth: BusAuth | None = None) -> Relay:
-    """Relay ``channel`` on ``session`` until ``stop`` is set; returns the relay (counters).
-    With ``auth`` what it takes must be signed by its rightful sender and what it publishes
-    is signed by the relay."""
-
-    publishers: dict[str, zenoh.Publisher] = {}  # declared once: half the cost of session.put
+def bus_put(session: zenoh.Session, auth: BusAuth | None) -> tuple[Put, Callable[[], None]]:
+    """A `Put` on ``session`` (one publisher per key, declared once: half the cost of
+    ``session.put``; sealed with ``auth``), and the function that undeclares them."""
+    publishers: dict[str, zenoh.Publisher] = {}
 
     def put(key: str, payload: bytes, attachment: bytes | None) -> None:
         publisher = publishers.get(key)
@@ -243,7 +221,24 @@ def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threa
             publisher = publishers[key] = session.declare_publisher(key)
         publisher.put(seal(auth, key, payload), attachment=attachment)
 
-    relay = Relay(channel, clock, put, vehicles, auth)
+    def undeclare() -> None:
+        for publisher in list(publishers.values()):
+            publisher.undeclare()
+
+    return put, undeclare
+
+
+def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threading.Event,
+          vehicles: frozenset[str] | None = None,
+          on_ready: Callable[[Relay], None] | None = None,
+          auth: BusAuth | None = None, *, take_tx: bool = True,
+          water: Water | None = None) -> Relay:
+    """Relay ``channel`` on ``session`` until ``stop`` is set; returns the relay (counters).
+    With ``auth`` what it takes must be signed by its rightful sender and what it publishes
+    is signed by the relay. ``take_tx=False`` (another face takes the frames, on ``water``)
+    serves truths, link control, link events and stats only."""
+    put, undeclare = bus_put(session, auth)
+    relay = Relay(channel, clock, put, vehicles, auth, deliver=take_tx, water=water)
 
     def on_tx(sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
@@ -264,16 +259,17 @@ def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threa
         query.reply(keys.LINK_STATS, seal(auth, keys.LINK_STATS, relay.stats_payload()))
 
     try:
-        with session.declare_subscriber(keys.TX_ALL, on_tx), \
-                session.declare_subscriber(keys.TRUTH_ALL, on_truth), \
-                session.declare_subscriber(keys.LINK_CTL, on_ctl), \
-                session.declare_queryable(keys.LINK_STATS, on_stats):
+        with contextlib.ExitStack() as stack:
+            if take_tx:
+                stack.enter_context(session.declare_subscriber(keys.TX_ALL, on_tx))
+            stack.enter_context(session.declare_subscriber(keys.TRUTH_ALL, on_truth))
+            stack.enter_context(session.declare_subscriber(keys.LINK_CTL, on_ctl))
+            stack.enter_context(session.declare_queryable(keys.LINK_STATS, on_stats))
             if on_ready is not None:
                 on_ready(relay)
             relay.run(stop)
     finally:  # after the subscribers, whose callbacks may publish too
-        for publisher in list(publishers.values()):
-            publisher.undeclare()
+        undeclare()
     return relay
 
 

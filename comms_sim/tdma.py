@@ -21,6 +21,7 @@ class QueuedFrame:
     frame: bytes
     kind: str
     t_submitted_s: float
+    tag: object = None  # what the sender's face needs back with the frame (`Channel.submit`)
 
 
 class SenderQueue:

@@ -25,6 +25,7 @@ COMMANDS = {
     "report": "report",
     "link": "link",
     "credentials": "credentials",
+    "water": "water",
 }
 
 

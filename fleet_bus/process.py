@@ -14,6 +14,7 @@ import time
 # Ready lines: each process prints exactly one, starting with its prefix, when it serves.
 ROUTER_READY = "comms_sim router listening on"
 RELAY_READY = "comms_sim relay ready"
+WATER_READY = "comms_sim water ready"  # `cotsfleet water`: every emulated modem listens
 AGENT_READY = "fleet_agent ready"
 STATION_READY = "ground_station: mission"
 
