@@ -274,3 +274,57 @@ def write_moos_mission(problem: Problem, vehicle_index: int, run_dir: str | Path
     moos.write_text(render_moos(problem, vehicle_index, warp, port, frame, origin_latlon,
                                 engaged, str(bhv)))
     return moos
+
+
+def write_example(folder: str | Path, seed: int = 1, first_port: int = 9001,
+                  warp: float = 1.0) -> list[Path]:
+    """The shipped mission folder: the paper preset's vehicles (drawn with ``seed``; only
+    their stations and the spots' deepest depth reach the files), one MOOSDB port each from
+    ``first_port``, ``.bhv`` paths relative (run pAntler in the folder), and the templates."""
+    from hfc_core.generate import paper_preset_doc
+    from hfc_core.scenario import problem_from_dict
+
+    problem = problem_from_dict(paper_preset_doc(seed))
+    out = Path(folder)
+    (out / "templates").mkdir(parents=True, exist_ok=True)
+    written = []
+    for i in range(len(problem.vehicles)):
+        vid = vehicle_name(problem, i)
+        moos, bhv = out / f"{vid}.moos", out / f"{vid}.bhv"
+        moos.write_text(render_moos(problem, i, warp, first_port + i))
+        bhv.write_text(render_bhv(problem, i))
+        written += [moos, bhv]
+    for name, tmpl in (("vehicle.moos.tmpl", MOOS_TEMPLATE), ("vehicle.bhv.tmpl", BHV_TEMPLATE)):
+        (out / "templates" / name).write_text(tmpl.template)
+        written.append(out / "templates" / name)
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+    import json
+
+    from hfc_core.scenario import problem_from_dict
+
+    ap = argparse.ArgumentParser(description="write MOOS-IvP missions for a scenario")
+    ap.add_argument("--scenario", help="scenario JSON (one .moos/.bhv per vehicle)")
+    ap.add_argument("--run-dir", required=True)
+    ap.add_argument("--warp", type=float, default=1.0)
+    ap.add_argument("--first-port", type=int, default=9001)
+    ap.add_argument("--on-board", action="store_true",
+                    help="the helm waits for the operator to deploy it")
+    args = ap.parse_args(argv)
+    if not args.scenario:
+        for p in write_example(args.run_dir, first_port=args.first_port, warp=args.warp):
+            print(p)
+        return 0
+    with open(args.scenario) as f:
+        problem = problem_from_dict(json.load(f))
+    for i in range(len(problem.vehicles)):
+        print(write_moos_mission(problem, i, args.run_dir, args.warp, args.first_port + i,
+                                 engaged=not args.on_board))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

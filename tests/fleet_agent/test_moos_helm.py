@@ -414,3 +414,12 @@ def test_a_parked_helm_refuses_commands(vehicle) -> None:
         assert now and now[0].command == "ReturnHome"
     finally:
         operator.close()
+
+
+def test_the_shipped_mission_folder_is_what_the_writer_writes(tmp_path: Path) -> None:
+    from fleet_agent.helms.moos_mission import write_example
+
+    shipped = Path(__file__).resolve().parents[2] / "examples" / "moos"
+    for path in write_example(tmp_path):
+        rel = path.relative_to(tmp_path)
+        assert (shipped / rel).read_text() == path.read_text(), f"regenerate {rel}"
