@@ -4,7 +4,8 @@
   MOOS client (`moos_client`, `moos_wire`); `moos_mission` writes a vehicle's ``.moos`` and
   ``.bhv``.
 - `ros2`: `Ros2Helm`, a ROS 2 vehicle (nav_msgs/Odometry in; goal, path and std_srvs
-  services out); `ros2_vehicle`: any `VehiclePort` served as such a ROS 2 vehicle.
+  services out; the interface in `ros2_iface`); `ros2_vehicle`: any `VehiclePort` served as
+  such a ROS 2 vehicle.
 - `frames` (helm frames and headings), `camera` (the camera a helm consults, detections as
   text), `duty` (the command under way), `reports` (bounded reports, navigation figures).
 

@@ -130,11 +130,12 @@ if __name__ == "__main__" and len(sys.argv) == 4 and sys.argv[1] == "serve":
 
 rclpy = pytest.importorskip("rclpy", reason="rclpy not installed (pip install -e .[ros2])")
 
+from fleet_agent.helms.frames import LocalFrame  # noqa: E402
 from fleet_agent.helms.ros2 import Ros2Helm, Ros2HelmConfig  # noqa: E402
+from fleet_agent.helms.ros2_iface import fix_of, odometry, path_msg, path_points  # noqa: E402
 from fleet_agent.helms.ros2_vehicle import READY  # noqa: E402
 from fleet_bus.clock import WarpClock  # noqa: E402
 
-pytestmark = pytest.mark.integration
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -212,6 +213,7 @@ def _until(helm, clock, want, mission_s: float) -> list:
     return got
 
 
+@pytest.mark.integration
 def test_goto_arrives_and_a_look_with_the_camera_reports(pair) -> None:
     helm, clock, _ = pair
     fixes = [r for r in helm.poll(clock.now()) if isinstance(r, NavFix)]
@@ -233,6 +235,7 @@ def test_goto_arrives_and_a_look_with_the_camera_reports(pair) -> None:
     assert helm.stats.fixes > 30 and helm.stats.lag_max_s < 5.0
 
 
+@pytest.mark.integration
 def test_sightings_from_the_vehicle_and_return_home(pair) -> None:
     helm, clock, _ = pair
     helm.command(GoTo(1, ((50.0, 20.0, -2.0),)), clock.now())  # passes the aggregation
@@ -246,6 +249,7 @@ def test_sightings_from_the_vehicle_and_return_home(pair) -> None:
     assert math.dist(last.pos, HOME) < 1.0
 
 
+@pytest.mark.integration
 def test_refusals_from_the_vehicle_and_after_an_abort(pair) -> None:
     helm, clock, _ = pair
     helm.command(GoTo(2, ((900.0, 900.0, -2.0),)), clock.now())  # outside its region
@@ -263,6 +267,7 @@ def test_refusals_from_the_vehicle_and_after_an_abort(pair) -> None:
         "waypoints not finite"]
 
 
+@pytest.mark.integration
 def test_navigation_that_stops_is_seen_in_the_fix_age(pair) -> None:
     helm, clock, vehicle = pair
     assert helm.nav_age_s() < 5.0
@@ -275,3 +280,20 @@ def test_navigation_that_stops_is_seen_in_the_fix_age(pair) -> None:
     refused = [r for r in _until(helm, clock, Refused, 100.0) if isinstance(r, Refused)]
     assert refused and ("not available" in refused[0].reason
                         or "no answer" in refused[0].reason)
+
+
+def test_odometry_and_paths_cross_the_frame_both_ways() -> None:
+    frame = LocalFrame(100.0, -50.0)
+    fix = NavFix(3.0, (110.0, -40.0, -6.0), 0.8, 135.0, 0.0, 1.2)
+    msg = odometry(fix, frame, "map", "base_link", 1e9)
+    assert (msg.pose.pose.position.x, msg.pose.pose.position.y) == (10.0, 10.0)
+    back = fix_of(msg, frame, 3.0)
+    assert back is not None and back.pos == pytest.approx(fix.pos)
+    assert back.yaw_deg == pytest.approx(135.0) and back.sigma_m == pytest.approx(0.8)
+    assert back.speed_mps == pytest.approx(1.2)
+    msg.pose.pose.position.x = float("nan")
+    assert fix_of(msg, frame, 3.0) is None
+    pts = ((110.0, -40.0, -1.0), (120.0, -40.0, -2.0))
+    path = path_msg(pts, frame, "map", 1e9)
+    assert path_points(path, frame) == pts
+    assert path_points(path_msg((), frame, "map", 0.0), frame) is None
