@@ -1,0 +1,114 @@
+"""The camera a live helm adapter consults, and the text form of a detection on board.
+
+In emulation the camera is the simulated reef's (what the vehicle sees at its *true*
+position): the adapter is given an object with two calls,
+
+- ``sweep(pos) -> [(pos, priority, service_s), ...]``: the aggregations seen along the track
+  since the last call, the vehicle now at true position ``pos`` (scenario frame);
+- ``inspect(task) -> (present, priority, service_s)``: what hovering at predicted spot
+  ``task`` shows.
+
+`SensorCamera` gives today's `fleet_agent.sensor.World` that shape. On board there is no
+camera object: the vehicle's detector posts detections as text (a MOOS variable, a ROS 2
+``std_msgs/String``), one per post, as comma-separated ``key=value`` pairs
+(`parse_detection`, `format_detection`):
+
+- a sighting: ``kind=sighting,x=12.5,y=-3,z=-8.2,priority=55,service_s=70`` (the helm's local
+  frame, the position the vehicle's navigation gives the aggregation);
+- a look's result: ``kind=look,task=17,present=true,priority=55,service_s=70``
+  (``present=false`` with nothing else: nothing there).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Iterable, Protocol
+
+Point3 = tuple[float, float, float]
+MAX_DETECTION_CHARS = 512  # one detection is a short line; longer text is not one
+
+
+class Camera(Protocol):
+    def sweep(self, pos: Point3) -> Iterable[tuple[Point3, float, float]]: ...
+
+    def inspect(self, task: int) -> tuple[bool, float, float]: ...
+
+
+class SensorCamera:
+    """`fleet_agent.sensor.World` (the simulated reef's camera) as a `Camera`."""
+
+    def __init__(self, world) -> None:  # world: fleet_agent.sensor.World
+        self._world = world
+
+    def sweep(self, pos: Point3) -> list[tuple[Point3, float, float]]:
+        return [(tuple(s.pos), float(s.priority), float(s.service_s))  # type: ignore[misc]
+                for s in self._world.sweep(pos)]
+
+    def inspect(self, task: int) -> tuple[bool, float, float]:
+        seen = self._world.inspect(task)
+        return bool(seen.present), float(seen.priority), float(seen.service_s)
+
+
+class DetectionError(ValueError):
+    """Text that is not a detection."""
+
+
+def _number(fields: dict[str, str], key: str, default: float | None = None) -> float:
+    raw = fields.get(key)
+    if raw is None:
+        if default is None:
+            raise DetectionError(f"missing {key}")
+        return default
+    try:
+        value = float(raw)
+    except ValueError:
+        raise DetectionError(f"{key}={raw!r} is not a number") from None
+    if not math.isfinite(value):
+        raise DetectionError(f"{key} must be finite")
+    return value
+
+
+def parse_detection(text: str) -> dict[str, object]:
+    """A detection's fields, checked: ``{"kind": "sighting", "pos": (x, y, z), "priority",
+    "service_s"}`` or ``{"kind": "look", "task", "present", "priority", "service_s"}``."""
+    if len(text) > MAX_DETECTION_CHARS:
+        raise DetectionError(f"detection longer than {MAX_DETECTION_CHARS} characters")
+    fields: dict[str, str] = {}
+    for part in text.split(","):
+        key, sep, value = part.partition("=")
+        if not sep or not key.strip():
+            raise DetectionError(f"{part!r} is not key=value")
+        fields[key.strip().lower()] = value.strip()
+    kind = fields.get("kind", "")
+    if kind == "sighting":
+        priority, service = _number(fields, "priority"), _number(fields, "service_s")
+        if priority < 0 or service < 0:
+            raise DetectionError("priority and service_s must be >= 0")
+        pos = (_number(fields, "x"), _number(fields, "y"), _number(fields, "z", 0.0))
+        return {"kind": kind, "pos": pos, "priority": priority, "service_s": service}
+    if kind == "look":
+        task = _number(fields, "task")
+        if task != int(task) or task < 0:
+            raise DetectionError(f"task must be a non-negative integer, got {task}")
+        present = fields.get("present", "").lower()
+        if present not in ("true", "false"):
+            raise DetectionError("present must be true or false")
+        priority = _number(fields, "priority", 0.0)
+        service = _number(fields, "service_s", 0.0)
+        if priority < 0 or service < 0:
+            raise DetectionError("priority and service_s must be >= 0")
+        return {"kind": kind, "task": int(task), "present": present == "true",
+                "priority": priority, "service_s": service}
+    raise DetectionError(f"unknown kind {kind!r} (sighting | look)")
+
+
+def format_detection(kind: str, **fields: object) -> str:
+    """The text of a detection (`parse_detection` reads it back)."""
+    parts = [f"kind={kind}"]
+    for key, value in fields.items():
+        if isinstance(value, bool):
+            value = "true" if value else "false"
+        elif isinstance(value, float):
+            value = repr(round(value, 3))
+        parts.append(f"{key}={value}")
+    return ",".join(parts)
