@@ -45,10 +45,12 @@ def choose_transport(listen: str | None, tls: bool, credentials: Path | None) ->
                          "TLS bus needs credentials made by `cotsfleet credentials`")
     if listen is not None:
         listen = with_protocol(listen, tls)
-    if premade_tls and listen is not None:
+    if premade_tls:
         assert credentials is not None
-        local = split_endpoint(local_endpoint(listen))[1]
+        # Checked now, not by a router that would die of it: the CA, the key, the dates
+        # (every certificate of a mission shares them) and the names.
         info = load_tls(credentials / ROUTER_ID).info
+        local = split_endpoint(local_endpoint(listen))[1] if listen else "127.0.0.1"
         if not info.names(local):
             raise ValueError(f"the router's certificate in {credentials} is for "
                              f"{', '.join(info.hosts)}, not {local}: make the credentials "

@@ -4,12 +4,13 @@ combinations that cannot work refused with their reason."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pytest
 
 from cotsfleet.mission.transport import Transport, choose_transport
-from fleet_bus.credentials import write_run_credentials
+from fleet_bus.credentials import CredentialsError, write_run_credentials
 
 
 @pytest.fixture(scope="module")
@@ -53,3 +54,13 @@ def test_credentials_made_beforehand_decide_and_are_checked(creds) -> None:
     for listen, flag in (("0.0.0.0:7447", False), (None, True)):
         with pytest.raises(ValueError, match="holds plain logins"):
             choose_transport(listen, flag, plain)
+
+
+def test_credentials_that_cannot_work_are_refused_before_a_router_dies_of_them(
+        creds, tmp_path: Path) -> None:
+    tls, _ = creds
+    broken = tmp_path / "broken"
+    shutil.copytree(tls, broken)
+    shutil.copy(tls / "auv1" / "tls.key", broken / "router" / "tls.key")
+    with pytest.raises(CredentialsError, match="not the certificate's"):
+        choose_transport(None, False, broken)
