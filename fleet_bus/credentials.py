@@ -1,18 +1,32 @@
 """A run's credentials on disk: one directory per process, holding only what it needs.
 
-``write_run_credentials(root, vehicles)`` makes, for a fresh run id::
+``write_run_credentials(root, vehicles)`` makes, for a fresh run id, one of two kinds.
+
+With ``tls=True`` (across machines; what ``cotsfleet credentials`` makes), identity is a
+certificate of the mission's CA (`fleet_bus.certificates`) and there is no password at all::
 
     root/ring.json                  the public ring: run id, every signer's role and public key
-    root/<id>/ring.json             the same ring, in every process's directory
-    root/<id>/signing.key           its own Ed25519 private key (hex; operator, relay, vehicles)
+    root/ca.pem                     the mission's CA certificate (its key is never written)
+    root/<id>/ring.json, ca.pem     the same, in every process's directory
+    root/<id>/tls.key, tls.pem      its own TLS key and certificate (common name: its id)
+    root/<id>/signing.key           its own Ed25519 private key (operator, relay, vehicles)
+
+for ``operator``, ``relay``, ``station`` (no signing key: it only listens), ``router`` (the
+operator's host's router; its certificate also names ``hosts``) and every vehicle; and, for
+each vehicle of ``linked_routers``, ``router-<id>``: the router of that vehicle's own host,
+linked to the operator's, which may forward only what that vehicle may say.
+
+Without it (one host, loopback only: `fleet_bus.session` refuses these across machines),
+identity is a Zenoh user/password login::
+
+    root/ring.json, root/<id>/ring.json, root/<id>/signing.key   as above
     root/<id>/zenoh.login           its own Zenoh user and password ("user:password")
     root/router/users.txt           the router's dictionary of every Zenoh login
     root/router/zid                 the Zenoh id of the mission's main router
 
 Directories are mode 0700 and secret files 0600. A process is started with
 ``--credentials root/<id>``; a vehicle on another machine gets a copy of its own directory
-and nothing else (`docs/security.md`). The ground station (``station``) has a login and the
-ring but no signing key: it only listens.
+and of its host's router's, and nothing else (`docs/security.md`).
 """
 
 from __future__ import annotations
@@ -30,6 +44,8 @@ from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey,
 
 from fleet_bus.auth import (OPERATOR, OPERATOR_ID, RELAY, RELAY_ID, ROLES, VEHICLE, BusAuth,
                             Member, Signer, Verifier)
+from fleet_bus.certificates import (Authority, CertificateError, CertificateInfo, check_identity,
+                                   host_name)
 
 RING = "ring.json"
 SIGNING_KEY = "signing.key"
@@ -37,6 +53,9 @@ ZENOH_LOGIN = "zenoh.login"
 ROUTER_ID, STATION_ID = "router", "station"
 ROUTER_USERS = "users.txt"
 ROUTER_ZID = "zid"
+CA_CERT, TLS_CERT, TLS_KEY = "ca.pem", "tls.pem", "tls.key"
+LINKED_PREFIX = "router-"  # + a vehicle id: the router of that vehicle's host
+DEFAULT_VALID_DAYS = 7.0
 
 
 class CredentialsError(ValueError):
@@ -47,6 +66,21 @@ class CredentialsError(ValueError):
 class ZenohLogin:
     user: str
     password: str
+
+
+@dataclass(frozen=True)
+class TlsIdentity:
+    """A process's TLS files (paths, as Zenoh's configuration takes them) and its
+    certificate, checked (`load_tls`)."""
+
+    ca: Path
+    cert: Path
+    key: Path
+    info: CertificateInfo
+
+
+def linked_router_id(vid: str) -> str:
+    return LINKED_PREFIX + vid
 
 
 def new_run_id() -> str:
@@ -77,14 +111,28 @@ def _private_dir(path: Path) -> Path:
     return path
 
 
-def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | None = None
-                          ) -> str:
-    """Generate a run's keys and logins under ``root`` (see the module docstring); returns
-    the run id."""
+def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | None = None, *,
+                          tls: bool = False, hosts: Sequence[str] = (),
+                          linked_routers: Sequence[str] = (),
+                          valid_days: float = DEFAULT_VALID_DAYS) -> str:
+    """Generate a run's keys and identities under ``root`` (see the module docstring);
+    returns the run id. ``hosts``, ``linked_routers`` and ``valid_days`` are for ``tls``."""
     run_id = run_id or new_run_id()
     for vid in vehicles:
-        if vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID) or "/" in vid or not vid:
+        if (vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID) or "/" in vid or not vid
+                or vid.startswith(LINKED_PREFIX)):
             raise CredentialsError(f"vehicle id {vid!r} cannot have credentials of its own")
+    if not tls and (hosts or linked_routers):
+        raise CredentialsError("hosts and linked routers are for TLS credentials")
+    for vid in linked_routers:
+        if vid not in vehicles:
+            raise CredentialsError(f"a linked router for {vid!r}, not a vehicle of the run")
+    try:  # a bad host name or validity is said before anything is written
+        for host in hosts:
+            host_name(host)
+        authority = Authority(valid_days) if tls else None
+    except CertificateError as exc:
+        raise CredentialsError(str(exc)) from None
     _private_dir(root)
     signers = {OPERATOR_ID: OPERATOR, RELAY_ID: RELAY, **{v: VEHICLE for v in vehicles}}
     private = {sid: Ed25519PrivateKey.generate() for sid in signers}
@@ -92,20 +140,32 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
                                           for sid, role in signers.items()}}
     ring_text = json.dumps(ring, indent=1)
     (root / RING).write_text(ring_text, encoding="utf-8")
+    processes = (*signers, STATION_ID, ROUTER_ID,
+                 *(linked_router_id(v) for v in linked_routers))
+    if authority is not None:
+        (root / CA_CERT).write_bytes(authority.cert_pem)
     logins = {}
-    for pid in (*signers, STATION_ID, ROUTER_ID):
+    for pid in processes:
         d = _private_dir(root / pid)
         (d / RING).write_text(ring_text, encoding="utf-8")
         if pid in private:
             _secret_file(d / SIGNING_KEY, _raw_private(private[pid]) + "\n")
-        logins[pid] = secrets.token_hex(16)
-        _secret_file(d / ZENOH_LOGIN, f"{pid}:{logins[pid]}\n")
-    _secret_file(root / ROUTER_ID / ROUTER_USERS,
-                 "".join(f"{user}:{pw}\n" for user, pw in logins.items()))
-    # The main router's Zenoh id, so that a linked router (which logged in to it, but to
-    # which it did not log in) can still tell it apart from a client.
-    zid = secrets.choice("123456789abcdef") + secrets.token_hex(16)[1:]  # no leading 0: Zenoh
-    (root / ROUTER_ID / ROUTER_ZID).write_text(zid + "\n", encoding="utf-8")
+        if authority is not None:
+            issued = authority.issue(pid, hosts if pid == ROUTER_ID else ())
+            (d / CA_CERT).write_bytes(authority.cert_pem)
+            (d / TLS_CERT).write_bytes(issued.cert_pem)
+            _secret_file(d / TLS_KEY, issued.key_pem.decode("ascii"))
+        else:
+            logins[pid] = secrets.token_hex(16)
+            _secret_file(d / ZENOH_LOGIN, f"{pid}:{logins[pid]}\n")
+    if authority is None:
+        _secret_file(root / ROUTER_ID / ROUTER_USERS,
+                     "".join(f"{user}:{pw}\n" for user, pw in logins.items()))
+        # The main router's Zenoh id, so that a linked router (which logged in to it, but to
+        # which it did not log in) can still tell it apart from a client. Loopback only: with
+        # TLS the main router is known by its certificate instead.
+        zid = secrets.choice("123456789abcdef") + secrets.token_hex(16)[1:]  # no leading 0
+        (root / ROUTER_ID / ROUTER_ZID).write_text(zid + "\n", encoding="utf-8")
     return run_id
 
 
@@ -172,3 +232,22 @@ def load_login(directory: Path) -> ZenohLogin:
     if not sep or not user or not password:
         raise CredentialsError(f"{directory}/{ZENOH_LOGIN}: expected user:password")
     return ZenohLogin(user, password)
+
+
+def uses_tls(directory: Path) -> bool:
+    """Whether ``directory`` (a run's root or a process's) holds TLS credentials."""
+    return (Path(directory) / CA_CERT).is_file()
+
+
+def load_tls(directory: Path) -> TlsIdentity:
+    """The TLS files of a process's directory, checked: its key matches its certificate,
+    which the directory's CA signed and which is valid now (`certificates.check_identity`)."""
+    directory = Path(directory)
+    files = [directory / name for name in (CA_CERT, TLS_CERT, TLS_KEY)]
+    try:
+        info = check_identity(*(path.read_bytes() for path in files))
+    except OSError as exc:
+        raise CredentialsError(f"cannot read {exc.filename}: {exc.strerror or exc}") from None
+    except CertificateError as exc:
+        raise CredentialsError(f"{directory}/{TLS_CERT}: {exc}") from None
+    return TlsIdentity(*files, info)

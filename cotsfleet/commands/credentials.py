@@ -1,10 +1,12 @@
-"""`cotsfleet credentials DIR`: a mission's credentials made beforehand, for agents elsewhere.
+"""`cotsfleet credentials DIR`: a mission's credentials made beforehand, for hosts elsewhere.
 
 `cotsfleet run` makes fresh credentials for each run by itself; a vehicle whose agent runs on
-another host (``--remote``) needs its own before the mission starts. This writes them all
-(`fleet_bus.credentials`: key ring, one signing key per vehicle, the operator's and the
-relay's, a Zenoh login per process, the router's login dictionary) and says what to copy
-where. Make new ones for every mission: signatures bind its run id.
+another host (``--remote``) needs its own before the mission starts. This writes them all,
+for a TLS bus (`fleet_bus.credentials`): the key ring, a signing key per vehicle, the
+operator's and the relay's, the mission's CA certificate and one TLS key and certificate per
+process (no password anywhere), including a router for each vehicle's own host, and says
+what to copy where. Make new ones for every mission: signatures bind its run id, and the
+CA's key is gone once they are made.
 """
 
 from __future__ import annotations
@@ -14,7 +16,8 @@ from pathlib import Path
 
 from cotsfleet.commands.mission_args import scenario_doc
 from cotsfleet.errors import UsageError
-from fleet_bus.credentials import CredentialsError, write_run_credentials
+from fleet_bus.credentials import (DEFAULT_VALID_DAYS, ROUTER_ID, CredentialsError,
+                                   linked_router_id, write_run_credentials)
 
 HELP = "make a mission's credentials beforehand (for --remote agents on other hosts)"
 
@@ -24,6 +27,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenario", type=Path, help="the mission's scenario (its vehicle ids)")
     p.add_argument("--vehicles", type=int, help="fleet size of the default scenario")
     p.add_argument("--seed", type=int, default=0, help="seed of the default scenario")
+    p.add_argument("--hosts", nargs="+", default=[], metavar="HOST",
+                   help="names or addresses other hosts reach this host's router at (its "
+                   "certificate names them, and loopback)")
+    p.add_argument("--valid-days", type=float, default=DEFAULT_VALID_DAYS, metavar="DAYS",
+                   help=f"lifetime of the certificates (default {DEFAULT_VALID_DAYS:g})")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,14 +40,21 @@ def run(args: argparse.Namespace) -> int:
     doc = scenario_doc(args.scenario, args.vehicles, args.seed)
     ids = [str(v["id"]) for v in doc.get("vehicles", []) if isinstance(v, dict)]
     try:
-        run_id = write_run_credentials(args.dir, ids)
+        run_id = write_run_credentials(args.dir, ids, tls=True, hosts=args.hosts,
+                                       linked_routers=ids, valid_days=args.valid_days)
     except CredentialsError as exc:
         raise UsageError(str(exc)) from None
-    print(f"credentials of run {run_id} in {args.dir}:")
-    print(f"  this host:   cotsfleet run --credentials {args.dir} --remote ID ...")
+    d = args.dir
+    names = ", ".join(["loopback", *args.hosts])
+    print(f"credentials of run {run_id} in {d} (TLS; valid {args.valid_days:g} days):")
+    print(f"  this host:   cotsfleet run --credentials {d} --listen 0.0.0.0:7447 --remote ID ..."
+          f" (its router's certificate is for {names})")
     for vid in ids:
-        print(f"  vehicle {vid}: copy {args.dir / vid} to its host; python -m fleet_agent "
-              f"--id {vid} --credentials DIR ...")
-    print(f"  a linked router on another host: copy {args.dir / 'router'}; python -m "
-          f"comms_sim.router --credentials DIR --connect ...")
+        print(f"  vehicle {vid}: copy {d / vid} and {d / linked_router_id(vid)} to its host; "
+              f"there, python -m comms_sim.router --credentials {linked_router_id(vid)} "
+              f"--listen tls/127.0.0.1:7447 --connect tls/HOST:7447 and python -m fleet_agent "
+              f"--id {vid} --credentials {vid} --connect tls/127.0.0.1:7447 ...")
+    if not args.hosts:
+        print(f"  (no --hosts: a router elsewhere cannot dial {d / ROUTER_ID}'s router by "
+              "name or address; name this host with --hosts)")
     return 0

@@ -26,8 +26,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--report", type=Path, help="mission report JSON (default: in the run dir)")
     p.add_argument("--run-dir", type=Path, help="journals, logs, report (default: a new "
                    "directory under $TMPDIR/cotsfleet-runs)")
-    p.add_argument("--listen", metavar="ENDPOINT", help="router endpoint, e.g. tcp/0.0.0.0:7447 "
-                   "so agents on other machines can join (default: a free loopback port)")
+    p.add_argument("--listen", metavar="ENDPOINT", help="router endpoint, e.g. 0.0.0.0:7447 "
+                   "so agents on other machines can join, over TLS (default: a free loopback "
+                   "port, plain TCP)")
+    p.add_argument("--tls", action="store_true",
+                   help="TLS on loopback too (off loopback, or with credentials made by "
+                   "`cotsfleet credentials`, the bus is always TLS)")
     p.add_argument("--remote", action="append", default=[], metavar="ID",
                    help="a vehicle whose agent runs elsewhere: not started here, waited for "
                    "(repeatable; needs fleet_key_hex in --config and --credentials)")
@@ -47,13 +51,15 @@ def _interrupt(*_: Any) -> None:
 
 def _check_listen(endpoint: str) -> None:
     """A busy router port is a usage error now, not a dead router later."""
-    proto, _, rest = endpoint.partition("/")
-    host, _, port = rest.rpartition(":")
-    if proto != "tcp" or not port.isdigit():
-        raise UsageError(f"--listen: expected tcp/HOST:PORT, got {endpoint!r}")
-    with socket.socket(socket.AF_INET6 if ":" in host.strip("[]") else socket.AF_INET) as s:
+    from fleet_bus.session import split_endpoint
+
+    proto, host, port = split_endpoint(endpoint)
+    if proto not in ("", "tcp", "tls") or not host or not port.isdigit():
+        raise UsageError(f"--listen: expected HOST:PORT (or tls/HOST:PORT, tcp/HOST:PORT), "
+                         f"got {endpoint!r}")
+    with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET) as s:
         try:
-            s.bind((host.strip("[]"), int(port)))
+            s.bind((host, int(port)))
         except OSError as exc:
             raise UsageError(f"--listen {endpoint}: {exc.strerror or exc}") from None
 
@@ -78,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
                               web_port=args.web_port, run_dir=args.run_dir,
                               agent_config=m.config, hold_viewer=hold, listen=args.listen,
                               remote=tuple(args.remote), startup_timeout_s=args.startup_timeout,
-                              credentials=args.credentials)
+                              credentials=args.credentials, tls=args.tls)
         backend = ProcessBackend(m.problem, m.scenario, m.seed, opts)
     except ValueError as exc:  # a CredentialsError too
         raise UsageError(str(exc)) from None

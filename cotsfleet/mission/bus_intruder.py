@@ -1,8 +1,10 @@
 """The intruder on the bus: what the security test and benchmark attack a live mission with.
 
 Unlike the modem intruder of the attack faults (`cotsfleet.mission.intruder`, in the water),
-this one reaches the Zenoh router. First it tries a login it does not have; then, with a
-login it was given (e.g. the router's own, as if its password leaked) and no fleet key, it
+this one reaches the Zenoh router. First it tries to get in without an identity of the
+mission (a login it does not have, or over TLS the mission's public CA certificate and no
+certificate of its own); then, with an identity it was given (e.g. the router's own login
+or TLS key, as if they leaked) and no fleet key, it
 sends every forgery the bus allows (`attack_round`: abort and stop commands, forged
 statuses, events, ready announcements, truths, link control, link records and frames, plain
 and in well-formed envelopes with random signatures), serves a rival mission and clock
@@ -26,7 +28,7 @@ import zenoh
 from fleet_bus import keys
 from fleet_bus.auth import MAGIC, SIG_BYTES
 from fleet_bus.commands import ABORT, STOP, encode_command
-from fleet_bus.credentials import ZenohLogin
+from fleet_bus.credentials import CA_CERT, ZenohLogin, uses_tls
 from fleet_bus.link import LinkControl, LinkRecord, Partition
 from fleet_bus.mission import Mission
 from fleet_bus.session import client_config
@@ -45,8 +47,12 @@ def forged_envelope(rng: np.random.Generator, signer: str, payload: bytes) -> by
             + payload + bytes(sig))
 
 
-def session_as(endpoint: str, login: ZenohLogin | None, timeout_s: float = 3.0
+def session_as(endpoint: str, login: ZenohLogin | Path | None, timeout_s: float = 3.0
                ) -> zenoh.Session:
+    """A session as ``login``: a Zenoh login, or a process's credentials directory (its TLS
+    certificate, or its login)."""
+    if isinstance(login, Path):
+        return zenoh.open(client_config([endpoint], timeout_s=timeout_s, credentials=login))
     conf = client_config([endpoint], timeout_s=timeout_s)
     if login is not None:
         conf.insert_json5("transport/auth/usrpwd", json.dumps(
@@ -121,7 +127,7 @@ class BusIntruder:
     pids of the flooded agent (its deliveries, ``fleet/rx/<target>``) and of the relay."""
 
     endpoint: str
-    login: ZenohLogin
+    login: ZenohLogin | Path  # the identity it holds (a credentials directory: TLS or login)
     vehicles: tuple[str, ...]
     agent: int
     relay: int
@@ -144,7 +150,7 @@ class BusIntruder:
 
     def _run(self, stop: threading.Event) -> None:
         try:  # only the address: the router does not let it in
-            session_as(self.endpoint, ZenohLogin("intruder", "guess")).close()
+            self._stranger().close()
         except Exception:
             self.refused_login = True
         rng = np.random.default_rng(7)
@@ -162,6 +168,16 @@ class BusIntruder:
             self.rss_mb.append(rss_mb(self.agent))
             spent = {k: cpu_s(p) - before[k] - calm[k] for k, p in pids.items()}
             self.cpu = {k: (calm[k], spent[k]) for k in pids}
+
+    def _stranger(self) -> zenoh.Session:
+        """A session with no identity of the mission: a guessed login, or over TLS the
+        mission's CA certificate (public) and no certificate of its own."""
+        if isinstance(self.login, Path) and uses_tls(self.login):
+            conf = client_config([self.endpoint], timeout_s=3.0)
+            conf.insert_json5("transport/link/tls", json.dumps(
+                {"root_ca_certificate": str(self.login / CA_CERT)}))
+            return zenoh.open(conf)
+        return session_as(self.endpoint, ZenohLogin("intruder", "guess"))
 
     def _flood(self, s: zenoh.Session, rng: np.random.Generator, stop: threading.Event) -> None:
         rx, tx = keys.rx_key(self.vehicles[0]), keys.tx_key(self.vehicles[-1])

@@ -19,7 +19,8 @@ Credentials (`fleet_bus.credentials`, `docs/security.md`): each run gets fresh o
 ``RUN_DIR/credentials`` (or ``credentials``, made beforehand with ``cotsfleet credentials``):
 the operator's signing key stays in this process; every child is started with its own
 directory (``--credentials DIR/<id>``) and nothing else. The router takes only the run's
-Zenoh logins, each with its rights; every message is signed and checked
+processes (by certificate over TLS, `cotsfleet.mission.transport` says when; else by login),
+each with its rights; every message is signed and checked
 (`fleet_bus.auth`), and what the operator refuses is counted in the report's ``security``.
 
 Across machines: ``listen`` on a reachable address and ``remote`` vehicles: no agent is
@@ -49,6 +50,7 @@ from cotsfleet.mission.children import Child, ChildExited, Children
 from cotsfleet.mission.clock_control import ClockControl
 from cotsfleet.mission.intake import Intake
 from cotsfleet.mission.intruder import Intruder, intruder_rng
+from cotsfleet.mission.transport import choose_transport
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_agent.radio import LATE_SHARE
 from fleet_bus import keys
@@ -102,6 +104,7 @@ class ProcessOptions:
     remote: tuple[str, ...] = ()  # vehicles whose agents run elsewhere (not started here)
     startup_timeout_s: float = 90.0
     credentials: Path | None = None  # made beforehand (`cotsfleet credentials`); else fresh
+    tls: bool = False  # TLS on loopback too (off loopback, or with TLS credentials, it always is)
 
     def __post_init__(self) -> None:
         if not self.warp > 0:
@@ -139,6 +142,7 @@ class ProcessBackend:
                 raise ValueError(f"{opts.credentials} is for vehicles {sorted(signers)}, the "
                                  f"scenario has {self.ids}")
             self.run_id = ring.run_id
+        self.transport = choose_transport(opts.listen, opts.tls, opts.credentials)
         self.run_dir = opts.run_dir or Path(os.environ.get("TMPDIR", "/tmp")) / \
             "cotsfleet-runs" / self.run_id
         self.procs = Children(self.run_dir, out, opts.startup_timeout_s)
@@ -189,7 +193,8 @@ class ProcessBackend:
         (self.run_dir / "scenario.json").write_text(json.dumps(self.scenario), encoding="utf-8")
         creds = self.creds = opts.credentials or self.run_dir / "credentials"
         if opts.credentials is None:
-            write_run_credentials(creds, self.ids, self.run_id)
+            write_run_credentials(creds, self.ids, self.run_id, tls=self.transport.tls,
+                                  hosts=self.transport.hosts)
         auth = self.auth = self.intake.auth = load_auth(creds / OPERATOR_ID, OPERATOR_ID)
         listen = self._start_router(creds)
         session = self._session = zenoh.open(client_config([self.endpoint],
@@ -241,7 +246,7 @@ class ProcessBackend:
         loopback port, and another if that one was taken meanwhile (a port is only free
         until someone binds it); a port asked for is checked by the command line first."""
         for attempt in range(ROUTER_ATTEMPTS):
-            listen = self.opts.listen or free_tcp_endpoint()
+            listen = self.transport.listen or free_tcp_endpoint(proto=self.transport.protocol)
             self.endpoint = local_endpoint(listen)
             router = self.procs.spawn("router", ["-m", "comms_sim.router", "--listen", listen,
                                                  "--credentials", str(creds / ROUTER_ID)],

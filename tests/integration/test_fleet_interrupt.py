@@ -1,4 +1,5 @@
-"""Ctrl-C on `cotsfleet run` stops every process it started and still writes a report."""
+"""Ctrl-C on `cotsfleet run` stops every process it started and still writes a report (on a
+TLS bus, asked for with --tls on loopback: its sessions end as promptly)."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ def test_ctrl_c_stops_the_whole_fleet(tmp_path: Path) -> None:
     run_dir = tmp_path / "run"
     proc = subprocess.Popen(
         [sys.executable, "-m", "cotsfleet", "run", "--viewer", "none", "--warp", "20",
-         "--run-dir", str(run_dir), "--seed", "1"],
+         "--run-dir", str(run_dir), "--seed", "1", "--tls"],
         cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     pids: dict[str, list[int]] = {}
     try:
@@ -47,3 +48,4 @@ def test_ctrl_c_stops_the_whole_fleet(tmp_path: Path) -> None:
     report = json.loads((run_dir / "report.json").read_text())
     assert report["interrupted"] is True
     assert {v["id"] for v in report["vehicles"]} == {"auv1", "auv2", "auv3"}
+    assert (run_dir / "credentials" / "auv1" / "tls.pem").exists()  # it was TLS

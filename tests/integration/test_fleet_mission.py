@@ -1,9 +1,10 @@
 """A real multi-process mission: router, relay and one agent process per AUV on loopback,
 with an abort, a SIGKILL and a restart from the journal, while an intruder's modem in the
 water sends forged, replayed and garbage frames (attack faults through the relay), and an
-intruder holding the ground station's router login (it may listen, not speak) puts garbage,
+intruder holding the ground station's identity (it may listen, not speak) puts garbage,
 forged frames, replays and malformed commands on the bus. The intruder's puts are refused by
-the router's access control; `test_intruder.py` attacks the application layer too."""
+the router's access control; `test_intruder.py` attacks the application layer too. The bus
+is TLS (``tls`` on loopback: certificates, not logins; the restarted agent gets back in)."""
 
 from __future__ import annotations
 
@@ -72,7 +73,7 @@ def mission(tmp_path_factory):
               Fault("restart", 650.0, "auv3"), Fault("forge", 100.0, "", 20),
               Fault("replay", 150.0, "", 20), Fault("garbage", 120.0, "", 20))
     launcher = ProcessBackend(problem, doc, 3, ProcessOptions(warp=100.0, run_dir=run_dir,
-                                                              progress_every_s=0),
+                                                              progress_every_s=0, tls=True),
                               out=lambda line: None)
     result: dict = {}
     thread = threading.Thread(target=lambda: result.update(report=run_mission(

@@ -1,13 +1,15 @@
 """A real 3-AUV mission (`cotsfleet run`) under an intruder on the bus.
 
-First the intruder knows only the router's address: it cannot even log in. Then it holds the
-router's own Zenoh login (a leaked password: the access control lets that login do anything)
-but none of the fleet's signing keys, and it sends abort and stop commands, a forged mission
-and clock record, link partitions and total loss, forged telemetry, ready announcements,
-link records and stats, and floods one agent's deliveries and the relay's input with garbage
-and forged envelopes (about 2,000 messages/s for 20 s). Nothing changes: no vehicle aborts or
-stops, all 3 come home, no spot is treated twice, the flooded agent's memory stays flat, no
-process dies, and the report counts what was refused. Every process is gone at the end."""
+The bus is TLS (the credentials are made by `cotsfleet credentials`). First the intruder
+knows only the router's address and the mission's public CA certificate: it cannot even get
+in. Then it holds the router's own TLS key and certificate (leaked: the access control lets
+that identity do anything) but none of the fleet's signing keys, and it sends abort and
+stop commands, a forged mission and clock record, link partitions and total loss, forged
+telemetry, ready announcements, link records and stats, and floods one agent's deliveries
+and the relay's input with garbage and forged envelopes (about 2,000 messages/s for 20 s).
+Nothing changes: no vehicle aborts or stops, all 3 come home, no spot is treated twice, the
+flooded agent's memory stays flat, no process dies, and the report counts what was refused.
+Every process is gone at the end."""
 
 from __future__ import annotations
 
@@ -24,7 +26,6 @@ import numpy as np
 import pytest
 
 from cotsfleet.mission.bus_intruder import BusIntruder
-from fleet_bus.credentials import load_login
 from fleet_bus.session import free_tcp_endpoint
 from reef_sim.scenarios.field import GeneratorParams, generate_doc
 from leftovers import alive
@@ -43,10 +44,10 @@ def mission(tmp_path_factory):
                                        battery_s=1800.0, service_s=60.0),
                        np.random.default_rng(9))
     (tmp / "scenario.json").write_text(json.dumps(doc), encoding="utf-8")
-    creds = tmp / "credentials"  # made beforehand so the intruder can steal the router's login
+    creds = tmp / "credentials"  # made beforehand so the intruder can steal the router's key
     subprocess.run([sys.executable, "-m", "cotsfleet", "credentials", str(creds), "--scenario",
                     str(tmp / "scenario.json")], cwd=REPO, check=True, capture_output=True)
-    endpoint = free_tcp_endpoint()
+    endpoint = free_tcp_endpoint(proto="tls")
     run_dir = tmp / "run"
     proc = subprocess.Popen(
         [sys.executable, "-m", "cotsfleet", "run", "--scenario", str(tmp / "scenario.json"),
@@ -64,7 +65,7 @@ def mission(tmp_path_factory):
             if line.startswith("t="):
                 break
         pids = json.loads((run_dir / "pids.json").read_text())
-        intruder = BusIntruder(endpoint, load_login(creds / "router"), VEHICLES,
+        intruder = BusIntruder(endpoint, creds / "router", VEHICLES,
                                agent=pids["auv1"][0], relay=pids["relay"][0], flood_s=FLOOD_S,
                                rate_hz=FLOOD_RATE)
         attacker = threading.Thread(target=intruder.run, args=(stop,), daemon=True)
@@ -86,7 +87,7 @@ def mission(tmp_path_factory):
     return report, intruder, proc.returncode, "".join(lines), left
 
 
-def test_the_intruder_without_the_password_cannot_log_in(mission):
+def test_the_intruder_without_a_certificate_cannot_get_in(mission):
     _, intruder, _, _, _ = mission
     assert intruder.refused_login
     assert intruder.error == ""
