@@ -299,15 +299,17 @@ class Agent:
             self.count("slots_missed", skipped)
         if sent_s < now:
             self.count("slots_late")
-        msg = self.radio.message(now, self.know)
-        if msg is None:
+        msgs = self.radio.messages(now, self.know, self.fleet.modem.frames_per_packet)
+        if not msgs:
             return
-        frame = self.fleet.codec.encode(msg)
-        name = type(msg).__name__.lower()
-        self.count(f"tx_{name}")
-        self.count("tx_bytes", len(frame))
-        self.largest_frame = max(self.largest_frame, len(frame))
-        out.append(Send(frame, radio_kind(msg), name, sent_s))
+        frames = tuple(self.fleet.codec.encode(m) for m in msgs)
+        names = tuple(type(m).__name__.lower() for m in msgs)
+        for name, frame in zip(names, frames):
+            self.count(f"tx_{name}")
+            self.count("tx_bytes", len(frame))
+            self.largest_frame = max(self.largest_frame, len(frame))
+        kind = "pose" if all(radio_kind(m) == "pose" for m in msgs) else "data"
+        out.append(Send(frames, kind, names, sent_s))
         out.record(self.checkpoint(now))
 
     # -- restarts ----------------------------------------------------------------------------

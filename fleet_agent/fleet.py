@@ -4,10 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from fleet_agent.beliefs import FIND_MARGIN_M, expected_problem, initial_working_problem
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
 from fleet_agent.wire import Codec
+from fleet_bus.modem_port import WATER_SPEC, ModemSpec
 from hfc_core.model.paths import PathFn, path_function
 from hfc_core.model.problem import Problem
 
@@ -23,9 +25,9 @@ class Dynamic:
 
 @dataclass(frozen=True)
 class Fleet:
-    """The scenario, the wire codec under the run's keys (fleet key and run id), the planner,
-    the land metric, the mission seed, and the initial fleet plan every agent computes alone
-    (no messages).
+    """The scenario, the wire codec under the run's keys (fleet key and run id) and the
+    modem's frame budget, the planner, the land metric, the mission seed, and the initial
+    fleet plan every agent computes alone (no messages).
 
     In a dynamic mission ``problem`` is the working problem before anything is seen
     (`fleet_agent.beliefs`: predicted spots at their expected value, then a slot per possible
@@ -38,28 +40,30 @@ class Fleet:
     seed: int
     base_routes: tuple[tuple[int, ...], ...]
     dynamic: Dynamic | None = None
+    modem: ModemSpec = WATER_SPEC
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
               planner: Planner | None = None, *, run_id: str,
-              camera: Camera | None = None) -> "Fleet":
+              camera: Camera | None = None, modem: ModemSpec = WATER_SPEC) -> "Fleet":
+        """``modem``: what every vehicle's modem carries (one frame budget for the fleet);
+        ValueError if its frames cannot carry what the mission needs."""
         if camera is not None:
-            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera)
+            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem)
+        codec = Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
         planner = planner or Planner.from_config(problem, seed, config)
-        return Fleet(problem, Codec.for_problem(problem, key, run_id), planner, path_function(problem),
-                     seed, planner.initial_routes())
+        return Fleet(problem, codec, planner, path_function(problem), seed,
+                     planner.initial_routes(), modem=modem)
 
     @staticmethod
     def _build_dynamic(scenario: Problem, key: bytes, seed: int, config: AgentConfig,
-                       run_id: str, camera: Camera) -> "Fleet":
-        from fleet_agent.beliefs import (FIND_MARGIN_M, expected_problem,
-                                         initial_working_problem)
-
+                       run_id: str, camera: Camera, modem: ModemSpec) -> "Fleet":
+        working = initial_working_problem(scenario, camera, config)
+        codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
+                                  found_from=scenario.n_tasks,
+                                  max_frame_bytes=modem.max_frame_bytes)
         expected = expected_problem(scenario, camera, config.p_cots)
         routes = Planner.from_config(expected, seed, config).initial_routes()
-        working = initial_working_problem(scenario, camera, config)
         planner = Planner.from_config(working, seed, config)
-        codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
-                                  found_from=scenario.n_tasks)
         return Fleet(working, codec, planner, path_function(working), seed, routes,
-                     Dynamic(scenario, camera))
+                     Dynamic(scenario, camera), modem)

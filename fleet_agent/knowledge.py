@@ -45,7 +45,7 @@ class Knowledge:
         p = fleet.problem
         self.fleet, self.index, self.beliefs, self.own = fleet, index, beliefs, own
         self.k = p.n_vehicles
-        self.cleared = ClearedSet(p.n_tasks)
+        self.cleared = ClearedSet(p.n_tasks, fleet.codec.segment_bits)
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
         self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s)
         # A claim has settled once any earlier claim of its spot has been heard (`settled_s`).

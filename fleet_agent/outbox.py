@@ -412,5 +412,7 @@ LADDER: tuple[Rule, ...] = (
     Outbox.finds_starved, Outbox.segment_owed, Outbox.claim_repeat, Outbox.find_repeat,
     Outbox.finds_due, Outbox.cleared_due, Outbox.claims_due, Outbox.pose,
 )
+# The further frames of a transmission that carries several: what is owed, no heartbeat.
+MORE: tuple[Rule, ...] = LADDER[1:-1]
 ABORTED: tuple[Rule, ...] = (Outbox.own_abort, Outbox.cleared_pushed, Outbox.watch)
 HOME: tuple[Rule, ...] = (Outbox.home, Outbox.watch)

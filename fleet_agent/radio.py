@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 from fleet_agent.config import AgentConfig
 from fleet_agent.knowledge import Knowledge
-from fleet_agent.outbox import ABORTED, HOME, LADDER, Outbox, Slot
+from fleet_agent.outbox import ABORTED, HOME, LADDER, MORE, Outbox, Slot
 from fleet_agent.wire import Message
 from fleet_bus.tdma import TdmaSchedule
 
@@ -84,8 +84,22 @@ class Radio:
 
     def message(self, now: float, know: Knowledge) -> Message | None:
         """The message for the slot just taken (None: nothing, a watcher keeping silent)."""
+        msgs = self.messages(now, know, 1)
+        return msgs[0] if msgs else None
+
+    def messages(self, now: float, know: Knowledge, frames: int) -> list[Message]:
+        """The messages for the slot just taken: the first by its ladder, then, if the modem
+        carries more frames per transmission (a Micro-Modem PSK packet), whatever else is
+        owed, never padding with poses."""
         own = know.own
         rules = ABORTED if own.aborted else HOME if own.done else LADDER
         slot = Slot(now, know.index, know.members.heard_field(now), know,
                     lambda: self.next_seq(now), self.slot_no)
-        return self.outbox.choose(rules, slot)
+        first = self.outbox.choose(rules, slot)
+        out = [] if first is None else [first]
+        while out and rules is LADDER and len(out) < frames:
+            more = self.outbox.choose(MORE, slot)
+            if more is None:
+                break
+            out.append(more)
+        return out

@@ -18,8 +18,12 @@ long ago the sender last heard each peer of a window that rotates over the roste
 each sender whatever the fleet size. Positions are decimetres from the scenario's south-west
 corner (coarser only for fields wider than 6.5 km), depth in decimetres, yaw in whole degrees.
 Task ids travel as their index in the scenario (one byte for up to 256 spots, else two).
-Every frame is at most 64 bytes and a pose at most 32 (`Codec.max_size` gives the worst case of
-each kind; `encode` refuses anything larger).
+The frame budget is the modem's (`fleet_bus.modem_port.ModemSpec.max_frame_bytes`, 64 bytes
+on the emulated water): a claim carries as many ids and a cleared-set segment as many bits
+as it leaves room for, and a pose is at most 32 bytes whatever the budget (a WHOI
+Micro-Modem rate-0 frame). `Codec.max_size` gives the worst case of each kind; `encode`
+refuses anything larger, and a codec whose budget cannot carry a kind the mission needs is
+refused when it is made.
 
 Keys: the MAC key of sender ``s`` is derived from the fleet key, the run id and ``s``
 (`sender_key`), so a frame recorded in one run fails the MAC in every other run, and a frame
@@ -43,8 +47,9 @@ from hfc_core.model.problem import Problem
 VERSION = 2
 MAC_BYTES = 8  # 2^-64 per forged frame: online forging at acoustic rates is hopeless
 HEADER_BYTES = 7  # version|kind, sender, seq (4), heard offset; the heard codes follow
-MAX_FRAME_BYTES = 64
+MAX_FRAME_BYTES = 64  # the emulated water's budget, the default (`fleet_bus.modem_port`)
 MAX_POSE_BYTES = 32
+MIN_FRAME_BYTES = 32  # a pose of the largest fleet fits; less carries nothing useful
 MAX_VEHICLES = 255  # the sender index is one byte
 MAX_TASKS = 65536  # a task id is at most two bytes
 MAX_SEQ = 2**32 - 1
@@ -52,9 +57,19 @@ MAX_SEQ = 2**32 - 1
 # receiver's clock than this is forged (an insider's way to push a sender's replay high-water
 # mark to the end of time and silence it); the agent drops it as "future".
 MAX_LEAD_S = 30
-SEGMENT_BITS = 320  # tasks covered by one cleared-set bitmap segment (40 bytes)
 HEARD_WINDOW = 16  # peers whose heard code one frame carries (4 bytes)
-MAX_ID_BYTES = 41  # room for task ids in a claim/release frame (64 - 23 bytes of the rest)
+# Around a claim's ids and a segment's bitmap: header 7, heard codes up to 4, MAC 8, and the
+# claim's time (4) or the segment's count, hash and number (4, one byte kept spare).
+CLAIM_OVERHEAD_BYTES = 23
+SEGMENT_OVERHEAD_BYTES = 24
+
+
+def segment_bits(max_frame_bytes: int) -> int:
+    """Spots one cleared-set segment covers in frames of ``max_frame_bytes`` (320 in 64)."""
+    return 8 * (max_frame_bytes - SEGMENT_OVERHEAD_BYTES)
+
+
+SEGMENT_BITS = segment_bits(MAX_FRAME_BYTES)
 # "heard" codes 0, 1, 2: the peer was heard at most this many heartbeat periods (TDMA cycles)
 # before the frame was sent; code 3: not within the last of them (or never).
 HEARD_AGES = (1, 2, 4)
@@ -164,7 +179,7 @@ class ClearedSegment:
     seq: int
     digest: Digest  # of the sender's whole set
     segment: int
-    bits: bytes  # bit i of byte j: task index segment * SEGMENT_BITS + 8 j + i
+    bits: bytes  # bit i of byte j: task index segment * segment_bits + 8 j + i
     heard: Heard = NO_HEARD
 
 
@@ -250,7 +265,8 @@ class Codec:
 
     def __init__(self, key: bytes, run_id: str, n_vehicles: int, n_tasks: int,
                  origin_xy: tuple[float, float] = (0.0, 0.0), unit_m: float = 0.1,
-                 found_from: int | None = None) -> None:
+                 found_from: int | None = None,
+                 max_frame_bytes: int = MAX_FRAME_BYTES) -> None:
         if len(key) < 16:
             raise ValueError("fleet key must be at least 16 bytes")
         if not isinstance(run_id, str) or not run_id:
@@ -259,14 +275,20 @@ class Codec:
             raise ValueError(f"the wire format carries 1..{MAX_VEHICLES} vehicles")
         if not 0 <= n_tasks <= MAX_TASKS:
             raise ValueError(f"the wire format carries at most {MAX_TASKS} spots")
+        if not MIN_FRAME_BYTES <= max_frame_bytes <= 4096:
+            raise ValueError(f"the wire format needs frames of {MIN_FRAME_BYTES}..4096 bytes, "
+                             f"the modem carries {max_frame_bytes}")
         self.run_id = run_id
         self.n_vehicles = n_vehicles
         self.n_tasks = n_tasks
         self.origin_xy = (float(origin_xy[0]), float(origin_xy[1]))
         self.unit_m = float(unit_m)
+        self.max_frame_bytes = int(max_frame_bytes)
+        self.max_pose_bytes = min(MAX_POSE_BYTES, self.max_frame_bytes)
         self.id_width = 1 if n_tasks <= 256 else 2
-        self.max_ids = MAX_ID_BYTES // self.id_width
-        self.n_segments = max(1, math.ceil(n_tasks / SEGMENT_BITS))
+        self.max_ids = (self.max_frame_bytes - CLAIM_OVERHEAD_BYTES) // self.id_width
+        self.segment_bits = segment_bits(self.max_frame_bytes)
+        self.n_segments = max(1, math.ceil(n_tasks / self.segment_bits))
         # FOUND frames name slots found_from..n_tasks-1 (None: a mission without discovery)
         self.found_from = n_tasks if found_from is None else int(found_from)
         self.window = heard_window(n_vehicles)
@@ -275,23 +297,40 @@ class Codec:
         # per frame).
         self._macs = [hmac.new(sender_key(key, run_id, s), digestmod=hashlib.sha256)
                       for s in range(n_vehicles)]
+        kinds = [k for k in Kind if (k != Kind.FOUND or self.found_from < n_tasks)
+                 and (k not in (Kind.CLAIM, Kind.RELEASE) or n_tasks > 0)]
+        too_big = [k.name for k in kinds if len(self._pack(self.largest(k))) >
+                   (self.max_pose_bytes if k == Kind.POSE else self.max_frame_bytes)]
+        if too_big:
+            raise ValueError(f"frames of {self.max_frame_bytes} bytes cannot carry "
+                             f"{', '.join(too_big)} frames of this mission: use a modem (rate) "
+                             "with larger frames")
 
     @staticmethod
     def for_problem(problem: Problem, key: bytes, run_id: str, margin_m: float = 100.0,
-                    found_from: int | None = None) -> "Codec":
+                    found_from: int | None = None,
+                    max_frame_bytes: int = MAX_FRAME_BYTES) -> "Codec":
         """Origin at the south-west corner of everything in the scenario (``margin_m``
         margin: wider in dynamic missions, where finds may lie off the map); decimetres unless
-        the field is wider than 6.5 km."""
+        the field is wider than 6.5 km; frames of the modem's ``max_frame_bytes``."""
         xy = problem.xyz[:, :2]
         lo = xy.min(axis=0) - margin_m
         span = float((xy.max(axis=0) + margin_m - lo).max())
         unit = max(0.1, span / 65535.0)
         return Codec(key, run_id, problem.n_vehicles, problem.n_tasks,
-                     (float(lo[0]), float(lo[1])), unit, found_from)
+                     (float(lo[0]), float(lo[1])), unit, found_from, max_frame_bytes)
 
     # -- encoding --------------------------------------------------------------------------
 
     def encode(self, msg: Message) -> bytes:
+        frame = self._pack(msg)
+        kind = _KIND_OF[type(msg)]
+        limit = self.max_pose_bytes if kind == Kind.POSE else self.max_frame_bytes
+        if len(frame) > limit:
+            raise WireSizeError(f"{kind.name} frame of {len(frame)} bytes exceeds {limit}")
+        return frame
+
+    def _pack(self, msg: Message) -> bytes:
         kind = _KIND_OF[type(msg)]
         if not 0 <= msg.sender < self.n_vehicles:
             raise ValueError(f"sender index {msg.sender} outside the roster")
@@ -300,11 +339,7 @@ class Codec:
         head = _HEAD.pack((VERSION << 4) | int(kind), msg.sender, msg.seq,
                           self._check_heard(msg.heard)) + self._pack_codes(msg.heard.codes)
         data = head + self._body(kind, msg)
-        frame = data + self._mac(msg.sender, data)
-        limit = MAX_POSE_BYTES if kind == Kind.POSE else MAX_FRAME_BYTES
-        if len(frame) > limit:
-            raise WireSizeError(f"{kind.name} frame of {len(frame)} bytes exceeds {limit}")
-        return frame
+        return data + self._mac(msg.sender, data)
 
     def _check_heard(self, heard: Heard) -> int:
         if not 0 <= heard.offset < self.n_vehicles:
@@ -375,7 +410,7 @@ class Codec:
         return bytes(out)
 
     def _segment_bytes(self, segment: int) -> int:
-        bits = min(SEGMENT_BITS, self.n_tasks - segment * SEGMENT_BITS)
+        bits = min(self.segment_bits, self.n_tasks - segment * self.segment_bits)
         return max(1, math.ceil(bits / 8))
 
     def _mac(self, sender: int, data: bytes) -> bytes:
@@ -394,7 +429,7 @@ class Codec:
         head_len = HEADER_BYTES + self.code_bytes
         if len(frame) < 2:
             raise WireError("short", f"{len(frame)} bytes")
-        if len(frame) > MAX_FRAME_BYTES:
+        if len(frame) > self.max_frame_bytes:
             raise WireError("long", f"{len(frame)} bytes")
         version, kind_no, sender = frame[0] >> 4, frame[0] & 0x0F, frame[1]
         if version != VERSION:  # before the length: an old frame counts as old, whatever size

@@ -22,6 +22,7 @@ from cotsfleet.mission.inprocess import InProcessBackend
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
 from fleet_agent.driver import AgentDriver
+from fleet_bus.modem_port import WATER_SPEC
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Frame, Publish, Record, Send, Tick
 from fleet_agent.journal import MemoryJournal
@@ -64,7 +65,7 @@ class World:
         return agent
 
     def sent(self, vid: str) -> list[bytes]:
-        return [o.frame for o in self.outputs[vid] if isinstance(o, Send)]
+        return [f for o in self.outputs[vid] if isinstance(o, Send) for f in o.frames]
 
 
 def comparable(outputs: list) -> list:
@@ -72,7 +73,7 @@ def comparable(outputs: list) -> list:
     keep = []
     for o in outputs:
         if isinstance(o, Send):
-            keep.append(("send", o.frame))
+            keep.append(("send", o.frames))
         elif isinstance(o, Publish) and o.topic in ("event", "truth"):
             keep.append((o.topic, o.payload))
     return keep
@@ -129,7 +130,7 @@ def test_restart_from_the_journal_forgets_nothing() -> None:
     # and its own sequence numbers go on increasing
     while not any(isinstance(o, Send) for o in out):
         out += reborn.step(Tick(reborn.next_wakeup()))
-    frame = next(o.frame for o in out if isinstance(o, Send))
+    frame = next(o.frames[0] for o in out if isinstance(o, Send))
     assert fleet().codec.decode(frame).seq > before.radio.last_seq
     events = [o.payload.kind for o in out if isinstance(o, Publish) and o.topic == "event"]
     assert "restart" in events
@@ -190,13 +191,18 @@ def test_without_a_watcher_the_last_working_vehicle_only_suspects() -> None:
 
 
 class Recorder:
-    """A driver's transport that keeps what went out, in order."""
+    """A driver's modem and telemetry that keep what went out, in order."""
+
+    spec = WATER_SPEC
 
     def __init__(self) -> None:
         self.sent: list[str] = []
 
-    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
+    def transmit(self, frames: tuple[bytes, ...], kind: str, sent_s: float | None = None) -> None:
         self.sent.append("frame")
+
+    def close(self) -> None:
+        pass
 
     def publish(self, topic: str, payload: object) -> None:
         self.sent.append(topic)
@@ -206,7 +212,7 @@ def test_the_simulated_vehicles_truth_goes_out_before_the_first_frame() -> None:
     a = Agent(fleet(), 0, CONFIG, 0.0, MemoryJournal().records)
     vehicle = SimVehicle(problem(), 0)
     out = Recorder()
-    driver = AgentDriver(a, vehicle, out, MemoryJournal(), truth=vehicle.true_pose)
+    driver = AgentDriver(a, vehicle, out, out, MemoryJournal(), truth=vehicle.true_pose)
     while "frame" not in out.sent:
         driver.tick(driver.next_wakeup())
     assert "truth" in out.sent and out.sent.index("truth") < out.sent.index("frame")

@@ -24,6 +24,7 @@ from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
 from reef_sim.scenarios.field import GeneratorParams
 from reef_sim.truth import reef_from_doc
+from fleet_bus.modem_port import WATER_SPEC
 from fleet_bus.vehicle_port import GoTo, Sighted
 from reef_sim.vehicle import SimVehicle
 
@@ -132,14 +133,20 @@ class Mate:
     """An agent driving its simulated vehicle, as in a mission; the frames it sends are kept
     for `exchange` to carry."""
 
+    spec = WATER_SPEC
+
     def __init__(self, fleet: Fleet, index: int) -> None:
         self.agent = Agent(fleet, index, CONFIG)
         self.outbox: list[bytes] = []
-        self.driver = AgentDriver(self.agent, SimVehicle(fleet.problem, index), self,
+        self.driver = AgentDriver(self.agent, SimVehicle(fleet.problem, index), self, self,
                                   MemoryJournal())
 
-    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
-        self.outbox.append(frame)
+    def transmit(self, frames: tuple[bytes, ...], kind: str, sent_s: float | None = None
+                 ) -> None:
+        self.outbox.extend(frames)
+
+    def close(self) -> None:
+        pass
 
     def publish(self, topic: str, payload: object) -> None:
         pass

@@ -236,3 +236,22 @@ def test_header_layout_is_what_docs_say() -> None:
     assert frame[2:6] == bytes([1, 2, 3, 4]) and frame[6] == 9
     assert frame[HEADER_BYTES] == 0b11100100  # codes 0, 1, 2, never: 2 bits each, low first
     assert len(frame) == HEADER_BYTES + 4 + 5 + MAC_BYTES
+
+
+def test_the_frame_budget_is_the_modems() -> None:
+    """A modem with larger frames carries more ids per claim and more spots per segment; one
+    whose frames cannot carry what the mission needs is refused when the codec is made."""
+    wide = Codec(KEY, "run", 3, 1000, max_frame_bytes=256)
+    assert wide.max_ids == (256 - 23) // 2 and wide.segment_bits == 8 * (256 - 24)
+    assert max(wide.max_size(k) for k in Kind) <= 256 and wide.max_size(Kind.POSE) <= 32
+    small = Codec(KEY, "run", 3, 90, max_frame_bytes=32)  # Micro-Modem rate 0, static
+    assert small.max_size(Kind.CLAIM) <= 32 and small.segment_bits == 64
+    assert Codec(KEY, "run", 3, 200, found_from=90, max_frame_bytes=32).max_size(
+        Kind.FOUND) <= 32  # 3 vehicles: one byte of heard codes, a find fits 31 bytes
+    with pytest.raises(ValueError, match="FOUND"):  # 20 vehicles: four bytes, 34 in all
+        Codec(KEY, "run", 20, 200, found_from=90, max_frame_bytes=32)
+    with pytest.raises(ValueError, match="needs frames"):
+        Codec(KEY, "run", 3, 90, max_frame_bytes=16)
+    big = wide.encode(Claim(0, 5, 5, tuple(range(wide.max_ids))))
+    with pytest.raises(WireError, match="long"):
+        Codec(KEY, "run", 3, 1000).decode(big)  # the water's 64-byte codec refuses it
