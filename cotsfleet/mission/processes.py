@@ -54,8 +54,8 @@ from cotsfleet.mission.transport import choose_transport
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_agent.radio import LATE_SHARE
 from fleet_bus import keys
-from fleet_bus.auth import BusAuth
-from fleet_bus.clock import WarpClock
+from fleet_bus.auth import BusAuth, seal_query
+from fleet_bus.clock import MissionClock
 from fleet_bus.commands import ABORT, STOP, encode_command
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition, decode_stats
@@ -63,6 +63,7 @@ from fleet_bus.mission import Mission
 from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID, load_auth,
                                    load_ring, new_run_id, write_run_credentials)
 from fleet_bus.process import RELAY_READY, ROUTER_READY
+from fleet_bus.query_limits import QueryGate, gate_queryable
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
 from fleet_agent.beliefs import find_ids
 from hfc_core.model.problem import Problem
@@ -172,6 +173,7 @@ class ProcessBackend:
         finds = find_ids(problem, opts.agent_config) if "truth" in scenario else range(0)
         self.intake = Intake(problem, self.ids, self.run_id, finds, self.pacer.busy,
                              self.intruder.overhear)
+        self.queries = QueryGate(None)  # who asks the operator what (`start`: with the key)
 
     # -- the runner's interface --------------------------------------------------------------
 
@@ -196,6 +198,7 @@ class ProcessBackend:
             write_run_credentials(creds, self.ids, self.run_id, tls=self.transport.tls,
                                   hosts=self.transport.hosts)
         auth = self.auth = self.intake.auth = load_auth(creds / OPERATOR_ID, OPERATOR_ID)
+        self.queries = QueryGate(auth)
         listen = self._start_router(creds)
         session = self._session = zenoh.open(client_config([self.endpoint],
                                                            credentials=creds / OPERATOR_ID))
@@ -207,8 +210,9 @@ class ProcessBackend:
             session.declare_subscriber(keys.ALIVE_ALL, self.intake.alive),
             session.declare_subscriber(keys.BUSY_ALL, self.intake.busy)]
         mission = Mission(self.scenario, self.seed, self.run_id).encode()
-        self._closers.append(session.declare_queryable(
-            keys.MISSION, lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission))))
+        self._closers.append(session.declare_queryable(keys.MISSION, gate_queryable(
+            self.queries, keys.MISSION,
+            lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission)))))
         relay = self.procs.spawn(
             "relay", ["-m", "comms_sim", "--connect", self.endpoint, "--credentials",
                       str(creds / RELAY_ID), "--mission-from-bus",
@@ -227,9 +231,10 @@ class ProcessBackend:
             else:
                 self.procs.spawn(vid, self._agent_argv(vid))
         self._wait_agents()
-        self.pacer.start(time.time() + 1.0)
-        self._closers.append(session.declare_queryable(  # always the newest record
-            keys.CLOCK, lambda q: q.reply(keys.CLOCK, auth.seal(keys.CLOCK, self.pacer.record))))
+        self.pacer.start()
+        self._closers.append(session.declare_queryable(  # the newest record, timed
+            keys.CLOCK, gate_queryable(self.queries, keys.CLOCK, lambda q: q.reply(
+                keys.CLOCK, auth.seal(keys.CLOCK, self.pacer.answer(str(q.parameters)))))))
         self.procs.wait_ready(relay)
         for f in sorted(faults, key=lambda f: f.t_s):
             steps = int(f.value) if f.kind in ATTACKS else 1
@@ -293,7 +298,7 @@ class ProcessBackend:
             self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, record))
 
     @property
-    def clock(self) -> WarpClock | None:
+    def clock(self) -> MissionClock | None:
         """The shared mission clock (`ClockControl`), once every agent is ready."""
         return self.pacer.clock
 
@@ -319,8 +324,12 @@ class ProcessBackend:
         if self.clock is None:
             return report
         statuses = self.intake.statuses().values()
+        relay_clock = self._relay_extra.get("clock") or {}
+        if relay_clock.get("wall_steps"):
+            report["wall_steps"] = {**report["wall_steps"], "relay": relay_clock["wall_steps"]}
         return {**report, "slots_late": sum(s.counters.get("slots_late", 0) for s in statuses),
-                "max_frame_late_s": self._relay_extra.get("max_late_s")}
+                "max_frame_late_s": self._relay_extra.get("max_late_s"),
+                "relay_sync": relay_clock}
 
     def extra(self) -> dict[str, Any]:
         return {"run_id": self.run_id, "run_dir": str(self.run_dir), "warp": self.opts.warp,
@@ -329,7 +338,9 @@ class ProcessBackend:
                 "exit_codes": {n: c.popen.returncode for n, c in self.children.items()},
                 "exited": {n: c.tail() for n, c in self.children.items()
                            if c.popen.returncode not in (None, 0) and not c.expected_exit},
-                "security": self._security()}
+                "security": self._security(),
+                "queries": {"operator": self.queries.counts(),
+                            "relay": self._relay_extra.get("queries", {})}}
 
     def _security(self) -> dict[str, Any]:
         """What each part of the fleet refused, by reason: the operator (telemetry, ready
@@ -496,7 +507,9 @@ class ProcessBackend:
 
     def _fetch_link_stats(self) -> LinkCounts | None:
         assert self._session is not None and self.auth is not None
-        for reply in self._session.get(keys.LINK_STATS, timeout=3.0):
+        nonce = secrets.token_hex(8)
+        for reply in self._session.get(f"{keys.LINK_STATS}?n={nonce}", timeout=3.0,
+                                       attachment=seal_query(self.auth, keys.LINK_STATS, nonce)):
             if reply.ok is None:
                 continue
             try:
