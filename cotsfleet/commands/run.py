@@ -38,8 +38,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--credentials", type=Path, metavar="DIR",
                    help="credentials made beforehand with `cotsfleet credentials DIR` "
                    "(default: fresh ones in the run dir)")
-    p.add_argument("--startup-timeout", type=float, default=90.0, metavar="S",
-                   help="wall seconds to wait for every agent to be ready (default 90)")
+    p.add_argument("--startup-timeout", type=float, metavar="S",
+                   help="wall seconds to wait for every agent to be ready (default: by fleet "
+                   "size, 90 s up to 6 vehicles, 146 s for 12, 406 s for 24)")
     p.add_argument("--hold-viewer", action=argparse.BooleanOptionalAction,
                    help="keep the web dashboard up after the mission until Ctrl-C "
                    "(default: yes for --viewer web in an interactive terminal)")
