@@ -11,8 +11,15 @@ import pytest
 from fleet_bus import keys
 from fleet_bus.auth import Refused, open_query, seal_query
 from fleet_bus.credentials import load_auth, write_run_credentials
-from fleet_bus.query_limits import (BURST, RATE_PER_S, UNSIGNED, UNSIGNED_BURST, QueryGate,
-                                    TokenBucket, nonce_of)
+from fleet_bus.query_limits import (
+    BURST,
+    RATE_PER_S,
+    UNSIGNED,
+    UNSIGNED_BURST,
+    QueryGate,
+    TokenBucket,
+    nonce_of,
+)
 
 
 class Mono:

@@ -16,11 +16,11 @@ import threading
 from pathlib import Path
 
 import pytest
+from leftovers import kill_children
 
 from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
 from cotsfleet.mission.runner import run_mission
 from hfc_core.formats.scenario import problem_from_dict
-from leftovers import kill_children
 from reef_sim.scenarios.field import paper_preset_doc
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
