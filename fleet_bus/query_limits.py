@@ -21,7 +21,7 @@ import time
 from collections import Counter
 from typing import Any, Callable
 
-from fleet_bus.auth import BusAuth, Refused, open_query, signer_of
+from fleet_bus.auth import BusAuth, Refused, Verifier, open_query, signer_of
 
 UNSIGNED = "unsigned"
 RATE_PER_S = 5.0  # an asker's sustained queries per second (the clock exchange needs 1)
@@ -71,7 +71,11 @@ class QueryGate:
                  burst: float = BURST, unsigned_rate_per_s: float = UNSIGNED_RATE_PER_S,
                  unsigned_burst: float = UNSIGNED_BURST,
                  mono: Callable[[], float] = time.monotonic) -> None:
-        self.auth, self._mono = auth, mono
+        # Queries are checked on replay windows of their own: a second process holding a
+        # signer's key (a copied key) can then spoil no one's telemetry by asking.
+        self.auth = None if auth is None else BusAuth(Verifier(auth.verifier.ring,
+                                                               auth.verifier.run_id))
+        self._mono = mono
         self._rates = (rate_per_s, burst, unsigned_rate_per_s, unsigned_burst)
         self._buckets: dict[str, TokenBucket] = {}
         self.answered: Counter[str] = Counter()

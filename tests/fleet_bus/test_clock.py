@@ -205,3 +205,15 @@ def test_a_clock_answer_carries_the_record_and_the_exchange_times() -> None:
                 {"epoch_unix": 1.0, "warp": 1.0, "nonce": "x", "ref_received": "now"}):
         with pytest.raises(ValueError):
             ClockAnswer.decode(msgpack.packb(bad))
+
+
+def test_the_launcher_names_stepped_hosts_expired_holds_and_crashes() -> None:
+    report = {"clock": {"warp": 60.0, "wall_steps": {"auv2": 2},
+                        "holds_expired": {"auv3": 1}, "holds_refused": {"auv3": 8}},
+              "crashes": [{"name": "ground_station", "t_s": 600.0, "action": "restart",
+                           "why": "ground_station exited with -9: "}],
+              "saved": {"events": 3, "events_total": 9, "events_error": "[Errno 28]"}}
+    lines = run_warnings(report)
+    assert "auv2's host stepped 2 time(s)" in lines[0] and "{'auv3': 1}" in lines[1]
+    assert lines[2] == "t=600 s: ground_station exited with -9:  (started again)"
+    assert "3 of 9 events" in lines[3] and len(lines) == 4
