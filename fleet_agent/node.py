@@ -1,4 +1,4 @@
-"""The Zenoh backend of the agent driver: one OS process per vehicle on the shared warp clock.
+"""The Zenoh backend of the agent driver: one OS process per vehicle on the shared mission clock.
 
 Zenoh callbacks and the modem's reader only enqueue into a bounded inbox; one loop feeds the
 inbox to the driver with each item's arrival time on the mission clock, ticks the agent at its
@@ -11,7 +11,9 @@ the journal, commands to the vehicle (`fleet_agent.helms`). Commands arrive on
 Start-up: the agent reads the mission record (``fleet/mission``: scenario, seed, run id),
 computes the shared initial plan, announces itself ready on ``fleet/alive/<id>`` (a signed
 put, repeated until the clock comes, and a liveliness token), then waits for the clock record
-(``fleet/clock``), which the operator serves once every agent is ready.
+(``fleet/clock``), which the operator serves once every agent is ready, and keeps its
+`MissionClock` on the operator's (`ClockSync`: monotonic, offset measured, records followed;
+a step of this host's wall clock is counted as ``clock_wall_steps`` and changes nothing).
 
 Authentication (`fleet_bus.auth`, with ``--credentials``): everything this agent puts is
 signed with its own key; it takes deliveries only signed by the relay and commands, mission
@@ -44,10 +46,10 @@ from fleet_agent.modems.micromodem import MicroModem, micromodem_spec
 from fleet_agent.modems.water import ZenohWater
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
-from fleet_bus.clock import WarpClock
+from fleet_bus.clock import MissionClock
 from fleet_bus.commands import STOP, decode_command
+from fleet_bus.mission import ClockSync, fetch_mission
 from fleet_bus.modem_port import WATER_SPEC, ModemPort, ModemReport, ModemSpec, Received
-from fleet_bus.mission import clock_of, fetch_clock, fetch_mission
 from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth, encode_busy
 from hfc_core.formats.scenario import problem_from_dict
@@ -61,16 +63,17 @@ ALIVE_EVERY_S = 1.0  # the ready announcement is repeated until the clock record
 
 class Inbox:
     """Bounded FIFO between Zenoh's and the modem's threads and the agent loop. Items carry
-    their arrival (wall) time: after a long computation the agent still sees each frame at the
-    moment it came, not all of them at once."""
+    their arrival time (monotonic, `MissionClock.sim_of` turns it into mission time): after a
+    long computation the agent still sees each frame at the moment it came, not all of them at
+    once."""
 
     def __init__(self, limit: int = INBOX_LIMIT) -> None:
         self._q: queue.Queue[tuple[str, object, float]] = queue.Queue(limit)
         self.overflow = 0
 
     def put(self, kind: str, payload: object) -> None:
-        try:
-            self._q.put_nowait((kind, payload, time.time()))
+        try:  # the monotonic clock: a step of the wall clock must not move a frame in time
+            self._q.put_nowait((kind, payload, time.monotonic()))
         except queue.Full:
             self.overflow += 1
 
@@ -146,7 +149,7 @@ class ModemChoice:
 class _MissionTime:
     """Mission time once the clock record has come (before: -1, nothing is dated yet)."""
 
-    clock: WarpClock | None = None
+    clock: MissionClock | None = None
 
     def now(self) -> float:
         return -1.0 if self.clock is None else self.clock.now()
@@ -196,13 +199,14 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
         threading.Thread(target=_announce_ready, args=(session, vid, auth, clocked),
                          name="ready", daemon=True).start()
         with session.liveliness().declare_token(keys.alive_key(vid)):
+            sync = ClockSync(session, auth, stop)  # the operator's clock, measured
             try:
-                record = fetch_clock(session, stop, mission_timeout_s, auth)
+                clock = sync.join(mission_timeout_s)
             finally:
                 clocked.set()
-            if record is None:
+            if clock is None:
                 return 0 if stop.is_set() else 3
-            clock, follower = clock_of(session, record, auth)  # noqa: F841  (kept alive)
+            sync.start()
             mission_time.clock = clock
             if port is None:
                 port = MicroModem(modem.name.partition(":")[2], hear, clock, rate=modem.rate)
@@ -226,15 +230,16 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
                 agent.count("journal_damaged_bytes", journal.damage.damaged_bytes)
             ready(AGENT_READY, f"{vid} at t={now:.1f} s ({start})")
             try:
-                _loop(driver, inbox, clock, stop, auth)
+                _loop(driver, inbox, clock, stop, auth, sync)
                 driver.final_status(clock.now())
             finally:
+                sync.close()
                 port.close()
     return 0
 
 
-def _loop(driver: AgentDriver, inbox: Inbox, clock: WarpClock, stop: threading.Event,
-          auth: BusAuth | None = None) -> None:
+def _loop(driver: AgentDriver, inbox: Inbox, clock: MissionClock, stop: threading.Event,
+          auth: BusAuth | None = None, sync: ClockSync | None = None) -> None:
     driver.tick(clock.now())
     while not stop.is_set():
         due = driver.next_wakeup()
@@ -265,6 +270,9 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: WarpClock, stop: threading.E
         if auth is not None:
             for reason, n in auth.verifier.take_refused().items():
                 driver.agent.count(f"drop_auth_{reason}", n)
+        steps = sync.take_wall_steps() if sync is not None else 0
+        if steps:  # this host's wall clock stepped: named in the status, nothing else
+            driver.agent.count("clock_wall_steps", steps)
         now = clock.now()
         driver.agent.note_lag(max(0.0, now - due))  # how late this host runs the mission
         driver.tick(now)

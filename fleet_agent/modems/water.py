@@ -15,7 +15,7 @@ import zenoh
 
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
-from fleet_bus.clock import WarpClock
+from fleet_bus.clock import Clock
 from fleet_bus.link import TxTag
 from fleet_bus.modem_port import WATER_SPEC, Received, ReportSink
 
@@ -25,7 +25,7 @@ class ZenohWater:
 
     spec = WATER_SPEC
 
-    def __init__(self, session: zenoh.Session, vid: str, sink: ReportSink, clock: WarpClock,
+    def __init__(self, session: zenoh.Session, vid: str, sink: ReportSink, clock: Clock,
                  auth: BusAuth | None = None) -> None:
         self._auth, self._sink, self._clock = auth, sink, clock
         self._tx_key, rx_key = keys.tx_key(vid), keys.rx_key(vid)
