@@ -60,7 +60,7 @@ class Agent:
     def __init__(self, fleet: Fleet, index: int, config: AgentConfig, now: float = 0.0,
                  journal: Sequence[dict[str, Any]] = (), chain_seed: bytes | None = None
                  ) -> None:
-        """``chain_seed``: this vehicle's key chain (`fleet_agent.tesla`) from its
+        """``chain_seed``: this vehicle's key chain (`fleet_bus.tesla`) from its
         credentials; None where the fleet's chains are derived (a simulation)."""
         p = fleet.problem
         self.fleet, self.index, self.config = fleet, index, config

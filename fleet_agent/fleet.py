@@ -8,7 +8,7 @@ from fleet_agent.beliefs import FIND_MARGIN_M, expected_problem, initial_working
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
-from fleet_agent.tesla import FleetChains, chain_length
+from fleet_bus.tesla import FleetChains, chain_length
 from fleet_agent.wire import Codec
 from fleet_bus.modem_port import WATER_SPEC, ModemSpec
 from hfc_core.model.paths import PathFn, path_function
@@ -42,7 +42,7 @@ class Fleet:
     base_routes: tuple[tuple[int, ...], ...]
     dynamic: Dynamic | None = None
     modem: ModemSpec = WATER_SPEC
-    chains: FleetChains | None = None  # every vehicle's key chain (`fleet_agent.tesla`)
+    chains: FleetChains | None = None  # every vehicle's key chain (`fleet_bus.tesla`)
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
@@ -60,6 +60,11 @@ class Fleet:
         if len(chains.commitments) != problem.n_vehicles:
             raise ValueError(f"key chains for {len(chains.commitments)} vehicles, the "
                              f"scenario has {problem.n_vehicles}")
+        cycles = chain_length(max(v.battery_s for v in problem.vehicles),
+                              problem.n_vehicles * config.slot_s) - 16
+        if chains.length < cycles:
+            raise ValueError(f"key chains of {chains.length} cycles are too short for a "
+                             f"mission of {cycles} cycles")
         if camera is not None:
             return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
                                         chains)

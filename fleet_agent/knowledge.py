@@ -49,7 +49,7 @@ class Knowledge:
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
         self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s)
         # A claim has settled once any earlier claim of its spot has been heard and proven its
-        # claimer's (`settled_s`; proving takes a cycle, `fleet_agent.tesla`).
+        # claimer's (`settled_s`; proving takes a cycle, `fleet_bus.tesla`).
         self.claim_settle_s = (config.claim_settle_cycles + 1.0) * cycle_s + config.slot_s + 1.0
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order

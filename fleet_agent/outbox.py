@@ -32,7 +32,7 @@ The ladder, most urgent first (a working vehicle):
 10. the cleared set, one segment: after a local clear, when a peer may lack part of it, or
     every ``cleared_refresh_cycles``;
 11. standing claims again every ``claim_refresh_cycles`` (late joiners, loss);
-12. else the key the last frame (a pose) could not disclose (`fleet_agent.tesla`), else a pose.
+12. else the key the last frame (a pose) could not disclose (`fleet_bus.tesla`), else a pose.
 
 An aborting vehicle sends its ABORT ``abort_repeats`` times, then what it owes of the cleared
 set; a vehicle home sends ``home_repeats`` poses. Either then keeps watch: a pose every

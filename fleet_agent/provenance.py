@@ -3,7 +3,7 @@
 Between the modem and the agent's policies: a frame off the modem has its fleet MAC checked
 (`wire.Codec.unseal`: from this fleet, well formed), must not be this vehicle's own played
 back, from the future, or heard after its cycle's key could be out; then it is held until its
-sender discloses that key (`fleet_agent.tesla`) and comes out proven its sender's, or forged.
+sender discloses that key (`fleet_bus.tesla`) and comes out proven its sender's, or forged.
 What is dropped, and why, is counted. Own frames are tagged under this vehicle's chain key of
 the frame's cycle and disclose the key of the cycle before.
 """
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import cast
 
 from fleet_agent.radio import Slots
-from fleet_agent.tesla import CLOCK_MARGIN_S, FleetChains, Held, KeyChain, Sender
+from fleet_bus.tesla import CLOCK_MARGIN_S, FleetChains, Held, KeyChain, Sender
 from fleet_agent.wire import MAX_LEAD_S, Codec, Message, WireError
 
 

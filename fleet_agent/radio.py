@@ -51,7 +51,7 @@ class Slots:
         """The cycle of a frame of this vehicle with sequence number ``seq`` (its send time in
         whole seconds: at most a second before its slot opens, bumped by a second per further
         frame of the slot, never reaching the next slot): the cycle its key belongs to
-        (`fleet_agent.tesla`: chain index ``cycle + 1``)."""
+        (`fleet_bus.tesla`: chain index ``cycle + 1``)."""
         return max(0, math.floor((seq + 1.0 - self.time(0)) / self.cycle_s))
 
     def disclosure_s(self, cycle: int) -> float:

@@ -9,7 +9,7 @@ Layout of every frame (fixed binary fields, big-endian; `docs/wire.md` has the f
     next c bytes  heard codes, 2 bits each, for min(n, `HEARD_WINDOW`) peers from the offset
     next 8        every kind but POSE: the sender's disclosed key of its previous cycle
     body          kind-specific fixed fields (`_BODY`), then a tail (id list, bitmap)
-    next 4        the sender's own tag (`fleet_agent.tesla`: its chain key of the frame's cycle)
+    next 4        the sender's own tag (`fleet_bus.tesla`: its chain key of the frame's cycle)
     last 4        HMAC-SHA256 under the sender's run key over all before it (the fleet MAC)
 
 The sequence number is strictly increasing per sender (replay protection) and a timestamp at
@@ -31,7 +31,7 @@ Keys: the fleet MAC key of sender ``s`` is derived from the fleet key, the run i
 (`sender_key`), so a frame recorded in one run fails the MAC in every other run; it keeps
 outsiders out at once. Every vehicle holds the fleet key (it must check everyone), so the
 fleet MAC cannot say which vehicle sent a frame: the sender's tag does, once the key of the
-frame's cycle is disclosed (`fleet_agent.tesla`, delayed key disclosure). `decode` checks the
+frame's cycle is disclosed (`fleet_bus.tesla`, delayed key disclosure). `decode` checks the
 fleet MAC and returns what the tag check needs (`Sealed`); the agent holds the frame until
 then.
 """
@@ -46,12 +46,12 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Callable, Sequence, Union
 
-from fleet_agent.tesla import tag as tesla_tag
+from fleet_bus.tesla import tag as tesla_tag
 from hfc_core.model.problem import Problem
 
 VERSION = 3
 FLEET_MAC_BYTES = 4  # 2^-32 per frame an outsider forges, each costing a slot of airtime
-TAG_BYTES = 4  # the sender's own tag (`fleet_agent.tesla`)
+TAG_BYTES = 4  # the sender's own tag (`fleet_bus.tesla`)
 KEY_BYTES = 8  # a disclosed chain key
 MAC_BYTES = FLEET_MAC_BYTES + TAG_BYTES
 HEADER_BYTES = 7  # version|kind, sender, seq (4), heard offset; the heard codes follow

@@ -3,7 +3,7 @@
 A frame whose fleet MAC checked is evidence of life at once (`alive`): its sender, and the
 peers its heard codes say it heard, may be revived; forged, such evidence only keeps a silent
 vehicle in the fleet longer, never takes its work (silence is not death). Everything else
-waits until the frame is proven its sender's (`fleet_agent.tesla`: a cycle later): the heard
+waits until the frame is proven its sender's (`fleet_bus.tesla`: a cycle later): the heard
 codes that confirm a suspect's silence (`confirmed`: a takeover), then the content
 (`content`): a pose (where the peer is, and whether its cleared set
 may lack something of ours), a segment of the cleared set (merged: a grow-only set), a claim

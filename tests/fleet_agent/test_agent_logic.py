@@ -102,7 +102,7 @@ def test_hostile_frames_are_counted_and_change_nothing() -> None:
     assert attacked.agent("auv1").status().route == base.agent("auv1").status().route
     c = attacked.agent("auv1").counters
     assert c.get("drop_mac", 0) >= 120  # forged frames (and garbage that got that far)
-    # A replay comes after its cycle's key was out (`fleet_agent.tesla`): it proves nothing.
+    # A replay comes after its cycle's key was out (`fleet_bus.tesla`): it proves nothing.
     assert c.get("drop_replay", 0) + c.get("drop_late_key", 0) == len(replays)
     assert c.get("drop_self", 0) == len(own)
     refused = sum(n for k, n in c.items() if k.startswith("drop_"))
@@ -145,7 +145,7 @@ def test_abort_announces_then_keeps_watch_and_goes_home() -> None:
     kinds = [type(m).__name__ for m in sent]
     assert kinds[:CONFIG.abort_repeats] == ["Abort"] * CONFIG.abort_repeats
     # then only poses saying "aborted", one every `watch_every_cycles` slots: keeping watch,
-    # and after each the key it could not disclose (`fleet_agent.tesla`)
+    # and after each the key it could not disclose (`fleet_bus.tesla`)
     watch = sent[CONFIG.abort_repeats + 1:]
     assert watch and all((type(m).__name__ == "Pose" and m.state in ("aborted", "home"))
                          or type(m).__name__ == "Key" for m in watch)

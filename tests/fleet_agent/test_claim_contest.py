@@ -103,7 +103,7 @@ def test_a_late_claim_settles_two_cycles_and_a_slot_after_it_and_the_initial_pla
     world, agent, spot = claimed_by_auv1()
     know, cfg = agent.know, agent.config
     cycle = cfg.slot_s * agent.problem.n_vehicles
-    # a cycle more for the claim to be proven its claimer's (`fleet_agent.tesla`)
+    # a cycle more for the claim to be proven its claimer's (`fleet_bus.tesla`)
     assert know.settled_s(spot) == 250 + (cfg.claim_settle_cycles + 1) * cycle + cfg.slot_s + 1.0
     own = agent.own.route[0] if agent.own.route else next(
         t for t in range(know.holdings.n_tasks) if know.holder(t) == know.index)

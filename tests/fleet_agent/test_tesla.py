@@ -1,4 +1,4 @@
-"""Which vehicle sent a frame (`fleet_agent.tesla`): key chains, delayed disclosure, and an
+"""Which vehicle sent a frame (`fleet_bus.tesla`): key chains, delayed disclosure, and an
 insider who holds the fleet key but not another vehicle's chain."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Frame, Tick
-from fleet_agent.tesla import MAX_HELD, FleetChains, Held, KeyChain, Sender, tag
+from fleet_bus.tesla import MAX_HELD, FleetChains, Held, KeyChain, Sender, tag
 from fleet_agent.wire import Abort, Claim, Pose, Digest
 from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.scenarios.field import paper_preset_doc
