@@ -9,9 +9,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from cotsfleet.commands.checks import json_output, output_dir, output_file
 from cotsfleet.commands.mission_args import add_mission_arguments, mission_args, write_reports
 from cotsfleet.errors import UsageError
 from cotsfleet.mission.faults import FaultError
+from cotsfleet.mission.report_model import MissionReport
 
 HELP = "run an emulated mission: router, link emulator, one agent process per AUV, dashboard"
 
@@ -20,10 +22,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_mission_arguments(p, "the paper preset drawn with --seed")
     p.add_argument("--warp", type=float, default=60.0, help="simulated seconds per wall second")
     p.add_argument("--viewer", choices=("web", "native", "none"),
-                   help="Rerun viewer (default: native with a display, else web)")
+                   help="Rerun viewer (default: native with a display, else web; native "
+                   "without a display falls back to web, saying so)")
     p.add_argument("--rrd", type=Path, help="also record the mission to this .rrd file")
     p.add_argument("--web-port", type=int, default=9090, help="web viewer port")
-    p.add_argument("--report", type=Path, help="mission report JSON (default: in the run dir)")
+    p.add_argument("--report", type=Path, help="mission report JSON, R.json: R.md and R-*.png "
+                   "beside it (default: report.json in the run dir)")
     p.add_argument("--run-dir", type=Path, help="journals, logs, report (default: a new "
                    "directory under $TMPDIR/cotsfleet-runs)")
     p.add_argument("--listen", metavar="ENDPOINT", help="router endpoint, e.g. 0.0.0.0:7447 "
@@ -42,7 +46,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="wall seconds to wait for every agent to be ready (default 90)")
     p.add_argument("--hold-viewer", action=argparse.BooleanOptionalAction,
                    help="keep the web dashboard up after the mission until Ctrl-C "
-                   "(default: yes for --viewer web in an interactive terminal)")
+                   "(default: yes for the web viewer when stdin is a terminal; a native "
+                   "viewer is a window of its own and stays until closed)")
 
 
 def _interrupt(*_: Any) -> None:
@@ -67,12 +72,14 @@ def _check_listen(endpoint: str) -> None:
 def run(args: argparse.Namespace) -> int:
     from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
     from cotsfleet.mission.runner import run_mission
+    from ground_station.viewer import resolve_viewer
 
-    viewer = args.viewer
-    if viewer is None:
-        from ground_station.viewer import default_viewer
-
-        viewer = default_viewer()
+    output_file(args.rrd, "--rrd")
+    json_output(args.report, "--report")
+    output_dir(args.run_dir, "--run-dir")
+    viewer, note = resolve_viewer(args.viewer)
+    if note:
+        print(f"cotsfleet run: {note}", file=sys.stderr)
     hold = args.hold_viewer
     if hold is None:
         hold = viewer == "web" and sys.stdin.isatty()
@@ -104,34 +111,38 @@ def run(args: argparse.Namespace) -> int:
     report = outcome.report
     path = args.report or backend.run_dir / "report.json"
     write_reports(report, path, backend.ledger.events, m.scenario)
-    if report.get("failure"):
-        print(f"cotsfleet run: the mission ended early: {report['failure']}", file=sys.stderr)
+    if report.failure:
+        print(f"cotsfleet run: the mission ended early: {report.failure}", file=sys.stderr)
     for line in run_warnings(report):
         print(f"cotsfleet run: warning: {line}", file=sys.stderr)
     backend.hold_viewer()
-    if report.get("interrupted"):
+    if report.interrupted:
         return 130
-    return 1 if report.get("failure") else 0
+    return 1 if report.failure else 0
 
 
-def run_warnings(report: dict) -> list[str]:
+def run_warnings(report: MissionReport) -> list[str]:
     """What an operator must not miss in a finished run: false alarms (a vehicle declared
     lost that was alive: its spots were taken, maybe twice) and a clock that had to slow
     down (the machine could not keep up with the warp asked for)."""
     out = []
-    false = report.get("fleet", {}).get("false_alarms", 0)
+    false = report.fleet.false_alarms
     if false:
         out.append(f"{false} false alarm(s): a vehicle was declared lost while alive "
-                   f"({report['fleet'].get('duplicate_treatments', 0)} duplicate treatment(s))")
-    clock = report.get("clock") or {}
-    if clock.get("slowdowns"):
-        slowest = min(s["warp"] for s in clock["slowdowns"])
-        back = (f", back up to {clock['final_warp']:g} once every host kept up"
-                if clock.get("speedups") else "")
-        out.append(f"the machine could not keep up with warp {clock['warp']:g}: the clock "
-                   f"slowed to {slowest:g}{back} (effective {clock['effective_warp']}); "
-                   f"worst lag {clock['max_lag_s']} s")
-    if clock.get("slots_late"):
-        out.append(f"{clock['slots_late']} frame(s) left a host after their TDMA slot; they "
+                   f"({report.collected.duplicates} duplicate treatment(s))")
+    clock = report.clock
+    if clock is None:
+        return out
+    if isinstance(clock.slowdowns, list) and clock.slowdowns:
+        slowest = min(s.warp for s in clock.slowdowns)
+        back = (f", back up to {clock.final_warp:g} once every host kept up"
+                if isinstance(clock.speedups, list) and clock.speedups
+                and isinstance(clock.final_warp, float) else "")
+        effective = clock.effective_warp if isinstance(clock.effective_warp, float) else None
+        lag = clock.max_lag_s if isinstance(clock.max_lag_s, float) else None
+        out.append(f"the machine could not keep up with warp {clock.warp:g}: the clock "
+                   f"slowed to {slowest:g}{back} (effective {effective}); worst lag {lag} s")
+    if isinstance(clock.slots_late, int) and clock.slots_late:
+        out.append(f"{clock.slots_late} frame(s) left a host after their TDMA slot; they "
                    "were dated at the slot and the relay placed them there")
     return out
