@@ -34,12 +34,13 @@ class Graticule:
 
 
 def nice_step(span: float, across: int = LINES_ACROSS) -> float:
-    """A round step (1, 2 or 5 x 10^k) giving about ``across`` steps over ``span``."""
+    """The round step (1, 2 or 5 x 10^k) nearest (in ratio) to ``span / across``."""
     if not span > 0:
         return 1.0
     raw = span / across
     power = 10.0 ** math.floor(math.log10(raw))
-    return next(m * power for m in (1.0, 2.0, 5.0, 10.0) if m * power >= raw)
+    return min((m * power for m in (1.0, 2.0, 5.0, 10.0)),
+               key=lambda step: abs(math.log(step / raw)))
 
 
 def _ticks(lo: float, hi: float, step: float) -> list[float]:
@@ -60,7 +61,6 @@ def scale_bar(bounds: Bounds) -> tuple[tuple[np.ndarray, ...], np.ndarray, str]:
     xmin, xmax, ymin, ymax = bounds
     width, height = xmax - xmin, ymax - ymin
     length = nice_step(width * SCALE_SHARE, 1)
-    length = length if length <= width * 0.4 else length / 2.0
     x0, y0 = xmax - 0.04 * width - length, ymin + 0.06 * height
     tick = 0.012 * max(width, height)
     bar = np.array([[x0, y0], [x0 + length, y0]])

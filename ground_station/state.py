@@ -37,7 +37,9 @@ from hfc_core.model.current import TIDE_STEP_S
 
 STOPPED = ("aborted", "dead")  # states in which a vehicle's route is abandoned
 FINISHED = ("home",)
-LOGGED_STATES = (*STOPPED, *FINISHED, "returning")  # transit <-> injecting would flood the log
+# State changes written to the log: transit <-> injecting would flood it, and an arrival is
+# the vehicle's own event ("auv1 reached its rendezvous")
+LOGGED_STATES = (*STOPPED, "returning")
 
 # How each series is thinned (`ground_station.series`): the battery falls steadily (drawn once a
 # minute), T_diff jumps at replans (drawn at once, with the corner), counts step when they

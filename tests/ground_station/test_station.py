@@ -140,7 +140,8 @@ def test_spot_colours_vehicle_marks_and_event_log(recorded):
     assert "auv2 aborted its mission" in texts
     assert "auv1 took over spots 13 and 14 from auv2" in texts or \
         "auv1 took over spot 14 from auv2" in texts
-    assert "auv1 treated spot 10" in texts and "auv1 is home" in texts
+    assert "auv1 treated spot 10" in texts and "auv1 reached its rendezvous" in texts
+    assert "auv1 is home" not in texts  # its arrival says it once
     assert "auv2 is aborted" not in texts  # its abort says it once
 
 
