@@ -61,7 +61,7 @@ def scale_bar(bounds: Bounds) -> tuple[tuple[np.ndarray, ...], np.ndarray, str]:
     xmin, xmax, ymin, ymax = bounds
     width, height = xmax - xmin, ymax - ymin
     length = nice_step(width * SCALE_SHARE, 1)
-    x0, y0 = xmax - 0.04 * width - length, ymin + 0.06 * height
+    x0, y0 = xmax - 0.04 * width - length, ymin + 0.11 * height  # above the bottom labels
     tick = 0.012 * max(width, height)
     bar = np.array([[x0, y0], [x0 + length, y0]])
     ticks = tuple(np.array([[x, y0 - tick], [x, y0 + tick]]) for x in (x0, x0 + length))
