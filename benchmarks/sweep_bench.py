@@ -98,8 +98,8 @@ def jobs_side_by_side(tmp: Path, reps: int) -> tuple[str, list]:
     ratio = statistics.median(walls["--jobs 2"]) / base
     verdict = "met" if ratio <= TARGET_RATIO else "NOT met"
     table = markdown_table(["command", "wall s (median)", "min - max", "sweep alone s",
-                            "ratio to --jobs 1", "sweep.md identical to --jobs 1 (but for wall times)"],
-                           rows)
+                            "ratio to --jobs 1",
+                            "sweep.md identical to --jobs 1 (but for wall times)"], rows)
     body = (f"Paper preset, seeds 0-5, no fault, {reps} repetition(s) interleaved. Wall time of "
             "the whole command (Python start-up, imports, the runs, sweep.json and sweep.md); "
             "'sweep alone' is what the command prints for the runs. Target: `--jobs 2` at most "

@@ -56,7 +56,17 @@ import rerun as rr
 
 from ground_station import palette
 from ground_station.drawing import (
-    Current, Drawing, Finds, Links, LogLine, Mark, Routes, SeriesRow, Spots, Stations, Trails,
+    Current,
+    Drawing,
+    Finds,
+    Links,
+    LogLine,
+    Mark,
+    Routes,
+    SeriesRow,
+    Spots,
+    Stations,
+    Trails,
     Vehicles,
 )
 from ground_station.graticule import graticule

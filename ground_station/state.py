@@ -26,8 +26,20 @@ from fleet_bus.link import BROADCAST, LinkRecord
 from fleet_bus.telemetry import Event, Status, Truth, detail_position
 from ground_station import palette
 from ground_station.drawing import (
-    Current, Drawing, Finds, LinkLine, Links, LogLine, Mark, Routes, Scalar, SeriesRow, Spots,
-    Stations, Trails, Vehicles,
+    Current,
+    Drawing,
+    Finds,
+    LinkLine,
+    Links,
+    LogLine,
+    Mark,
+    Routes,
+    Scalar,
+    SeriesRow,
+    Spots,
+    Stations,
+    Trails,
+    Vehicles,
 )
 from ground_station.inputs import Record
 from ground_station.labels import box_of, stack

@@ -12,8 +12,13 @@ import pytest
 from cotsfleet.cli import build_parser, main
 from cotsfleet.commands.mission_args import mission_args
 from cotsfleet.mission.inprocess import simulate
-from cotsfleet.mission.report_model import (FailedRun, MissionReport, ReportError,
-                                            run_from_dict, runs_from_list)
+from cotsfleet.mission.report_model import (
+    FailedRun,
+    MissionReport,
+    ReportError,
+    run_from_dict,
+    runs_from_list,
+)
 
 DATA = Path(__file__).parent / "data" / "reports"
 # Written by `cotsfleet sim` before the typed tree (commit 819a5fc), and by `cotsfleet run`
@@ -125,3 +130,28 @@ def test_a_sweeps_json_reads_back_with_its_failures() -> None:
     with pytest.raises(ReportError, match="non-empty list"):
         runs_from_list([], "s.json")
     assert run_from_dict(runs[1]).seed == 9
+
+
+def test_without_the_relays_counters_the_report_says_unknown_not_zero() -> None:
+    """With the relay gone at the end, `run` reported "0 receptions" and "By the relay: none";
+    its counters are null now, in messages and in security."""
+    import numpy as np
+
+    from cotsfleet.mission.report import build_report
+    from fleet_bus.ledger import FleetLedger
+    from hfc_core.formats.scenario import problem_from_dict
+    from reef_sim.scenarios.field import GeneratorParams, generate_doc
+
+    problem = problem_from_dict(generate_doc(GeneratorParams(n_tasks=5, n_vehicles=2),
+                                             np.random.default_rng(0)))
+    security = {"refused_total": 0, "operator": {}, "relay": {}, "agents": {}}
+    gone = build_report(problem, FleetLedger(), None, [], mode="run", seed=0, end_s=10.0,
+                        extra={"security": security})
+    assert gone.messages.link is None and gone.messages.link_by_sender == {}
+    assert gone.security is not None and gone.security.relay is None
+    doc = gone.to_dict()
+    assert doc["messages"]["link"] is None and doc["security"]["relay"] is None
+    assert MissionReport.from_dict(doc) == gone
+    there = build_report(problem, FleetLedger(), {}, [], mode="run", seed=0, end_s=10.0,
+                         extra={"security": security})
+    assert there.messages.link is not None and there.security.relay == {}

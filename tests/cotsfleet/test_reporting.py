@@ -16,8 +16,13 @@ from cotsfleet.mission.report_model import FailedRun, MissionReport, Oracle, Sec
 from cotsfleet.reporting import read_events, write_report_bundle, write_sweep_summary
 from cotsfleet.reporting.markdown import false_alarm_text
 from cotsfleet.reporting.sweep import METRICS, statistics_rows
-from cotsfleet.reporting.timeline import (Spots, collected_over_time, down_intervals,
-                                          time_shares, vehicle_segments)
+from cotsfleet.reporting.timeline import (
+    Spots,
+    collected_over_time,
+    down_intervals,
+    time_shares,
+    vehicle_segments,
+)
 from fleet_agent.config import AgentConfig
 from fleet_bus.telemetry import Event
 from hfc_core.formats.scenario import problem_from_dict

@@ -39,7 +39,8 @@ def test_a_find_reads_as_a_sentence_not_a_record() -> None:
     (Event(1, "auv3", "restart", detail="12 cleared"),
      "auv3's agent restarted from its journal (12 cleared)"),
     (Event(1, "auv1", "refused", detail="inject: busy"), "auv1 refused a command: inject: busy"),
-    (Event(1, "auv1", "teleported", [1], peer="x", detail="why"), "auv1 teleported spot 1 (x): why"),
+    (Event(1, "auv1", "teleported", [1], peer="x", detail="why"),
+     "auv1 teleported spot 1 (x): why"),
 ])
 def test_each_kind_has_its_sentence(event: Event, text: str) -> None:
     assert sentence(event) == text

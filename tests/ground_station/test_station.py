@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from gs_scripted import mission_of, scripted_mission, small_scenario
 from rerun.chunk import RrdReader
 
 from fleet_bus.telemetry import Status, Truth
-from gs_scripted import mission_of, scripted_mission, small_scenario
 from ground_station import palette
 from ground_station.blueprint import live_blueprint
 from ground_station.recording_reader import read_recording
