@@ -38,6 +38,9 @@ class RealReef:
     positions: tuple[Point, ...]  # (x, y) or (x, y, z) metres
     of_task: Mapping[int, int]  # predicted spot id -> its real spot (those holding COTS)
     unmapped: frozenset[int] = frozenset()
+    # positions already matched: the dashboard asks again at every status
+    _matched: dict[tuple[Point, float], int | None] = field(
+        default_factory=dict, compare=False, repr=False)
 
     @property
     def total(self) -> float:
@@ -46,11 +49,15 @@ class RealReef:
     def spot_at(self, pos: Point, within_m: float = FIND_MATCH_M) -> int | None:
         """The real spot nearest ``pos`` within ``within_m`` (a find's reported position);
         compared in as many dimensions as both have."""
+        key = (tuple(pos), within_m)
+        if key in self._matched:
+            return self._matched[key]
         best, best_d = None, within_m
         for i, p in enumerate(self.positions):
             d = math.dist(p[:len(pos)], pos[:len(p)])
             if d <= best_d:
                 best, best_d = i, d
+        self._matched[key] = best
         return best
 
 
@@ -191,9 +198,11 @@ class FleetLedger:
                 for (vid, task), (t, _) in order]
 
     def collected(self, values: SpotValues) -> Collected:
-        """The fleet's figures (see `Collected`) under ``values``."""
+        """The fleet's figures (see `Collected`) under ``values`` (in no particular order:
+        linear in the treatments, as the dashboard asks at every status)."""
         reef = values.reef
-        treatments = self.treatments_of(values)
+        treatments = [Treatment(0.0, vid, task, self.spot_of(task, values))
+                      for vid, task in self.treated_at]
         if reef is None:
             def worth(spot: int) -> float:
                 return float(values.predicted.get(spot, 0.0))
