@@ -105,6 +105,9 @@ def parse(argv: list[str]) -> tuple[int, str]:
                 assert module in MODULES, f"a module the docs name is not known here: {module}"
                 saved = sys.argv
                 sys.argv = [module, *argv[3:]]
+                for name in (module, f"{module}.__main__"):  # run afresh, as `python -m` does
+                    if name != module or not hasattr(sys.modules.get(name), "__path__"):
+                        sys.modules.pop(name, None)
                 try:
                     runpy.run_module(module, run_name="__main__", alter_sys=True)
                 finally:

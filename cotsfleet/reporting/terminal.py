@@ -78,8 +78,10 @@ def format_report(report: MissionReport, events: Sequence[Event] = ()) -> str:
     sec = report.security
     if sec is not None:
         parts = [f"operator {sec.operator}"] if sec.operator else []
-        parts += ["relay unknown" if sec.relay is None else f"relay {sec.relay}"] \
-            if sec.relay is None or sec.relay else []
+        if sec.relay is None:
+            parts.append("relay unknown (its counters never came)")
+        elif sec.relay:
+            parts.append(f"relay {sec.relay}")
         parts += [f"{vid} {row}" for vid, row in sec.agents.items()]
         lines.append(f"security: {sec.refused_total} message(s) refused"
                      + (f" ({'; '.join(parts)})" if parts else ""))
