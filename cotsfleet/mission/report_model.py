@@ -6,12 +6,12 @@ msgspec Structs rather than dataclasses: reading a ``report.json`` back (`Missio
 from_dict`) is a validation of a nested document against these types, and msgspec does it in
 one call with an error that names the offending field (``Expected `int`, got `str` - at
 `$.fleet.spots_total```), where dataclasses would need a hand-written checker per section;
-its `to_builtins` gives the JSON document in field order. The wire records of `fleet_bus`
-are meant to move to the same library (issue 27).
+its `to_builtins` gives the JSON document in field order. (Issue 27 asks the same of the
+wire records of `fleet_bus`.)
 
-`MissionReport.to_dict` gives exactly the field names and values ``report.json`` has always
-had (``tests/cotsfleet/test_report_model.py`` holds it to reports written before the tree
-existed). Sections a mission does not have are absent from the document (`None` here);
+`MissionReport.to_dict` gives the field names and values ``report.json`` has always had
+(``tests/cotsfleet/test_report_model.py`` holds it to reports written before the tree
+existed; one field was added since, ``dynamic.unmapped_found``). Sections a mission does not have are absent from the document (`None` here);
 fields whose absence differs from a null (`UNSET`) keep that difference. A report's
 top-level fields this version does not know (a newer writer's) are kept in ``other`` and
 written back unchanged; nested sections refuse unknown fields, so a typo or a drift between

@@ -329,3 +329,29 @@ def test_report_command_bad_input_exits_2(setup, argv_extra, message, tmp_path, 
     assert main(["report", "r.json", *argv_extra]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("cotsfleet report: error:") and "\n" not in err and message in err
+
+
+def test_the_run_progress_line_counts_what_the_report_counts(tmp_path):
+    """`cotsfleet run`'s progress lines summed the map's priority while its summary counted
+    the real reef (issue 32: 2938 against 3372): they take the same fold now."""
+    from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
+    from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
+
+    doc = generate_dynamic_doc(DynamicParams(base=GeneratorParams(
+        name="progress", n_tasks=10, n_vehicles=2, size_m=400.0, battery_s=900.0)),
+        np.random.default_rng(4))
+    problem = problem_from_dict(doc)
+    truth = doc["truth"]["spots"]
+    real = next(s for s in truth if s.get("task") is not None)
+    task = doc["tasks"][real["task"]]
+    assert round(real["priority"]) != round(task["priority"])  # the two figures differ
+    lines: list[str] = []
+    backend = ProcessBackend(problem, doc, 1, ProcessOptions(run_dir=tmp_path / "run",
+                                                             progress_every_s=1e-6),
+                             out=lines.append)
+    backend.ledger.add_event(Event(50.0, "auv1", "cleared", [task["id"]]))
+    backend._progress()
+    total = sum(s["priority"] for s in truth)
+    assert f"1 of {len(truth)} real spots treated, priority {real['priority']:.0f} of " \
+           f"{total:.0f}" in lines[-1]
+    assert not (tmp_path / "run").exists()  # nothing was started
