@@ -121,6 +121,12 @@ def run(args: argparse.Namespace) -> int:
     return 1 if report.failure else 0
 
 
+def _number(value: object) -> float | None:
+    """A clock figure, or None where the report has none (absent, or null)."""
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
+        else None
+
+
 def run_warnings(report: MissionReport) -> list[str]:
     """What an operator must not miss in a finished run: false alarms (a vehicle declared
     lost that was alive: its spots were taken, maybe twice) and a clock that had to slow
@@ -135,13 +141,13 @@ def run_warnings(report: MissionReport) -> list[str]:
         return out
     if isinstance(clock.slowdowns, list) and clock.slowdowns:
         slowest = min(s.warp for s in clock.slowdowns)
-        back = (f", back up to {clock.final_warp:g} once every host kept up"
-                if isinstance(clock.speedups, list) and clock.speedups
-                and isinstance(clock.final_warp, float) else "")
-        effective = clock.effective_warp if isinstance(clock.effective_warp, float) else None
-        lag = clock.max_lag_s if isinstance(clock.max_lag_s, float) else None
+        final = _number(clock.final_warp)
+        back = (f", back up to {final:g} once every host kept up"
+                if isinstance(clock.speedups, list) and clock.speedups and final is not None
+                else "")
         out.append(f"the machine could not keep up with warp {clock.warp:g}: the clock "
-                   f"slowed to {slowest:g}{back} (effective {effective}); worst lag {lag} s")
+                   f"slowed to {slowest:g}{back} (effective {_number(clock.effective_warp)}); "
+                   f"worst lag {_number(clock.max_lag_s)} s")
     if isinstance(clock.slots_late, int) and clock.slots_late:
         out.append(f"{clock.slots_late} frame(s) left a host after their TDMA slot; they "
                    "were dated at the slot and the relay placed them there")
