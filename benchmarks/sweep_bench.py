@@ -138,7 +138,7 @@ def probe(scenario: str) -> None:
 
     doc = None if scenario == "paper" else json.loads(Path(scenario).read_text())
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    result = run_seed(SweepSpec(doc, None, 0.0, AgentConfig(), ()), 0)
+    result = run_seed(SweepSpec(doc, None, 0.0, AgentConfig(), ()), 0).to_dict()
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     vehicles = len(result["vehicles"]) if "vehicles" in result else 3
     print(json.dumps({"base_mb": base / 1024, "peak_mb": peak / 1024, "vehicles": vehicles,
