@@ -11,8 +11,9 @@ wire records of `fleet_bus`.)
 
 `MissionReport.to_dict` gives the field names and values ``report.json`` has always had
 (``tests/cotsfleet/test_report_model.py`` holds it to reports written before the tree
-existed; one field was added since, ``dynamic.unmapped_found``). Sections a mission does not have are absent from the document (`None` here);
-fields whose absence differs from a null (`UNSET`) keep that difference. A report's
+existed; one field was added since, ``dynamic.unmapped_found``). Sections a mission does
+not have are absent from the document (`None` here); fields whose absence differs from a
+null (`UNSET`) keep that difference. A report's
 top-level fields this version does not know (a newer writer's) are kept in ``other`` and
 written back unchanged; nested sections refuse unknown fields, so a typo or a drift between
 writer and types fails loudly in the tests instead of vanishing from the file.
