@@ -30,7 +30,7 @@ from fleet_agent import records as rec
 from fleet_agent.beliefs import Beliefs
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
-from fleet_agent.intents import Count, Hold, Intent, Note, Owe, SeekWork, Steer, Tell
+from fleet_agent.intents import Count, GoHome, Hold, Intent, Note, Owe, SeekWork, Steer, Tell
 from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, Publish,
                                   Record, Send, Tick)
 from fleet_agent.knowledge import Knowledge
@@ -38,6 +38,7 @@ from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import discovery, hearing
 from fleet_agent.policies.cooperate import CoopClock, cooperate
+from fleet_agent.policies.navigation import Navigation
 from fleet_agent.policies.route import sync
 from fleet_agent.radio import Radio, Slots
 from fleet_agent.restore import Snapshot, fold
@@ -70,6 +71,7 @@ class Agent:
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
         self.coop = CoopClock(now + config.coop_period_s * (1.0 + index / p.n_vehicles))
+        self.nav = Navigation(config)  # fixes that stop, a vehicle that lags (`policies`)
         self.counters: dict[str, int] = {}
         self.largest_frame = 0
         self.lag_s = 0.0  # worst lateness of the host since the last status (`note_lag`)
@@ -92,9 +94,11 @@ class Agent:
 
     # -- the state machine -----------------------------------------------------------------
 
-    def step(self, inp: Input, reports: Sequence[VehicleReport] = ()) -> list[Output]:
+    def step(self, inp: Input, reports: Sequence[VehicleReport] = (),
+             nav_age_s: float | None = None) -> list[Output]:
         """Take the vehicle's ``reports`` (in time order, none after ``inp.now``), then
-        ``inp``; return what to journal, send, publish and command."""
+        ``inp``; return what to journal, send, publish and command. ``nav_age_s``: how old
+        the vehicle's last navigation fix is (None: fresh; `policies.navigation`)."""
         now = max(float(inp.now), self.t)
         out, self._boot = self._boot, self._outputs()
         for r in reports:
@@ -106,6 +110,7 @@ class Agent:
         elif isinstance(inp, Command):
             self._on_command(inp.name, now, out)
         self._settle(now)
+        self._apply(self.nav.check(self.know, now, nav_age_s), now, out)
         self.know.rebind()
         for v in self.know.members.check(now):  # silence makes a suspect, nothing more
             out.event(now, "suspect", peer=self.know.vid(v))
@@ -184,6 +189,8 @@ class Agent:
                 self.count(i.name, i.n)
             elif isinstance(i, SeekWork):
                 self.coop.soon = True
+            elif isinstance(i, GoHome):
+                self._abort(now, out, i.why)
 
     def _hold(self, h: Hold, now: float, out: Outputs) -> None:
         """Claim (or release): journal it first, then tell the fleet."""
@@ -243,11 +250,12 @@ class Agent:
     def _helm(self, out: Outputs) -> None:
         """Tell the vehicle what to do when that changed (an arrival, the end of work, a new
         head of the route, an abort)."""
-        key = self.own.command_key()
+        hold = self.nav.command()  # no navigation: keep station instead
+        key = self.own.command_key() if hold is None else hold
         if key == self._commanded:
             return
         self._commanded = key
-        cmd = self.own.command()
+        cmd = self.own.command() if hold is None else hold
         if cmd is not None:
             out.append(Helm(cmd))
 
@@ -283,11 +291,16 @@ class Agent:
         self._apply(hearing.content(self.know, self.config, msg, now, self.active), now, out)
 
     def _on_command(self, name: str, now: float, out: Outputs) -> None:
-        if name != "abort" or not self.active:
+        if name == "abort":
+            self._abort(now, out)
+
+    def _abort(self, now: float, out: Outputs, why: str = "") -> None:
+        """Give the mission up (the operator's abort, or no navigation): announced."""
+        if not self.active:
             return
         self.own.abort()
         self._apply([Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
-                     Tell(now, "abort")], now, out)
+                     Tell(now, "abort", detail=why)], now, out)
 
     # -- the modem out ---------------------------------------------------------------------
 

@@ -75,4 +75,11 @@ class SeekWork:
     find settled, a spot found empty, a peer revived)."""
 
 
-Intent = Union[Hold, Steer, Owe, Tell, Note, Count, SeekWork]
+@dataclass(frozen=True)
+class GoHome:
+    """Give the mission up and head home (announced to the fleet like an abort): ``why``."""
+
+    why: str
+
+
+Intent = Union[Hold, Steer, Owe, Tell, Note, Count, SeekWork, GoHome]
