@@ -40,21 +40,24 @@ from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
 from fleet_agent.journal import Journal
 from fleet_agent.plans import set_planning_hook
+from fleet_agent.driver import Telemetry, TruePose
+from fleet_agent.helms.choice import BEFORE_S, HelmChoice, PendingClock, open_vehicle
 from fleet_agent.helms.sim import camera_figures, sim_vehicle
-from fleet_agent.modems.link import parse_link
-from fleet_agent.modems.micromodem import MicroModem, micromodem_spec
+from fleet_agent.modems.choice import ModemChoice
 from fleet_agent.modems.water import ZenohWater
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
-from fleet_bus.clock import MissionClock
+from fleet_bus.clock import Clock, MissionClock
 from fleet_bus.commands import STOP, decode_command
-from fleet_bus.mission import ClockSync, fetch_mission
-from fleet_bus.modem_port import WATER_SPEC, ModemPort, ModemReport, ModemSpec, Received
+from fleet_bus.mission import ClockSync, Mission, fetch_mission
+from fleet_bus.modem_port import ModemPort, ModemReport, Received
 from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth, encode_busy
+from fleet_bus.vehicle_port import VehiclePort
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.model.errors import ScenarioError
-from reef_sim.truth import reef_from_doc
+from hfc_core.model.problem import Problem
+from reef_sim.truth import Reef, reef_from_doc
 
 MAX_WAIT_WALL_S = 0.25  # longest sleep between looks at the stop flag
 INBOX_LIMIT = 4096  # frames and commands waiting for the agent; beyond, the newest are dropped
@@ -76,6 +79,13 @@ class Inbox:
             self._q.put_nowait((kind, payload, time.monotonic()))
         except queue.Full:
             self.overflow += 1
+
+    def hear(self, report: ModemReport) -> None:
+        """The modem's sink (its thread): enqueue only."""
+        if isinstance(report, Received):
+            self.put("rx", report.frame)
+        else:
+            self.put("modem", report)
 
     def take_overflow(self) -> int:
         """Items dropped since the last call (counted into the agent by its loop)."""
@@ -121,52 +131,17 @@ def _announce_ready(session: zenoh.Session, vid: str, auth: BusAuth | None,
             return
 
 
-@dataclass(frozen=True)
-class ModemChoice:
-    """Which modem the agent talks through: the emulated water (``water``) or a WHOI
-    Micro-Modem (``micromodem:LINK``, LINK a serial device or ``tcp:HOST:PORT``) at ``rate``."""
-
-    name: str = "water"
-    rate: int = 1
-
-    @property
-    def spec(self) -> ModemSpec:
-        return WATER_SPEC if self.name == "water" else micromodem_spec(self.rate)
-
-    @staticmethod
-    def parse(text: str, rate: int = 1) -> "ModemChoice":
-        """ValueError, saying why, for anything but ``water`` or ``micromodem:LINK``."""
-        if text == "water":
-            return ModemChoice()
-        kind, _, link = text.partition(":")
-        if kind != "micromodem" or not link:
-            raise ValueError(f"--modem is water or micromodem:LINK, got {text!r}")
-        parse_link(link)
-        micromodem_spec(rate)
-        return ModemChoice(text, rate)
-
-
-class _MissionTime:
-    """Mission time once the clock record has come (before: -1, nothing is dated yet)."""
-
-    clock: MissionClock | None = None
-
-    def now(self) -> float:
-        return -1.0 if self.clock is None else self.clock.now()
-
-
 def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
          stop: threading.Event, mission_timeout_s: float = 120.0,
-         auth: BusAuth | None = None, modem: ModemChoice = ModemChoice()) -> int:
-    """Run agent ``vid`` until ``stop``. Returns 0, 2 if the vehicle is not in the mission,
-    or 3 if no mission or clock record came. With ``auth`` (its own key and the run's ring)
-    it signs what it puts and takes only what its rightful senders signed."""
+         auth: BusAuth | None = None, modem: ModemChoice = ModemChoice(),
+         helm: HelmChoice = HelmChoice()) -> int:
+    """Run agent ``vid`` until ``stop``. Returns 0, 2 if the vehicle is not in the mission
+    or its helm could not be opened, or 3 if no mission or clock record came. With ``auth``
+    (its own key and the run's ring) it signs what it puts and takes only what its rightful
+    senders signed."""
     inbox = Inbox()
-    mission_time = _MissionTime()
-
-    def hear(report: ModemReport) -> None:  # the modem's thread: enqueue only
-        inbox.put("rx", report.frame) if isinstance(report, Received) else \
-            inbox.put("modem", report)
+    mission_time = PendingClock()  # -1 until the clock record comes
+    hear = inbox.hear
 
     def take_ctl(sample: zenoh.Sample) -> None:
         payload = unseal(auth, keys.ctl_key(vid), sample.payload.to_bytes())
@@ -181,20 +156,14 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
         mission = fetch_mission(session, stop, mission_timeout_s, auth)
         if mission is None:
             return 0 if stop.is_set() else 3
-        try:
-            problem = problem_from_dict(mission.scenario)
-            reef = reef_from_doc(mission.scenario, problem)  # the simulated world's reef
-        except ScenarioError as exc:
-            print(f"fleet_agent {vid}: the mission's scenario is not valid: {exc}",
-                  file=sys.stderr)
-            return 2
-        if vid not in problem.vehicle_index:
-            print(f"fleet_agent: {vid!r} is not a vehicle of the mission", file=sys.stderr)
-            return 2
-        fleet = Fleet.build(problem, config.fleet_key, mission.seed, config,  # initial plan
-                            run_id=mission.run_id,  # the wire keys bind the run
-                            camera=None if reef is None else camera_figures(reef),
-                            modem=modem.spec)
+        built = build_fleet(mission, vid, config, modem)
+        if isinstance(built, int):
+            return built
+        vehicle = None
+        if helm.name != "sim":  # a live vehicle is there before the mission: ready first
+            vehicle = open_live(helm, built, vid, mission_time)
+            if vehicle is None:
+                return 2
         clocked = threading.Event()
         threading.Thread(target=_announce_ready, args=(session, vid, auth, clocked),
                          name="ready", daemon=True).start()
@@ -209,32 +178,97 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
             sync.start()
             mission_time.clock = clock
             if port is None:
-                port = MicroModem(modem.name.partition(":")[2], hear, clock, rate=modem.rate)
-            while clock.now() < 0 and not stop.is_set():
-                stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
-            now = clock.now()
-            agent = Agent(fleet, problem.vehicle_index[vid], config, now, journal.records)
+                port = modem.open(hear, clock)
             telemetry = ZenohTelemetry(session, vid, auth)
             set_planning_hook(telemetry.planning)
-            index = problem.vehicle_index[vid]
-            vehicle = sim_vehicle(problem, index, seed=mission.seed, reef=reef, t_s=now,
-                                  pos=agent.own.pos, odometer_m=agent.own.distance_m)
-            driver = AgentDriver(agent, vehicle, port, telemetry, journal,
-                                 truth=vehicle.true_pose, truth_period_s=config.truth_period_s)
-            start = f"restart, {len(journal.records)} records" if journal.records else "fresh"
-            damage = journal.describe_damage()
-            if damage:  # what the restart could not read, and where the evidence is
-                print(f"fleet_agent {vid}: {damage}", file=sys.stderr, flush=True)
-                start += f"; {damage}"
-            if journal.damage is not None:
-                agent.count("journal_damaged_bytes", journal.damage.damaged_bytes)
-            ready(AGENT_READY, f"{vid} at t={now:.1f} s ({start})")
             try:
-                _loop(driver, inbox, clock, stop, auth, sync)
-                driver.final_status(clock.now())
+                return drive(built, vid, config, journal, clock, port, telemetry, helm, stop,
+                             inbox, auth, sync, vehicle)
             finally:
                 sync.close()
                 port.close()
+                if vehicle is not None:
+                    vehicle[0].close()
+
+
+def build_fleet(mission: Mission, vid: str, config: AgentConfig,
+                modem: ModemChoice) -> Built | int:
+    """The mission's fleet context (the initial plan: every agent computes the same), or 2
+    after one line on stderr: a scenario that is not valid, a vehicle not in it."""
+    try:
+        problem = problem_from_dict(mission.scenario)
+        reef = reef_from_doc(mission.scenario, problem)  # the simulated world's reef
+    except ScenarioError as exc:
+        print(f"fleet_agent {vid}: the mission's scenario is not valid: {exc}",
+              file=sys.stderr)
+        return 2
+    if vid not in problem.vehicle_index:
+        print(f"fleet_agent: {vid!r} is not a vehicle of the mission", file=sys.stderr)
+        return 2
+    fleet = Fleet.build(problem, config.fleet_key, mission.seed, config,  # initial plan
+                        run_id=mission.run_id,  # the wire keys bind the run
+                        camera=None if reef is None else camera_figures(reef),
+                        modem=modem.spec)
+    return Built(mission, problem, reef, fleet)
+
+
+@dataclass(frozen=True)
+class Built:
+    mission: Mission
+    problem: Problem
+    reef: Reef | None
+    fleet: Fleet
+
+
+def open_live(helm: HelmChoice, built: Built, vid: str, clock: Clock,
+              now: float = BEFORE_S) -> tuple[VehiclePort, TruePose | None] | None:
+    """The vehicle (`open_vehicle`), or None after one line on stderr."""
+    index = built.problem.vehicle_index[vid]
+    try:
+        return open_vehicle(helm, built.problem, index, clock=clock, seed=built.mission.seed,
+                            reef=built.reef, t_s=now, pos=built.problem.vehicles[index].start,
+                            odometer_m=0.0)
+    except (ConnectionError, ImportError, OSError, ValueError) as exc:
+        print(f"fleet_agent {vid}: --helm {helm.name}: {exc}", file=sys.stderr, flush=True)
+        return None
+
+
+def drive(built: Built, vid: str, config: AgentConfig, journal: Journal, clock: MissionClock,
+          port: ModemPort, telemetry: Telemetry, helm: HelmChoice, stop: threading.Event,
+          inbox: Inbox, auth: BusAuth | None = None, sync: ClockSync | None = None,
+          opened: tuple[VehiclePort, TruePose | None] | None = None) -> int:
+    """The agent on its vehicle (``opened``, or opened here: the simulated one where the
+    agent last knew it was) from mission time 0 (or now, restarted from its journal) until
+    ``stop``: 0, or 2 if the helm could not be opened (said on stderr)."""
+    while clock.now() < 0 and not stop.is_set():
+        stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
+    now = clock.now()
+    index = built.problem.vehicle_index[vid]
+    agent = Agent(built.fleet, index, config, now, journal.records)
+    if opened is None and helm.name == "sim":
+        sim = sim_vehicle(built.problem, index, seed=built.mission.seed, reef=built.reef,
+                          t_s=now, pos=agent.own.pos, odometer_m=agent.own.distance_m)
+        opened = (sim, sim.true_pose)
+    elif opened is None:
+        opened = open_live(helm, built, vid, clock, now)
+        if opened is None:
+            return 2
+    vehicle, truth = opened
+    try:
+        driver = AgentDriver(agent, vehicle, port, telemetry, journal, truth=truth,
+                             truth_period_s=config.truth_period_s)
+        start = f"restart, {len(journal.records)} records" if journal.records else "fresh"
+        damage = journal.describe_damage()
+        if damage:  # what the restart could not read, and where the evidence is
+            print(f"fleet_agent {vid}: {damage}", file=sys.stderr, flush=True)
+            start += f"; {damage}"
+        if journal.damage is not None:
+            agent.count("journal_damaged_bytes", journal.damage.damaged_bytes)
+        ready(AGENT_READY, f"{vid} at t={clock.now():.1f} s ({start}; helm {vehicle.name})")
+        _loop(driver, inbox, clock, stop, auth, sync)
+        driver.final_status(clock.now())
+    finally:
+        vehicle.close()
     return 0
 
 
@@ -270,6 +304,9 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: MissionClock, stop: threadin
         if auth is not None:
             for reason, n in auth.verifier.take_refused().items():
                 driver.agent.count(f"drop_auth_{reason}", n)
+        figures = getattr(driver.vehicle, "figures", None)
+        if callable(figures):  # the live helm's own counts (fix lag, drops, its clock)
+            driver.agent.counters.update(figures())
         steps = sync.take_wall_steps() if sync is not None else 0
         if steps:  # this host's wall clock stepped: named in the status, nothing else
             driver.agent.count("clock_wall_steps", steps)

@@ -11,10 +11,12 @@ certificate of the mission's CA (`fleet_bus.certificates`) and there is no passw
     root/<id>/tls.key, tls.pem      its own TLS key and certificate (common name: its id)
     root/<id>/signing.key           its own Ed25519 private key (operator, relay, vehicles)
 
-for ``operator``, ``relay``, ``station`` (no signing key: it only listens), ``router`` (the
-operator's host's router; its certificate also names ``hosts``) and every vehicle; and, for
-each vehicle of ``linked_routers``, ``router-<id>``: the router of that vehicle's own host,
-linked to the operator's, which may forward only what that vehicle may say.
+for ``operator``, ``relay``, ``station`` and ``world`` (no signing key: they only listen;
+``world`` is the simulated world's processes, e.g. the ROS 2 vehicles that follow the mission
+clock), ``router`` (the operator's host's router; its certificate also names ``hosts``) and
+every vehicle; and, for each vehicle of ``linked_routers``, ``router-<id>``: the router of
+that vehicle's own host, linked to the operator's, which may forward only what that vehicle
+may say.
 
 Without it (one host, loopback only: `fleet_bus.session` refuses these across machines),
 identity is a Zenoh user/password login::
@@ -50,7 +52,7 @@ from fleet_bus.certificates import (Authority, CertificateError, CertificateInfo
 RING = "ring.json"
 SIGNING_KEY = "signing.key"
 ZENOH_LOGIN = "zenoh.login"
-ROUTER_ID, STATION_ID = "router", "station"
+ROUTER_ID, STATION_ID, WORLD_ID = "router", "station", "world"
 ROUTER_USERS = "users.txt"
 ROUTER_ZID = "zid"
 CA_CERT, TLS_CERT, TLS_KEY = "ca.pem", "tls.pem", "tls.key"
@@ -119,8 +121,8 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
     returns the run id. ``hosts``, ``linked_routers`` and ``valid_days`` are for ``tls``."""
     run_id = run_id or new_run_id()
     for vid in vehicles:
-        if (vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID) or "/" in vid or not vid
-                or vid.startswith(LINKED_PREFIX)):
+        if (vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID, WORLD_ID) or "/" in vid
+                or not vid or vid.startswith(LINKED_PREFIX)):
             raise CredentialsError(f"vehicle id {vid!r} cannot have credentials of its own")
     if not tls and (hosts or linked_routers):
         raise CredentialsError("hosts and linked routers are for TLS credentials")
@@ -140,7 +142,7 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
                                           for sid, role in signers.items()}}
     ring_text = json.dumps(ring, indent=1)
     (root / RING).write_text(ring_text, encoding="utf-8")
-    processes = (*signers, STATION_ID, ROUTER_ID,
+    processes = (*signers, STATION_ID, WORLD_ID, ROUTER_ID,
                  *(linked_router_id(v) for v in linked_routers))
     if authority is not None:
         (root / CA_CERT).write_bytes(authority.cert_pem)

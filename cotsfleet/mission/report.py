@@ -96,6 +96,7 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
     restarted = {f.vid for f in faults if f.kind == "restart"}
     stalled = {f.vid for f in faults if f.kind == "stall"}
     treated = ledger.treated_by
+    helms = ((extra or {}).get("helm") or {}).get("vehicles", {})
     vehicles = []
     for v in problem.vehicles:
         s = statuses.get(v.id)
@@ -116,6 +117,8 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
             "killed": v.id in killed,
             "restarted": v.id in restarted,
             "stalled": v.id in stalled,
+            "helm": helms.get(v.id, "sim"),  # what drove it (`cotsfleet run --helm`)
+            "nav_fixes": int(s.counters.get("nav_fixes", 0)) if s else 0,
             "counters": dict(s.counters) if s else {},
         })
     distinct, n_treatments, duplicates = ledger.cleared, ledger.treatments, ledger.duplicates()

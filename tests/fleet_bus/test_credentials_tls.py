@@ -34,7 +34,7 @@ def creds(tmp_path_factory) -> Path:
 
 def test_each_directory_holds_its_own_secrets_and_no_password(creds: Path) -> None:
     dirs = {p.name for p in creds.iterdir() if p.is_dir()}
-    assert dirs == {*SIGNERS, "station", "router", "router-auv3"}
+    assert dirs == {*SIGNERS, "station", "world", "router", "router-auv3"}
     assert {p.name for p in creds.iterdir() if p.is_file()} == {"ring.json", "ca.pem"}
     public = {"ca.pem", "ring.json", "tls.pem"}
     for d in dirs:
