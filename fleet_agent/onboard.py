@@ -124,6 +124,12 @@ def main(vid: str, config: AgentConfig, journal_path: Path, stop: threading.Even
                       f"{mission.run_id!r}")
     if modem.name == "water":
         return refuse("on board the agent talks through its modem: --modem micromodem:LINK")
+    spec = modem.spec
+    packet_s = spec.airtime_s(spec.frames_per_packet * spec.max_frame_bytes)
+    if config.slot_s < packet_s:
+        return refuse(f"slot_s {config.slot_s:g} s cannot hold a {spec.name} packet "
+                      f"({packet_s:.2f} s on the air, then its way across the reef): set "
+                      "slot_s in the agent config (docs/modems.md)")
     built = build_fleet(mission, vid, config, modem)
     if isinstance(built, int):
         return built
@@ -133,7 +139,8 @@ def main(vid: str, config: AgentConfig, journal_path: Path, stop: threading.Even
     try:
         with Journal(journal_path) as journal:
             if conf is None:
-                telemetry = FileTelemetry(journal_path.with_suffix(".telemetry.jsonl"))
+                telemetry = FileTelemetry(journal_path.with_name(
+                    journal_path.name + ".telemetry.jsonl"))
                 try:
                     return drive(built, vid, config, journal, clock, port, telemetry, helm,
                                  stop, inbox, auth, WallSteps())  # type: ignore[arg-type]

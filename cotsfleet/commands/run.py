@@ -97,6 +97,9 @@ def run(args: argparse.Namespace) -> int:
     m = mission_args(args)
     config, derived = m.config, False
     try:
+        from cotsfleet.mission.modem_launch import ModemLaunch
+
+        ModemLaunch(args.modem, args.modem_rate)  # an emulated rate, or said now
         if args.modem == "micromodem" and not config_sets(args.config, "slot_s"):
             config, derived = modem_slot(config, args.modem_rate, m.problem), True
         opts = ProcessOptions(warp=args.warp, loss=args.loss, viewer=viewer, rrd=args.rrd,

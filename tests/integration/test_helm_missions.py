@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from leftovers import alive, kill_children
 
 from cotsfleet.mission.inprocess import InProcessBackend
 from cotsfleet.mission.modem_launch import micromodem_slot_s
@@ -29,7 +30,6 @@ from fleet_agent.config import AgentConfig
 from fleet_agent.helms.moos_mission import MOOS_APPS
 from fleet_agent.modems.micromodem import micromodem_spec
 from hfc_core.formats.scenario import problem_from_dict
-from leftovers import alive, kill_children
 from reef_sim.scenarios.field import GeneratorParams, generate_doc
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
