@@ -142,3 +142,49 @@ def test_a_program_not_on_path_is_said(tmp_path: Path) -> None:
                          capture_output=True, text=True, cwd=ROOT, timeout=30,
                          env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert out.returncode == 127 and "no-such-app-xyz is not on PATH" in out.stderr
+
+
+def test_credentials_come_with_the_mission_file_an_agent_on_board_loads(tmp_path: Path,
+                                                                       capsys) -> None:
+    from fleet_agent.mission_file import read_mission_file
+    from fleet_bus.credentials import load_ring
+
+    d = tmp_path / "creds"
+    assert main(["credentials", str(d), "--vehicles", "2", "--seed", "4",
+                 "--start", "2030-01-01T00:00:00"]) == 0
+    assert "cotsfleet agent --id ID --mission" in capsys.readouterr().out
+    for where in (d, d / "auv1", d / "auv2"):
+        mission, start = read_mission_file(where / "mission.json")
+        assert mission.run_id == load_ring(d).run_id and mission.seed == 4
+        assert start == 1893456000.0 and mission.roster() == ("auv1", "auv2")
+    assert main(["credentials", str(tmp_path / "x"), "--start", "soon"]) == 2
+    assert not (tmp_path / "x").exists()
+
+
+def test_the_shipped_systemd_unit_runs_cotsfleet_agent_as_documented() -> None:
+    """The unit's ExecStart, with the agent.env it documents, is a valid `cotsfleet agent`
+    command line for a MOOS helm and a Micro-Modem on its serial line."""
+    import shlex
+
+    from cotsfleet.cli import build_parser
+
+    text = (ROOT / "examples" / "systemd" / "cotsfleet-agent.service").read_text()
+    env = dict(line[2:].strip().split("=", 1) for line in text.splitlines()
+               if line.startswith("#   COTSFLEET_"))
+    exec_start = text.split("ExecStart=", 1)[1].split("\n# ", 1)[0].replace("\\\n", " ")
+    words = []
+    for word in shlex.split(exec_start):
+        if word.startswith("$") and not word.startswith("${"):
+            words += env.get(word[1:], "").split()  # unbraced: split into words
+        else:
+            for name, value in env.items():
+                word = word.replace("${" + name + "}", value)
+            words.append(word)
+    assert words[0].endswith("/cotsfleet") and words[1] == "agent"
+    args = build_parser().parse_args(words[1:])
+    assert args.id == "auv2" and args.helm == "moos" and args.moos_port == 9000
+    assert args.modem == "micromodem:/dev/ttyUSB0" and args.modem_rate == 1
+    assert str(args.mission) == "/etc/cotsfleet/auv2/mission.json"
+    assert str(args.credentials) == "/etc/cotsfleet/auv2"
+    doc = (ROOT / "docs" / "onboard.md").read_text()
+    assert "--mission /etc/cotsfleet/auv2/mission.json" in doc
