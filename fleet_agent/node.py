@@ -5,15 +5,20 @@ inbox to the driver with each item's arrival time on the mission clock, ticks th
 `next_wakeup`, and the driver carries out the outputs: frames to the modem (`--modem`: the
 emulated water over Zenoh, `fleet_agent.modems.water`, or a WHOI Micro-Modem,
 `fleet_agent.modems.micromodem`), telemetry to ``fleet/truth|status|event/<id>``, records to
-the journal, commands to the vehicle (`fleet_agent.helms`). Commands arrive on
+the journal, commands to the vehicle (``--helm``: `fleet_agent.helms.choice.open_vehicle`,
+the one place the shell picks it). Commands arrive on
 ``fleet/ctl/<id>``: ``abort`` goes to the agent's logic; ``stop`` ends the process cleanly.
 
 Start-up: the agent reads the mission record (``fleet/mission``: scenario, seed, run id),
-computes the shared initial plan, announces itself ready on ``fleet/alive/<id>`` (a signed
+computes the shared initial plan, opens a live helm (MOOS, ROS 2: on a `PendingClock` until
+the clock comes, so its vehicle answers before the mission starts; the simulated vehicle is
+made at mission time 0, where the journal left it), announces itself ready on
+``fleet/alive/<id>`` (a signed
 put, repeated until the clock comes, and a liveliness token), then waits for the clock record
 (``fleet/clock``), which the operator serves once every agent is ready, and keeps its
 `MissionClock` on the operator's (`ClockSync`: monotonic, offset measured, records followed;
 a step of this host's wall clock is counted as ``clock_wall_steps`` and changes nothing).
+`build_fleet` and `drive` are shared with the on-board shell (`fleet_agent.onboard`).
 
 Authentication (`fleet_bus.auth`, with ``--credentials``): everything this agent puts is
 signed with its own key; it takes deliveries only signed by the relay and commands, mission

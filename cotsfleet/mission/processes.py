@@ -8,7 +8,10 @@ command; kill: SIGKILL; restart: the agent again on its journal; stall: SIGSTOP 
 in wall time; partition, loss and attacks: link control to the relay), watches the fleet's
 telemetry, and collects the relay's counters. Its parts, each one idea: `children` (the
 processes), `clock_control` (the shared clock's pace and holds) and `intake` (what it takes
-from the bus, checked); this module wires them to the bus and to the runner.
+from the bus, checked), `helm_launch` (what each vehicle's helm needs: MOOS communities, ROS 2
+vehicles, ``--helm``) and `modem_launch` (the relay or the emulated Micro-Modems, ``--modem``);
+this module wires them to the bus and to the runner. With ``--helm moos`` the shared clock is
+kept at the warp (`helm_launch.pins_clock`: no holds, no pacing).
 
 Lifecycle: every child dies with its parent (`fleet_bus.process.die_with_parent`:
 ``PR_SET_PDEATHSIG`` on Linux, and a watch on the parent's pid everywhere), so whatever ends
