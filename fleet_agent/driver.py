@@ -64,7 +64,7 @@ class AgentDriver:
         self.tap = tap  # sees every step's outputs (tests, debugging)
         self.nav_fixes = 0  # fixes the agent took from its vehicle
         self.nav_delay_max_s = 0.0  # the worst delay from a fix to the step that took it
-        self._last_fix_s = agent.t  # before the first fix: the agent's start
+        self._last_fix_s = self._t0 = agent.t  # before the first fix: the agent's start
         self._poll_s = poll_s if getattr(vehicle, "name", "sim") != "sim" else None
         self._next_truth = agent.t if truth is not None else math.inf
 
@@ -95,7 +95,8 @@ class AgentDriver:
             self.nav_fixes += len(fixes)
             self.agent.count("nav_fixes", len(fixes))
             self._last_fix_s = max(self._last_fix_s, fixes[-1])
-            worst = max(0.0, inp.now - min(fixes))
+            # From the agent's start on (a live helm's fixes from before it are not late).
+            worst = max(0.0, inp.now - max(self._t0, min(fixes)))
             if worst > self.nav_delay_max_s:
                 self.nav_delay_max_s = worst
                 self.agent.counters["nav_delay_max_ms"] = int(round(1000.0 * worst))

@@ -269,7 +269,7 @@ def drive(built: Built, vid: str, config: AgentConfig, journal: Journal, clock: 
             start += f"; {damage}"
         if journal.damage is not None:
             agent.count("journal_damaged_bytes", journal.damage.damaged_bytes)
-        ready(AGENT_READY, f"{vid} at t={clock.now():.1f} s ({start}; helm {vehicle.name})")
+        ready(AGENT_READY, f"{vid} at t={clock.now():.1f} s ({start}), helm {vehicle.name}")
         _loop(driver, inbox, clock, stop, auth, sync)
         driver.final_status(clock.now())
     finally:

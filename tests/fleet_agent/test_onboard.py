@@ -154,7 +154,7 @@ def test_two_agents_on_board_talk_through_their_modems_in_real_time(tmp_path: Pa
                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(),
                 cwd=tmp_path))
         for proc in agents:
-            assert "(fresh; helm sim)" in _ready(proc, AGENT_READY, 60.0)
+            assert "(fresh), helm sim" in _ready(proc, AGENT_READY, 60.0)
         time.sleep(max(0.0, start + 20.0 - time.time()))  # two TDMA cycles and more
     finally:
         codes = [_stop(p) for p in agents]
