@@ -30,7 +30,8 @@ from fleet_agent import records as rec
 from fleet_agent.beliefs import Beliefs
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
-from fleet_agent.intents import Count, GoHome, Hold, Intent, Note, Owe, SeekWork, Steer, Tell
+from fleet_agent.intents import (Count, Hold, Intent, LastWords, Note, Owe, SeekWork, Steer,
+                                 Tell)
 from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, Publish,
                                   Record, Send, Tick)
 from fleet_agent.knowledge import Knowledge
@@ -43,7 +44,8 @@ from fleet_agent.policies.route import sync
 from fleet_agent.radio import Radio, Slots
 from fleet_agent.restore import Snapshot, fold
 from fleet_agent.routing import fit_route
-from fleet_agent.wire import MAX_LEAD_S, WireError, radio_kind
+from fleet_agent.provenance import Provenance
+from fleet_agent.wire import Message, radio_kind
 from fleet_bus.telemetry import Status
 from fleet_bus.vehicle_port import (Arrived, Injected, Looked, NavFix, Refused, Sighted,
                                     VehicleReport)
@@ -57,7 +59,10 @@ class Agent:
     """One vehicle's brain: call `step` with each input; `next_wakeup` says when to tick."""
 
     def __init__(self, fleet: Fleet, index: int, config: AgentConfig, now: float = 0.0,
-                 journal: Sequence[dict[str, Any]] = ()) -> None:
+                 journal: Sequence[dict[str, Any]] = (), chain_seed: bytes | None = None
+                 ) -> None:
+        """``chain_seed``: this vehicle's key chain (`fleet_bus.tesla`) from its
+        credentials; None where the fleet's chains are derived (a simulation)."""
         p = fleet.problem
         self.fleet, self.index, self.config = fleet, index, config
         self.id = p.vehicles[index].id
@@ -70,6 +75,13 @@ class Agent:
             config.battery_reserve_s), now)
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
+        chains = fleet.chains
+        assert chains is not None
+        seed = chain_seed if chain_seed is not None else \
+            (chains.seeds[index] if chains.seeds is not None else None)
+        if seed is None:
+            raise ValueError(f"{self.id} has no key chain: give its credentials' seed")
+        self.provenance = Provenance(fleet.codec, chains, index, seed, config.slot_s)
         self.coop = CoopClock(now + config.coop_period_s * (1.0 + index / p.n_vehicles))
         self.nav = Navigation(config)  # fixes that stop, a vehicle that lags (`policies`)
         self.counters: dict[str, int] = {}
@@ -96,9 +108,8 @@ class Agent:
 
     def step(self, inp: Input, reports: Sequence[VehicleReport] = (),
              nav_age_s: float | None = None) -> list[Output]:
-        """Take the vehicle's ``reports`` (in time order, none after ``inp.now``), then
-        ``inp``; return what to journal, send, publish and command. ``nav_age_s``: how old
-        the vehicle's last navigation fix is (None: fresh; `policies.navigation`)."""
+        """Take the vehicle's ``reports`` (in time order, none after ``inp.now``) and its last
+        fix's age (None: fresh), then ``inp``; return what to journal, send, publish, command."""
         now = max(float(inp.now), self.t)
         out, self._boot = self._boot, self._outputs()
         for r in reports:
@@ -189,8 +200,9 @@ class Agent:
                 self.count(i.name, i.n)
             elif isinstance(i, SeekWork):
                 self.coop.soon = True
-            elif isinstance(i, GoHome):
-                self._abort(now, out, i.why)
+            elif isinstance(i, LastWords):
+                words = self.provenance.last_words(i.v)
+                self._apply(hearing.last_words(self.know, i.v, words, now), now, out)
 
     def _hold(self, h: Hold, now: float, out: Outputs) -> None:
         """Claim (or release): journal it first, then tell the fleet."""
@@ -250,14 +262,11 @@ class Agent:
     def _helm(self, out: Outputs) -> None:
         """Tell the vehicle what to do when that changed (an arrival, the end of work, a new
         head of the route, an abort)."""
-        hold = self.nav.command()  # no navigation: keep station instead
-        key = self.own.command_key() if hold is None else hold
-        if key == self._commanded:
-            return
-        self._commanded = key
-        cmd = self.own.command() if hold is None else hold
-        if cmd is not None:
-            out.append(Helm(cmd))
+        key = self.nav.command_key(self.own)  # the route's, or a hold for want of navigation
+        if key != self._commanded:
+            self._commanded, cmd = key, self.nav.command(self.own)
+            if cmd is not None:
+                out.append(Helm(cmd))
 
     def _settle(self, now: float) -> None:
         """A find that finished settling may now be planned: look for work."""
@@ -269,38 +278,31 @@ class Agent:
     # -- the modem in ----------------------------------------------------------------------
 
     def _on_frame(self, data: bytes, now: float, out: Outputs) -> None:
-        """Bytes off the modem: authenticated, fresh and from a peer, or counted and dropped;
-        then what they say (`policies.hearing`)."""
+        """Bytes off the modem (`provenance`): evidence of life counts at once; the rest once
+        proven its sender's, then through the replay window and `policies.hearing`."""
         self.count("rx_frames")
-        try:
-            msg = self.fleet.codec.decode(data)
-        except WireError as exc:
-            self.count(f"drop_{exc.reason}")
-            return
-        if msg.sender == self.index:
-            self.count("drop_self")  # our own frame played back: a replay
-            return
-        if msg.seq > now + MAX_LEAD_S:  # from the future: forged (see wire.MAX_LEAD_S)
-            self.count("drop_future")
-            return
+        taken = self.provenance.hear(data, now)
+        for reason, n in self.provenance.take_drops().items():
+            self.count(f"drop_{reason}", n)
+        if taken.alive is not None:
+            self._apply(hearing.alive(self.know, taken.alive, now), now, out)
+        for msg in taken.proven:
+            self._take(msg, now, out)
+
+    def _take(self, msg: Message, now: float, out: Outputs) -> None:
+        """A frame proven its sender's: once only, then what it says."""
         if not self.know.replay.accept(msg.sender, msg.seq):
             self.count("drop_replay")
             return
         self.count(f"rx_{type(msg).__name__.lower()}")
-        self._apply(hearing.evidence(self.know, self.config, msg, now, self.active), now, out)
+        self._apply(hearing.confirmed(self.know, self.config, msg, now, self.active), now, out)
         self._apply(hearing.content(self.know, self.config, msg, now, self.active), now, out)
 
     def _on_command(self, name: str, now: float, out: Outputs) -> None:
-        if name == "abort":
-            self._abort(now, out)
-
-    def _abort(self, now: float, out: Outputs, why: str = "") -> None:
-        """Give the mission up (the operator's abort, or no navigation): announced."""
-        if not self.active:
-            return
-        self.own.abort()
-        self._apply([Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
-                     Tell(now, "abort", detail=why)], now, out)
+        if name == "abort" and self.active:
+            self.own.abort()
+            self._apply([Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
+                         Tell(now, "abort")], now, out)
 
     # -- the modem out ---------------------------------------------------------------------
 
@@ -315,7 +317,13 @@ class Agent:
         msgs = self.radio.messages(now, self.know, self.fleet.modem.frames_per_packet)
         if not msgs:
             return
-        frames = tuple(self.fleet.codec.encode(m) for m in msgs)
+        sealed = [(m, self.provenance.seal(m)) for m in msgs]
+        for reason, n in self.provenance.take_drops().items():
+            self.count(f"tx_{reason}", n)
+        msgs = [m for m, f in sealed if f is not None]
+        frames = tuple(f for _, f in sealed if f is not None)
+        if not frames:
+            return
         names = tuple(type(m).__name__.lower() for m in msgs)
         for name, frame in zip(names, frames):
             self.count(f"tx_{name}")

@@ -8,6 +8,7 @@ from fleet_agent.beliefs import FIND_MARGIN_M, expected_problem, initial_working
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
+from fleet_bus.tesla import FleetChains, chain_length
 from fleet_agent.wire import Codec
 from fleet_bus.modem_port import WATER_SPEC, ModemSpec
 from hfc_core.model.paths import PathFn, path_function
@@ -41,23 +42,41 @@ class Fleet:
     base_routes: tuple[tuple[int, ...], ...]
     dynamic: Dynamic | None = None
     modem: ModemSpec = WATER_SPEC
+    chains: FleetChains | None = None  # every vehicle's key chain (`fleet_bus.tesla`)
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
               planner: Planner | None = None, *, run_id: str,
-              camera: Camera | None = None, modem: ModemSpec = WATER_SPEC) -> "Fleet":
+              camera: Camera | None = None, modem: ModemSpec = WATER_SPEC,
+              chains: FleetChains | None = None) -> "Fleet":
         """``modem``: what every vehicle's modem carries (one frame budget for the fleet);
-        ValueError if its frames cannot carry what the mission needs."""
+        ValueError if its frames cannot carry what the mission needs. ``chains``: the key
+        chains the credentials issued (None: derived from the fleet key, as a simulation's)."""
+        if chains is None:
+            cycle_s = problem.n_vehicles * config.slot_s
+            horizon_s = max(v.battery_s for v in problem.vehicles) + 600.0
+            chains = FleetChains.derived(key, run_id, problem.n_vehicles,
+                                         chain_length(horizon_s, cycle_s))
+        if len(chains.commitments) != problem.n_vehicles:
+            raise ValueError(f"key chains for {len(chains.commitments)} vehicles, the "
+                             f"scenario has {problem.n_vehicles}")
+        cycles = chain_length(max(v.battery_s for v in problem.vehicles),
+                              problem.n_vehicles * config.slot_s) - 16
+        if chains.length < cycles:
+            raise ValueError(f"key chains of {chains.length} cycles are too short for a "
+                             f"mission of {cycles} cycles")
         if camera is not None:
-            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem)
+            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
+                                        chains)
         codec = Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
         planner = planner or Planner.from_config(problem, seed, config)
         return Fleet(problem, codec, planner, path_function(problem), seed,
-                     planner.initial_routes(), modem=modem)
+                     planner.initial_routes(), modem=modem, chains=chains)
 
     @staticmethod
     def _build_dynamic(scenario: Problem, key: bytes, seed: int, config: AgentConfig,
-                       run_id: str, camera: Camera, modem: ModemSpec) -> "Fleet":
+                       run_id: str, camera: Camera, modem: ModemSpec,
+                       chains: FleetChains) -> "Fleet":
         working = initial_working_problem(scenario, camera, config)
         codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
                                   found_from=scenario.n_tasks,
@@ -66,4 +85,4 @@ class Fleet:
         routes = Planner.from_config(expected, seed, config).initial_routes()
         planner = Planner.from_config(working, seed, config)
         return Fleet(working, codec, planner, path_function(working), seed, routes,
-                     Dynamic(scenario, camera), modem)
+                     Dynamic(scenario, camera), modem, chains)

@@ -70,16 +70,17 @@ class Count:
 
 
 @dataclass(frozen=True)
+class LastWords:
+    """Peer ``v`` is gone: what it said in its last cycle can never be proven its (`tesla`);
+    take from it what cannot hurt anyone but ``v``'s own work: its own spots cleared."""
+
+    v: int
+
+
+@dataclass(frozen=True)
 class SeekWork:
     """Look for other work at once, not at the next cooperation period (a lost claim, a
     find settled, a spot found empty, a peer revived)."""
 
 
-@dataclass(frozen=True)
-class GoHome:
-    """Give the mission up and head home (announced to the fleet like an abort): ``why``."""
-
-    why: str
-
-
-Intent = Union[Hold, Steer, Owe, Tell, Note, Count, SeekWork, GoHome]
+Intent = Union[Hold, Steer, Owe, Tell, Note, Count, LastWords, SeekWork]

@@ -48,8 +48,9 @@ class Knowledge:
         self.cleared = ClearedSet(p.n_tasks, fleet.codec.segment_bits)
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
         self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s)
-        # A claim has settled once any earlier claim of its spot has been heard (`settled_s`).
-        self.claim_settle_s = config.claim_settle_cycles * cycle_s + config.slot_s + 1.0
+        # A claim has settled once any earlier claim of its spot has been heard and proven its
+        # claimer's (`settled_s`; proving takes a cycle, `fleet_bus.tesla`).
+        self.claim_settle_s = (config.claim_settle_cycles + 1.0) * cycle_s + config.slot_s + 1.0
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
@@ -145,8 +146,9 @@ class Knowledge:
         else ``claim_settle_s`` after its own claim. Why: the holder is the earliest claimant,
         and a claim goes out in the claimer's next slot (`fleet_agent.outbox`), so a peer's
         claim made before ours (whole seconds) is on the air within a cycle and heard within a
-        slot more; by then, on a working link, we know we lost the spot. Without the wait,
-        two vehicles near a find that both claimed it seconds apart each treat it."""
+        slot more, and proven its claimer's a cycle later; by then, on a working link, we know
+        we lost the spot. Without the wait, two vehicles near a find that both claimed it
+        seconds apart each treat it."""
         c = self.holdings.claim_time(task, self.index)
         return float(c) + self.claim_settle_s if c else 0.0
 

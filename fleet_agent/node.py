@@ -54,6 +54,7 @@ from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
 from fleet_bus.clock import Clock, MissionClock
 from fleet_bus.commands import STOP, decode_command
+from fleet_bus.credentials import CredentialsError, load_frame_chains, load_frame_seed
 from fleet_bus.mission import ClockSync, Mission, fetch_mission
 from fleet_bus.modem_port import ModemPort, ModemReport, Received
 from fleet_bus.process import AGENT_READY, ready
@@ -139,11 +140,13 @@ def _announce_ready(session: zenoh.Session, vid: str, auth: BusAuth | None,
 def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
          stop: threading.Event, mission_timeout_s: float = 120.0,
          auth: BusAuth | None = None, modem: ModemChoice = ModemChoice(),
-         helm: HelmChoice = HelmChoice()) -> int:
-    """Run agent ``vid`` until ``stop``. Returns 0, 2 if the vehicle is not in the mission
-    or its helm could not be opened, or 3 if no mission or clock record came. With ``auth``
-    (its own key and the run's ring) it signs what it puts and takes only what its rightful
-    senders signed."""
+         credentials: Path | None = None, helm: HelmChoice = HelmChoice()) -> int:
+    """Run agent ``vid`` until ``stop``. Returns 0, 2 if the vehicle is not in the mission,
+    its credentials lack its key chain or its helm could not be opened, or 3 if no mission or
+    clock record came. With ``auth`` (its own key and the run's ring) it signs what it puts
+    and takes only what its rightful senders signed; with ``credentials`` (its directory) its
+    frames are provably its own (its key chain, and the fleet's commitments:
+    `fleet_bus.tesla`), else every chain derives from the fleet key."""
     inbox = Inbox()
     mission_time = PendingClock()  # -1 until the clock record comes
     hear = inbox.hear
@@ -161,7 +164,7 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
         mission = fetch_mission(session, stop, mission_timeout_s, auth)
         if mission is None:
             return 0 if stop.is_set() else 3
-        built = build_fleet(mission, vid, config, modem)
+        built = build_fleet(mission, vid, config, modem, credentials)
         if isinstance(built, int):
             return built
         vehicle = None
@@ -196,10 +199,11 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
                     vehicle[0].close()
 
 
-def build_fleet(mission: Mission, vid: str, config: AgentConfig,
-                modem: ModemChoice) -> Built | int:
-    """The mission's fleet context (the initial plan: every agent computes the same), or 2
-    after one line on stderr: a scenario that is not valid, a vehicle not in it."""
+def build_fleet(mission: Mission, vid: str, config: AgentConfig, modem: ModemChoice,
+                credentials: Path | None = None) -> Built | int:
+    """The mission's fleet context (the initial plan: every agent computes the same) with
+    the key chains of ``credentials`` (`fleet_bus.tesla`), or 2 after one line on stderr: a
+    scenario that is not valid, a vehicle not in it, credentials without the chains."""
     try:
         problem = problem_from_dict(mission.scenario)
         reef = reef_from_doc(mission.scenario, problem)  # the simulated world's reef
@@ -210,11 +214,19 @@ def build_fleet(mission: Mission, vid: str, config: AgentConfig,
     if vid not in problem.vehicle_index:
         print(f"fleet_agent: {vid!r} is not a vehicle of the mission", file=sys.stderr)
         return 2
+    chains, seed = None, None
+    if credentials is not None:
+        try:
+            chains = load_frame_chains(credentials, [v.id for v in problem.vehicles])
+            seed = load_frame_seed(credentials)
+        except CredentialsError as exc:
+            print(f"fleet_agent {vid}: {exc}", file=sys.stderr)
+            return 2
     fleet = Fleet.build(problem, config.fleet_key, mission.seed, config,  # initial plan
                         run_id=mission.run_id,  # the wire keys bind the run
                         camera=None if reef is None else camera_figures(reef),
-                        modem=modem.spec)
-    return Built(mission, problem, reef, fleet)
+                        modem=modem.spec, chains=chains)
+    return Built(mission, problem, reef, fleet, seed)
 
 
 @dataclass(frozen=True)
@@ -223,6 +235,7 @@ class Built:
     problem: Problem
     reef: Reef | None
     fleet: Fleet
+    chain_seed: bytes | None = None  # this vehicle's key chain (None: from the fleet key)
 
 
 def open_live(helm: HelmChoice, built: Built, vid: str, clock: Clock,
@@ -249,7 +262,7 @@ def drive(built: Built, vid: str, config: AgentConfig, journal: Journal, clock: 
         stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
     now = clock.now()
     index = built.problem.vehicle_index[vid]
-    agent = Agent(built.fleet, index, config, now, journal.records)
+    agent = Agent(built.fleet, index, config, now, journal.records, built.chain_seed)
     if opened is None and helm.name == "sim":
         sim = sim_vehicle(built.problem, index, seed=built.mission.seed, reef=built.reef,
                           t_s=now, pos=agent.own.pos, odometer_m=agent.own.distance_m)

@@ -101,10 +101,11 @@ class FileTelemetry:
 def main(vid: str, config: AgentConfig, journal_path: Path, stop: threading.Event,
          mission_path: Path, *, start_unix: float | None = None,
          modem: ModemChoice = ModemChoice(), helm: HelmChoice = HelmChoice(),
-         conf: zenoh.Config | None = None, auth: BusAuth | None = None) -> int:
+         conf: zenoh.Config | None = None, auth: BusAuth | None = None,
+         credentials: Path | None = None) -> int:
     """Run agent ``vid`` on board until ``stop``: 0, or 2 (said on stderr) for a mission
     that cannot run: no file, no start, another run's credentials, the emulated water as the
-    modem, a helm that does not answer."""
+    modem, credentials without this vehicle's key chain, a helm that does not answer."""
     def refuse(why: str) -> int:
         print(f"fleet_agent {vid}: {why}", file=sys.stderr, flush=True)
         return 2
@@ -130,7 +131,7 @@ def main(vid: str, config: AgentConfig, journal_path: Path, stop: threading.Even
         return refuse(f"slot_s {config.slot_s:g} s cannot hold a {spec.name} packet "
                       f"({packet_s:.2f} s on the air, then its way across the reef): set "
                       "slot_s in the agent config (docs/modems.md)")
-    built = build_fleet(mission, vid, config, modem)
+    built = build_fleet(mission, vid, config, modem, credentials)
     if isinstance(built, int):
         return built
     clock = own_clock(start)

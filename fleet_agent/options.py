@@ -119,9 +119,10 @@ def run(args: argparse.Namespace) -> int:
         conf = client_config(args.connect, credentials=args.credentials) \
             if args.connect else None
         return onboard.main(args.id, config, journal, stop, args.mission, start_unix=start,
-                            modem=modem, helm=helm, conf=conf, auth=auth)
+                            modem=modem, helm=helm, conf=conf, auth=auth,
+                            credentials=args.credentials)
     from fleet_agent import node
 
     return node.main(client_config(args.connect or [DEFAULT_ENDPOINT],
                                    credentials=args.credentials), args.id, config, journal,
-                     stop, args.mission_timeout, auth, modem, helm)
+                     stop, args.mission_timeout, auth, modem, args.credentials, helm)

@@ -8,6 +8,7 @@ a cycle is the heartbeat period. What goes in a slot is the outbox's choice
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from fleet_agent.config import AgentConfig
@@ -45,6 +46,19 @@ class Slots:
     def first_from(self, t_s: float) -> int:
         """The first cycle whose slot starts at or after ``t_s``."""
         return self.schedule.first_cycle(self.index, t_s, SLOT_OFFSET)
+
+    def cycle_of(self, seq: int) -> int:
+        """The cycle of a frame of this vehicle with sequence number ``seq`` (its send time in
+        whole seconds: at most a second before its slot opens, bumped by a second per further
+        frame of the slot, never reaching the next slot): the cycle its key belongs to
+        (`fleet_bus.tesla`: chain index ``cycle + 1``)."""
+        return max(0, math.floor((seq + 1.0 - self.time(0)) / self.cycle_s))
+
+    def disclosure_s(self, cycle: int) -> float:
+        """The earliest mission time this vehicle may disclose the key of ``cycle``: a frame
+        of the next cycle, whose seq can be a second before its slot opens. A frame of
+        ``cycle`` heard after that proves nothing about who sent it."""
+        return self.time(cycle + 1) - 1.0
 
     def missed(self, n: int, now_s: float) -> bool:
         """Too late to start slot ``n``'s frame now (a slow host): sent now it would spill into

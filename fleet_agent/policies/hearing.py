@@ -1,9 +1,11 @@
 """What a frame from a peer changes, and what to answer.
 
-A frame that passed the agent's checks (authentic, fresh, not our own) is evidence first:
-its sender is alive, and its heard codes say whom the sender heard, which may revive a peer
-declared lost or confirm a suspect's silence (`fleet_agent.membership`; a confirmed silence
-is a takeover). Then its content: a pose (where the peer is, and whether its cleared set
+A frame whose fleet MAC checked is evidence of life at once (`alive`): its sender, and the
+peers its heard codes say it heard, may be revived; forged, such evidence only keeps a silent
+vehicle in the fleet longer, never takes its work (silence is not death). Everything else
+waits until the frame is proven its sender's (`fleet_bus.tesla`: a cycle later): the heard
+codes that confirm a suspect's silence (`confirmed`: a takeover), then the content
+(`content`): a pose (where the peer is, and whether its cleared set
 may lack something of ours), a segment of the cleared set (merged: a grow-only set), a claim
 or a release (the one conflict rule of `fleet_agent.negotiation`; a claim on a spot we hold
 by an earlier claim, or know cleared, is answered at once), a find (`policies.discovery`),
@@ -14,7 +16,7 @@ from __future__ import annotations
 
 from fleet_agent import membership as mb
 from fleet_agent.config import AgentConfig
-from fleet_agent.intents import Count, Intent, Note, Owe, SeekWork, Tell
+from fleet_agent.intents import Count, Intent, LastWords, Note, Owe, SeekWork, Tell
 from fleet_agent.knowledge import Knowledge, PeerPose
 from fleet_agent.outbox import AbortNews, Holding, Owed
 from fleet_agent.policies import discovery
@@ -23,9 +25,8 @@ from fleet_agent.records import Clear, Hold, PeerState
 from fleet_agent.wire import Abort, Claim, ClearedSegment, Found, Message, Pose, Release
 
 
-def evidence(know: Knowledge, config: AgentConfig, msg: Message, now: float,
-             active: bool) -> list[Intent]:
-    """What the frame says of who is alive: revivals, and silences it confirms."""
+def alive(know: Knowledge, msg: Message, now: float) -> list[Intent]:
+    """What the frame says of who is alive: its sender and the peers it heard (revivals)."""
     v, members = msg.sender, know.members
     revived = [v] if members.heard(v, float(msg.seq), now) else []
     revived += members.take_heard(v, msg.heard, float(msg.seq), now)
@@ -36,7 +37,14 @@ def evidence(know: Knowledge, config: AgentConfig, msg: Message, now: float,
         know.touch()
         out += [SeekWork(), Tell(now, "revived", peer=know.vid(u)),
                 Note(PeerState(u, mb.ALIVE, now))]
-    for u in members.confirm(v, msg.heard, float(msg.seq), now):
+    return out
+
+
+def confirmed(know: Knowledge, config: AgentConfig, msg: Message, now: float,
+              active: bool) -> list[Intent]:
+    """The silences the (proven) frame's heard codes confirm: those peers are lost."""
+    out: list[Intent] = []
+    for u in know.members.confirm(msg.sender, msg.heard, float(msg.seq), now):
         out += lost(know, config, u, now, active)
     return out
 
@@ -69,7 +77,7 @@ def lost(know: Knowledge, config: AgentConfig, v: int, now: float,
          active: bool) -> list[Intent]:
     """Another vehicle confirmed ``v``'s silence: its work is taken over."""
     know.touch()
-    out: list[Intent] = [Note(PeerState(v, mb.LOST, now)),
+    out: list[Intent] = [Note(PeerState(v, mb.LOST, now)), LastWords(v),
                          Tell(now, "lost", peer=know.vid(v), detail="silent")]
     if active:
         out += takeover(know, config, v, now, doubt=know.members.doubt(now))
@@ -85,7 +93,7 @@ def gone(know: Knowledge, config: AgentConfig, v: int, status: str, now: float,
     know.touch()
     out: list[Intent] = [Note(PeerState(v, status, now))]
     if status == mb.ABORTED:
-        out.append(Tell(now, "lost", peer=know.vid(v), detail="aborted"))
+        out += [LastWords(v), Tell(now, "lost", peer=know.vid(v), detail="aborted")]
         if active:
             # Pass the news on once: a peer that missed every announcement learns it from us
             # instead of waiting for the silence to be noticed.
@@ -93,6 +101,23 @@ def gone(know: Knowledge, config: AgentConfig, v: int, status: str, now: float,
             if before in mb.WORKING:
                 out += takeover(know, config, v, now)
     return True, out
+
+
+def last_words(know: Knowledge, v: int, msgs: list[Message], now: float) -> list[Intent]:
+    """A gone peer's unproven last frames: its own spots it says are cleared (a lie there
+    costs only its own work; a duplicate of its last treatments costs everyone)."""
+    own = {t for t in range(know.problem.n_tasks) if know.holdings.claim_time(t, v) is not None
+           or t in know.fleet.base_routes[v]}
+    out: list[Intent] = []
+    for msg in msgs:
+        if isinstance(msg, ClearedSegment):
+            lo = msg.segment * know.cleared.segment_bits
+            bits = int.from_bytes(msg.bits, "little")
+            said = [lo + i for i in range(bits.bit_length()) if bits >> i & 1]
+            new = know.clear(t for t in said if t in own and t < know.problem.n_tasks)
+            if new:
+                out += [Count("last_words"), Note(Clear(now, tuple(new), own=False))]
+    return out
 
 
 def _pose(know: Knowledge, config: AgentConfig, msg: Pose, now: float,

@@ -11,8 +11,8 @@ figure, else the time since the last fix the driver handed over). Two rules, aft
   (`StationKeep(WAIT)`: a vehicle without navigation must not fly on, and the last fix stays
   where it is); the work at a spot goes on (the vehicle keeps station anyway). When fixes come
   back it goes on from where the new fix says it is. Past ``config.nav_limit_s`` it gives the
-  mission up and heads home through the last position it was given (`GoHome`: announced to
-  the fleet like an abort, so its spots are taken over), and says so: the event
+  mission up and heads home through the last position it was given (an abort, announced to
+  the fleet as the operator's is, so its spots are taken over), and says so: the event
   ``navigation`` and the counter ``nav_lost``.
 - *A vehicle that lags its plan* (a current the plan did not know, a behaviour that refuses,
   a slow helm): its projected end, mission time plus the time it still needs from where its
@@ -23,18 +23,21 @@ figure, else the time since the last fix the driver handed over). Two rules, aft
   fix). The baseline restarts whenever the route changes (a spot done, a replan) and after
   each ``late``.
 
-Pure: no clock, no I/O; the agent keeps one `Navigation` and applies what `check` returns.
+Pure: no clock, no I/O; the agent keeps one `Navigation`, applies what `check` returns and
+commands its vehicle through `command_key` and `command` (the route's, or the hold).
 """
 
 from __future__ import annotations
 
 import math
 
+from fleet_agent import records as rec
 from fleet_agent.config import AgentConfig
-from fleet_agent.intents import Count, GoHome, Intent, Steer, Tell
+from fleet_agent.intents import Count, Intent, Note, Owe, Steer, Tell
 from fleet_agent.knowledge import Knowledge
-from fleet_agent.motion import Activity
-from fleet_bus.vehicle_port import StationKeep, Work
+from fleet_agent.motion import Activity, OwnVehicle
+from fleet_agent.outbox import Owed
+from fleet_bus.vehicle_port import HelmCommand, StationKeep, Work
 
 MOVING = (Activity.TRANSIT, Activity.RETURNING)
 HOLD = StationKeep(Work.WAIT, -1, 0.0)  # keep station where you are, until told otherwise
@@ -52,9 +55,14 @@ class Navigation:
         self._base_end_s: float | None = None  # projected end when the route was set
         self._base_route: tuple[int, ...] = ()
 
-    def command(self) -> StationKeep | None:
-        """The helm command that replaces the route's while the vehicle holds, else None."""
-        return HOLD if self.holding else None
+    def command_key(self, own: OwnVehicle) -> object:
+        """What changes the vehicle's command: the route's (`OwnVehicle.command_key`), or the
+        hold while there is no navigation."""
+        return HOLD if self.holding else own.command_key()
+
+    def command(self, own: OwnVehicle) -> HelmCommand | None:
+        """The vehicle's command: the route's, or keeping station while it holds."""
+        return HOLD if self.holding else own.command()
 
     def check(self, know: Knowledge, now: float, nav_age_s: float | None) -> list[Intent]:
         """What the age of the last fix (None: fresh) and the vehicle's progress call for."""
@@ -91,8 +99,10 @@ class Navigation:
             out += [Count("nav_lost"),
                     Tell(now, "navigation", detail=f"no fix for {age:.0f} s: heading home "
                          "from the last fix")]
-            if active:
-                out.append(GoHome(f"no navigation for {age:.0f} s"))
+            if active:  # an abort, as the operator's (`Agent._on_command`), said why
+                own.abort()
+                out += [Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
+                        Tell(now, "abort", detail=f"no navigation for {age:.0f} s")]
             return out
         self.holding = own.activity in MOVING
         return out
