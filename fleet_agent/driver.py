@@ -84,9 +84,10 @@ class AgentDriver:
 
     def next_wakeup(self) -> float:
         due = self.vehicle.next_report_s()
-        if due is None and self._poll_s is not None:  # a live helm: look at it regularly
-            due = self.agent.t + self._poll_s
-        return min(self.agent.next_wakeup(), math.inf if due is None else due, self._next_truth)
+        times = [self.agent.next_wakeup(), math.inf if due is None else due, self._next_truth]
+        if self._poll_s is not None:  # a live helm: look at it regularly
+            times.append(self.agent.t + self._poll_s)
+        return min(times)
 
     def _step(self, inp: Input) -> None:
         reports = self.vehicle.poll(inp.now)

@@ -215,7 +215,9 @@ class MoosHelm:
         return self._reports.take(until_s)
 
     def next_report_s(self) -> float | None:
-        return None
+        """When the look or injection it times ends (its arrivals come when they come)."""
+        with self._lock:
+            return self._duty.work_end_s
 
     def close(self) -> None:
         with self._lock:
