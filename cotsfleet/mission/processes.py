@@ -295,8 +295,7 @@ class ProcessBackend:
                          f"--config AGENT.toml --credentials {creds / vid} "
                          f"--connect <a router linked to {listen}>")
             else:
-                self.procs.spawn(vid, self._agent_argv(vid),
-                                 env={**helm_env, **opts.child_env.get(vid, {})})
+                self.procs.spawn(vid, self._agent_argv(vid), env=self._agent_env(vid))
         self._wait_agents()
         self.pacer.start()
         self._closers.append(session.declare_queryable(  # the newest record, timed
@@ -512,6 +511,10 @@ class ProcessBackend:
                 *self.helm.agent_argv(vid),
                 *self.modem.agent_argv(self.problem.vehicle_index[vid])]
 
+    def _agent_env(self, vid: str) -> dict[str, str]:
+        """An agent's environment: its helm's (a ROS 2 domain) and the test's, if any."""
+        return {**self.helm.env(), **self.opts.child_env.get(vid, {})}
+
     def _station_argv(self, incarnation: int) -> list[str]:
         """The ground station's command line; a restarted one records to a file of its own
         (``mission.1.rrd``, ...): the recording of its predecessor is kept."""
@@ -604,7 +607,7 @@ class ProcessBackend:
             self.dead.add(f.vid)
             self._busy(f.vid, False)  # a hold of the killed process ends with it
         elif f.kind == "restart":
-            self.procs.spawn(f.vid, self._agent_argv(f.vid))
+            self.procs.spawn(f.vid, self._agent_argv(f.vid), env=self._agent_env(f.vid))
             self.dead.discard(f.vid)
         elif f.kind == "stall":
             child = self.children.get(f.vid)
