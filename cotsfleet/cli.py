@@ -26,6 +26,7 @@ COMMANDS = {
     "link": "link",
     "credentials": "credentials",
     "water": "water",
+    "agent": "agent",
 }
 
 

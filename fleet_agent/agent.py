@@ -31,34 +31,16 @@ from fleet_agent import records as rec
 from fleet_agent.beliefs import Beliefs
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
-from fleet_agent.intents import (
-    Count,
-    Hold,
-    Intent,
-    LastWords,
-    Note,
-    Owe,
-    SeekWork,
-    Steer,
-    Tell,
-)
-from fleet_agent.io_types import (
-    Command,
-    Frame,
-    Helm,
-    Input,
-    Output,
-    Outputs,
-    Publish,
-    Record,
-    Send,
-    Tick,
-)
+from fleet_agent.intents import (Count, Hold, Intent, LastWords, Note, Owe, SeekWork, Steer,
+                                 Tell)
+from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, Publish,
+                                  Record, Send, Tick)
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import discovery, hearing
 from fleet_agent.policies.cooperate import CoopClock, cooperate
+from fleet_agent.policies.navigation import Navigation
 from fleet_agent.policies.route import sync
 from fleet_agent.provenance import Provenance
 from fleet_agent.radio import Radio, Slots
@@ -66,30 +48,12 @@ from fleet_agent.restore import Snapshot, fold
 from fleet_agent.routing import fit_route
 from fleet_agent.wire import Message, radio_kind
 from fleet_bus.telemetry import Status
-from fleet_bus.vehicle_port import (
-    Arrived,
-    Injected,
-    Looked,
-    NavFix,
-    Refused,
-    Sighted,
-    VehicleReport,
-)
+from fleet_bus.vehicle_port import (Arrived, Injected, Looked, NavFix, Refused, Sighted,
+                                    VehicleReport)
 from hfc_core.model.problem import Problem
 
-__all__ = [
-    "Agent",
-    "Command",
-    "Fleet",
-    "Frame",
-    "Helm",
-    "Input",
-    "Output",
-    "Publish",
-    "Record",
-    "Send",
-    "Tick",
-]
+__all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Input", "Send", "Publish", "Record",
+           "Helm", "Output"]
 
 
 class Agent:
@@ -120,6 +84,7 @@ class Agent:
             raise ValueError(f"{self.id} has no key chain: give its credentials' seed")
         self.provenance = Provenance(fleet.codec, chains, index, seed, config.slot_s)
         self.coop = CoopClock(now + config.coop_period_s * (1.0 + index / p.n_vehicles))
+        self.nav = Navigation(config)  # fixes that stop, a vehicle that lags (`policies`)
         self.counters: dict[str, int] = {}
         self.largest_frame = 0
         self.lag_s = 0.0  # worst lateness of the host since the last status (`note_lag`)
@@ -142,9 +107,10 @@ class Agent:
 
     # -- the state machine -----------------------------------------------------------------
 
-    def step(self, inp: Input, reports: Sequence[VehicleReport] = ()) -> list[Output]:
-        """Take the vehicle's ``reports`` (in time order, none after ``inp.now``), then
-        ``inp``; return what to journal, send, publish and command."""
+    def step(self, inp: Input, reports: Sequence[VehicleReport] = (),
+             nav_age_s: float | None = None) -> list[Output]:
+        """Take the vehicle's ``reports`` (in time order, none after ``inp.now``) and its last
+        fix's age (None: fresh), then ``inp``; return what to journal, send, publish, command."""
         now = max(float(inp.now), self.t)
         out, self._boot = self._boot, self._outputs()
         for r in reports:
@@ -156,6 +122,7 @@ class Agent:
         elif isinstance(inp, Command):
             self._on_command(inp.name, now, out)
         self._settle(now)
+        self._apply(self.nav.check(self.know, now, nav_age_s), now, out)
         self.know.rebind()
         for v in self.know.members.check(now):  # silence makes a suspect, nothing more
             out.event(now, "suspect", peer=self.know.vid(v))
@@ -296,13 +263,11 @@ class Agent:
     def _helm(self, out: Outputs) -> None:
         """Tell the vehicle what to do when that changed (an arrival, the end of work, a new
         head of the route, an abort)."""
-        key = self.own.command_key()
-        if key == self._commanded:
-            return
-        self._commanded = key
-        cmd = self.own.command()
-        if cmd is not None:
-            out.append(Helm(cmd))
+        key = self.nav.command_key(self.own)  # the route's, or a hold for want of navigation
+        if key != self._commanded:
+            self._commanded, cmd = key, self.nav.command(self.own)
+            if cmd is not None:
+                out.append(Helm(cmd))
 
     def _settle(self, now: float) -> None:
         """A find that finished settling may now be planned: look for work."""
@@ -335,11 +300,10 @@ class Agent:
         self._apply(hearing.content(self.know, self.config, msg, now, self.active), now, out)
 
     def _on_command(self, name: str, now: float, out: Outputs) -> None:
-        if name != "abort" or not self.active:
-            return
-        self.own.abort()
-        self._apply([Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
-                     Tell(now, "abort")], now, out)
+        if name == "abort" and self.active:
+            self.own.abort()
+            self._apply([Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
+                         Tell(now, "abort")], now, out)
 
     # -- the modem out ---------------------------------------------------------------------
 
@@ -432,8 +396,7 @@ class Agent:
             claims=know.tids(sorted(know.standing_claims())),
             counters={**self.counters, "largest_frame": self.largest_frame},
             lag_s=self._take_lag(),
-            suspects={know.vid(u): n for u, n in sorted(know.suspicion.items())},
-        )
+            suspects={know.vid(u): n for u, n in sorted(know.suspicion.items())})
 
     def _take_lag(self) -> float:
         lag, self.lag_s = self.lag_s, 0.0

@@ -78,6 +78,12 @@ class AgentConfig:
     find_repeats: int = 3  # each new find is sent this many times
     find_refresh_cycles: int = 6  # one known find rebroadcast every this many cycles
     find_settle_cycles: float = 3.0  # a find is planned this long after it is learned
+    # Navigation as it is (`policies.navigation`): with no fix for nav_hold_s a vehicle under
+    # way keeps station; for nav_limit_s it heads home. A vehicle whose projected end grew by
+    # late_after_s since its route was set is late (its route refitted from its last fix).
+    nav_hold_s: float = 10.0
+    nav_limit_s: float = 120.0
+    late_after_s: float = 60.0
     # Telemetry and persistence.
     status_period_s: float = 5.0
     truth_period_s: float = 5.0
@@ -85,8 +91,8 @@ class AgentConfig:
     fleet_key_hex: str = ""  # HMAC key shared by the fleet (never sent on the bus)
 
     def __post_init__(self) -> None:
-        positive = ("slot_s", "lost_after_cycles", "coop_period_s",
-                    "status_period_s", "truth_period_s", "checkpoint_period_s")
+        positive = ("slot_s", "lost_after_cycles", "coop_period_s", "nav_hold_s", "nav_limit_s",
+                    "late_after_s", "status_period_s", "truth_period_s", "checkpoint_period_s")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -119,6 +125,8 @@ class AgentConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value >= 0):
                 raise ValueError(f"agent config: {name} must be >= 0, got {value!r}")
+        if self.nav_limit_s < self.nav_hold_s:
+            raise ValueError("agent config: nav_limit_s must be >= nav_hold_s")
         if self.fleet_key_hex:
             try:
                 key = bytes.fromhex(self.fleet_key_hex)

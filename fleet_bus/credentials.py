@@ -13,10 +13,12 @@ certificate of the mission's CA (`fleet_bus.certificates`) and there is no passw
     root/<vehicle>/frames.key       its own key chain's seed for the acoustic frames
                                     (`fleet_bus.tesla`; the ring holds every commitment)
 
-for ``operator``, ``relay``, ``station`` (no signing key: it only listens), ``router`` (the
-operator's host's router; its certificate also names ``hosts``) and every vehicle; and, for
-each vehicle of ``linked_routers``, ``router-<id>``: the router of that vehicle's own host,
-linked to the operator's, which may forward only what that vehicle may say.
+for ``operator``, ``relay``, ``station`` and ``world`` (no signing key: they only listen;
+``world`` is the simulated world's processes, e.g. the ROS 2 vehicles that follow the mission
+clock), ``router`` (the operator's host's router; its certificate also names ``hosts``) and
+every vehicle; and, for each vehicle of ``linked_routers``, ``router-<id>``: the router of
+that vehicle's own host, linked to the operator's, which may forward only what that vehicle
+may say.
 
 Without it (one host, loopback only: `fleet_bus.session` refuses these across machines),
 identity is a Zenoh user/password login::
@@ -57,7 +59,7 @@ FRAMES_KEY = "frames.key"  # a vehicle's key chain seed (`fleet_bus.tesla`)
 # vehicle's 2.5 s slots; a mission longer than its chain is refused when its fleet is built.
 FRAME_CHAIN_LENGTH = 4096
 ZENOH_LOGIN = "zenoh.login"
-ROUTER_ID, STATION_ID = "router", "station"
+ROUTER_ID, STATION_ID, WORLD_ID = "router", "station", "world"
 ROUTER_USERS = "users.txt"
 ROUTER_ZID = "zid"
 CA_CERT, TLS_CERT, TLS_KEY = "ca.pem", "tls.pem", "tls.key"
@@ -126,8 +128,8 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
     returns the run id. ``hosts``, ``linked_routers`` and ``valid_days`` are for ``tls``."""
     run_id = run_id or new_run_id()
     for vid in vehicles:
-        if (vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID) or "/" in vid or not vid
-                or vid.startswith(LINKED_PREFIX)):
+        if (vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID, WORLD_ID) or "/" in vid
+                or not vid or vid.startswith(LINKED_PREFIX)):
             raise CredentialsError(f"vehicle id {vid!r} cannot have credentials of its own")
     if not tls and (hosts or linked_routers):
         raise CredentialsError("hosts and linked routers are for TLS credentials")
@@ -152,7 +154,7 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
                                        for vid, seed in seeds.items()}}}
     ring_text = json.dumps(ring, indent=1)
     (root / RING).write_text(ring_text, encoding="utf-8")
-    processes = (*signers, STATION_ID, ROUTER_ID,
+    processes = (*signers, STATION_ID, WORLD_ID, ROUTER_ID,
                  *(linked_router_id(v) for v in linked_routers))
     if authority is not None:
         (root / CA_CERT).write_bytes(authority.cert_pem)

@@ -37,6 +37,8 @@ EVENT_KINDS = (
     "replan",  # local route changed
     "restart",  # the agent process restarted from its log
     "refused",  # the vehicle did not carry out a command (detail: which, and why)
+    "navigation",  # fixes stopped (keeping station), came back, or stopped too long (home)
+    "late",  # the vehicle fell behind its plan (detail: by how much); refitted from its fix
     # dynamic missions (a hidden reef): what the camera showed
     "found",  # an aggregation the map missed (tasks: its find id; detail: "x,y,z rho r")
     "empty",  # a predicted spot inspected and found empty

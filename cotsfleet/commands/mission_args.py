@@ -122,6 +122,17 @@ def agent_config(path: Path | None) -> AgentConfig:
     return read_agent_config(path)
 
 
+def config_sets(path: Path | None, name: str) -> bool:
+    """Whether the agent config file sets ``name`` (else the default or a derived value
+    stands: ``slot_s`` from the modem, `cotsfleet run --modem micromodem`)."""
+    if path is None:
+        return False
+    from cotsfleet.io import read_toml
+
+    doc = read_toml(path)
+    return name in doc.get("agent", doc)
+
+
 def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionArgs:
     """The mission the arguments describe (``seed`` overrides ``--seed``, for Monte Carlo);
     every fault is checked against the scenario before anything starts."""

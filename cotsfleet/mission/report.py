@@ -104,6 +104,7 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
     aborted = {f.vid: f.t_s for f in faults if f.kind == "abort"}
     restarted = {f.vid for f in faults if f.kind == "restart"}
     stalled = {f.vid for f in faults if f.kind == "stall"}
+    helms = ((extra or {}).get("helm") or {}).get("vehicles", {})
     vehicles = []
     for v in problem.vehicles:
         s = statuses.get(v.id)
@@ -119,6 +120,8 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
             home=bool(s and s.state == "home"),
             aborted=v.id in aborted, killed=v.id in killed, restarted=v.id in restarted,
             stalled=v.id in stalled,
+            helm=helms.get(v.id, "sim"),  # what drove it (`cotsfleet run --helm`)
+            nav_fixes=int(s.counters.get("nav_fixes", 0)) if s else 0,
             counters=dict(s.counters) if s else {}))
 
     detection: dict[str, dict[str, float | None]] = {}

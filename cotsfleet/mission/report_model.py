@@ -60,6 +60,8 @@ class VehicleRow(_Section):
     restarted: bool
     stalled: bool
     counters: dict[str, int]
+    helm: str = "sim"  # what drove it (`cotsfleet run --helm`: sim, moos, ros2, remote)
+    nav_fixes: int = 0  # navigation fixes its agent used
 
     @property
     def flags(self) -> list[str]:
@@ -176,6 +178,30 @@ class Saved(_Section):
     events_error: str | UnsetType = UNSET
 
 
+class HelmSection(_Section):
+    """Which helm drove each vehicle (`cotsfleet run --helm`), and whether the mission clock
+    was held at the warp for it."""
+
+    name: str
+    clock_pinned: bool
+    vehicles: dict[str, str]
+    clock_drift_max_s: dict[str, float] | None = None  # MOOS: each vehicle's clock
+    ros_domain_id: int | None = None  # ROS 2: the run's own domain
+
+
+class ModemSection(_Section):
+    """The modem every agent drove (`cotsfleet run --modem`) and the slot it needs."""
+
+    name: str
+    spec: str
+    frames_per_packet: int
+    max_frame_bytes: int
+    bit_rate_bps: float
+    slot_s: float
+    slot_from: str  # "modem" (derived from its packet) | "config"
+    rate: int | None = None  # Micro-Modem rate
+
+
 class Queries(_Section):
     """Queries to the operator's and the relay's queryables: answered and rationed by asker,
     refused in all."""
@@ -219,6 +245,8 @@ class MissionReport(Struct, kw_only=True, forbid_unknown_fields=True, omit_defau
     crashes: list[Crash] | None = None
     saved: Saved | None = None
     queries: Queries | None = None
+    helm: HelmSection | None = None
+    modem: ModemSection | None = None
     failure: str | None = None
     # accused -> accuser -> how many things it said that could not be (`fleet_agent.policies.
     # plausible`); absent when nobody lied

@@ -164,6 +164,11 @@ class MoosHelm:
         self._cmd_moos_t = math.inf  # MOOS time the command under way was posted
         self._look_result: dict[str, object] | None = None
         self.dropped_detections = 0
+        # How far the vehicle's MOOS time has run from the mission clock since the first fix
+        # (MOOS seconds less mission seconds): MOOSTimeWarp is fixed, the fleet's clock is not.
+        self.clock_drift_s = 0.0
+        self.clock_drift_max_s = 0.0
+        self._first_stamp: tuple[float, float] | None = None  # (MOOS time, mission time)
         self._closed = False
         p, t = config.nav_prefix, config.truth_prefix
         self._nav_vars = {f"{p}_{s}": s for s in ("X", "Y", "DEPTH", "HEADING", "SPEED")}
@@ -210,7 +215,9 @@ class MoosHelm:
         return self._reports.take(until_s)
 
     def next_report_s(self) -> float | None:
-        return None
+        """When the look or injection it times ends (its arrivals come when they come)."""
+        with self._lock:
+            return self._duty.work_end_s
 
     def close(self) -> None:
         with self._lock:
@@ -228,6 +235,28 @@ class MoosHelm:
     @property
     def helm_state(self) -> str:
         return self._helm_state
+
+    def figures(self) -> dict[str, int]:
+        """What the agent's status counts of its helm: the worst lag of a fix from the
+        helm's stamp to its receipt, fixes and detections dropped, the MOOS clock's drift."""
+        return {"helm_fix_lag_max_ms": int(round(1000.0 * self.stats.lag_max_s)),
+                "helm_fixes_dropped": self._reports.dropped_fixes,
+                "helm_events_dropped": self._reports.dropped_events + self.dropped_detections,
+                "helm_clock_drift_max_ms": int(round(1000.0 * self.clock_drift_max_s))}
+
+    def true_pose(self) -> tuple[Point3, float, float] | None:
+        """Where the vehicle really is, for the simulation's bookkeeping (emulation): the
+        simulator's true state if it posts one apart (``truth_prefix``), else its navigation
+        (uSimMarine without navigation error); None before the first fix."""
+        with self._lock:
+            fix = self.stats.last_fix
+            if fix is None:
+                return None
+            if self._truth_vars and "X" in self._truth and "Y" in self._truth:
+                pos = self.config.frame.to_scenario(self._truth["X"], self._truth["Y"],
+                                                    -self._truth.get("DEPTH", 0.0))
+                return pos, fix.yaw_deg, fix.pitch_deg
+            return fix.pos, fix.yaw_deg, fix.pitch_deg
 
     # -- commands ------------------------------------------------------------------------------
 
@@ -304,6 +333,7 @@ class MoosHelm:
             return
         stamp = max(self._nav["X"][1], self._nav["Y"][1])
         t_s, lag = self._mission_time(stamp)
+        self._clock_drift(stamp, t_s)
         last = self.stats.last_fix
         if last is not None and t_s <= last.t_s:  # never a fix older than the last one
             t_s = last.t_s
@@ -317,6 +347,18 @@ class MoosHelm:
         self._reports.add(fix)
         if self.camera is not None:
             self._sweep(fix)
+
+    def _clock_drift(self, stamp: float, t_s: float) -> None:
+        """MOOS seconds less mission seconds since the first fix, from the simulator's own
+        stamps: the vehicle's clock against the fleet's."""
+        if stamp <= 0 or t_s < 0:  # from the mission's start on
+            return
+        if self._first_stamp is None:
+            self._first_stamp = (stamp, t_s)
+            return
+        drift = (stamp - self._first_stamp[0]) - (t_s - self._first_stamp[1])
+        self.clock_drift_s = drift
+        self.clock_drift_max_s = max(self.clock_drift_max_s, abs(drift))
 
     def _sweep(self, fix: NavFix) -> None:
         true = fix.pos

@@ -107,6 +107,7 @@ class Ros2Helm:
         self._reports = ReportBuffer(config.max_fixes, config.max_events)
         self.stats = NavStats()
         self._truth: tuple[float, float, float] | None = None
+        self._truth_yaw = 0.0
         self._look_result: dict[str, object] | None = None
         self._pending: list[tuple] = []  # (future, client, deadline, generation, kind)
         self.dropped = {"odometry": 0, "events": 0}
@@ -203,7 +204,9 @@ class Ros2Helm:
         return self._reports.take(until_s)
 
     def next_report_s(self) -> float | None:
-        return None
+        """When the look or injection it times ends (its arrivals come when they come)."""
+        with self._lock:
+            return self._duty.work_end_s
 
     def close(self) -> None:
         with self._lock:
@@ -218,6 +221,22 @@ class Ros2Helm:
     def nav_age_s(self) -> float:
         """Mission seconds since the last navigation fix (inf: none yet)."""
         return self.stats.age_s(self.clock.now())
+
+    def figures(self) -> dict[str, int]:
+        """What the agent's status counts of its helm: the worst lag of a fix from its
+        header stamp to its receipt, odometry and events dropped."""
+        return {"helm_fix_lag_max_ms": int(round(1000.0 * self.stats.lag_max_s)),
+                "helm_fixes_dropped": self._reports.dropped_fixes + self.dropped["odometry"],
+                "helm_events_dropped": self._reports.dropped_events + self.dropped["events"]}
+
+    def true_pose(self) -> tuple[tuple[float, float, float], float, float] | None:
+        """Where the vehicle really is (emulation: ``ground_truth/odom`` with ``use_truth``,
+        else its navigation); None before anything came."""
+        with self._lock:
+            if self._truth is not None:
+                return self._truth, self._truth_yaw, 0.0
+            fix = self.stats.last_fix
+            return None if fix is None else (fix.pos, fix.yaw_deg, fix.pitch_deg)
 
     # -- commands ------------------------------------------------------------------------------
 
@@ -302,7 +321,8 @@ class Ros2Helm:
     # -- callbacks (executor thread) -----------------------------------------------------------
 
     def _mission_time(self, stamp) -> tuple[float, float]:
-        lag = max(0.0, time.time() - wall_of(stamp)) * self.config.warp
+        warp = getattr(self.clock, "warp", None) or self.config.warp  # the clock's, as it is
+        lag = max(0.0, time.time() - wall_of(stamp)) * warp
         return self.clock.now() - lag, lag
 
     def _on_odom(self, msg: Odometry) -> None:
@@ -331,7 +351,7 @@ class Ros2Helm:
         fix = fix_of(msg, self.config.frame, 0.0)
         if fix is not None:
             with self._lock:
-                self._truth = fix.pos
+                self._truth, self._truth_yaw = fix.pos, fix.yaw_deg
 
     def _sweep(self, fix: NavFix) -> None:
         true = fix.pos
