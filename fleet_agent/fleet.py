@@ -68,21 +68,37 @@ class Fleet:
         if camera is not None:
             return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
                                         chains)
-        codec = Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
+        codec = Fleet.wire_of(problem, key, run_id, config, None, modem)
         planner = planner or Planner.from_config(problem, seed, config)
         return Fleet(problem, codec, planner, path_function(problem), seed,
                      planner.initial_routes(), modem=modem, chains=chains)
+
+    @staticmethod
+    def wire_of(problem: Problem, key: bytes, run_id: str, config: AgentConfig,
+                camera: Camera | None = None, modem: ModemSpec = WATER_SPEC) -> Codec:
+        """The wire codec every agent of this mission builds (`build`), without the initial
+        plan: what a launcher needs to speak the fleet's frames (its insider attacks)."""
+        if camera is None:
+            return Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
+        working = initial_working_problem(problem, camera, config)
+        return _dynamic_codec(working, problem.n_tasks, key, run_id, modem)
 
     @staticmethod
     def _build_dynamic(scenario: Problem, key: bytes, seed: int, config: AgentConfig,
                        run_id: str, camera: Camera, modem: ModemSpec,
                        chains: FleetChains) -> "Fleet":
         working = initial_working_problem(scenario, camera, config)
-        codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
-                                  found_from=scenario.n_tasks,
-                                  max_frame_bytes=modem.max_frame_bytes)
+        codec = _dynamic_codec(working, scenario.n_tasks, key, run_id, modem)
         expected = expected_problem(scenario, camera, config.p_cots)
         routes = Planner.from_config(expected, seed, config).initial_routes()
         planner = Planner.from_config(working, seed, config)
         return Fleet(working, codec, planner, path_function(working), seed, routes,
                      Dynamic(scenario, camera), modem, chains)
+
+
+def _dynamic_codec(working: Problem, n_predicted: int, key: bytes, run_id: str,
+                   modem: ModemSpec) -> Codec:
+    """A dynamic mission's codec: the working problem's spots and find slots, finds named
+    from ``n_predicted`` on, a margin for finds off the map."""
+    return Codec.for_problem(working, key, run_id, FIND_MARGIN_M, found_from=n_predicted,
+                             max_frame_bytes=modem.max_frame_bytes)

@@ -59,7 +59,11 @@ def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> 
                         help="extra uniform link loss P (0..1) from S on")
     faults.add_argument("--attack", action="append", default=[], metavar="KIND@S[*N]",
                         help="an intruder's modem sends N (default 10) forge|replay|garbage "
-                             "frames from S")
+                             "frames from S; with --insider, the insider attacks N times "
+                             "(all-cleared|claim-own|claim-all|abort-as|phantom|busy-hold; "
+                             "docs/security.md)")
+    faults.add_argument("--insider", metavar="ID",
+                        help="the vehicle whose credentials leaked, for the insider attacks")
 
 
 @dataclass(frozen=True)
@@ -147,7 +151,7 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
         check_wire_limits(problem)
         faults = parse_faults(aborts=args.abort, kills=args.kill, restarts=args.restart,
                               partitions=args.partition, losses=args.loss_at,
-                              attacks=args.attack, stalls=args.stall)
+                              attacks=args.attack, stalls=args.stall, insider=args.insider)
         check_schedule(faults, [v.id for v in problem.vehicles], horizon_of(problem))
     except FaultError as exc:
         raise UsageError(str(exc)) from None

@@ -46,6 +46,7 @@ def _out_dir(args: argparse.Namespace) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
+    from cotsfleet.mission.faults import FaultError
     from cotsfleet.mission.inprocess import simulate
 
     if args.runs < 1:
@@ -58,8 +59,11 @@ def run(args: argparse.Namespace) -> int:
             print("note: one run is simulated here; --jobs and --scheduler are for sweeps "
                   "(--runs N)", file=sys.stderr)
         m = mission_args(args)
-        result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
-                          reef=m.reef)
+        try:
+            result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
+                              reef=m.reef)
+        except FaultError as exc:  # a fault the simulation cannot make (`backend.check`)
+            raise UsageError(str(exc)) from None
         report = msgspec.structs.replace(result.report, wall_s=round(result.wall_s, 3))
         path = args.report or out / "report.json"
         write_reports(report, path, result.events, m.scenario)

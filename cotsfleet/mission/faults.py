@@ -13,7 +13,10 @@ Kinds and their ``value``:
   machine would, so a clock the pacing rule slows shortens the stall in mission time;
 - ``loss``: extra uniform link loss ``value`` (0..1) from then on;
 - ``forge``, ``replay``, ``garbage``: an intruder's modem transmits ``value`` hostile frames
-  (forged under a wrong key, replays of overheard frames, random bytes), one every 3.7 s.
+  (forged under a wrong key, replays of overheard frames, random bytes), one every 3.7 s;
+- ``all-cleared``, ``claim-own``, ``claim-all``, ``abort-as``, ``phantom``, ``busy-hold``:
+  the *insider* ``vid`` (a vehicle whose credentials leaked) attacks ``value`` times, 3.7 s
+  apart (`cotsfleet.mission.insider`: what each sends and what stops it).
 
 `check_schedule` refuses faults that cannot happen (a restart without an earlier kill, a
 kill of a vehicle already dead, anything after the mission's end), with the reason.
@@ -26,7 +29,9 @@ from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 VEHICLE_FAULTS = ("abort", "kill", "restart", "partition", "stall")
-ATTACKS = ("forge", "replay", "garbage")
+OUTSIDER_ATTACKS = ("forge", "replay", "garbage")
+INSIDER_ATTACKS = ("all-cleared", "claim-own", "claim-all", "abort-as", "phantom", "busy-hold")
+ATTACKS = (*OUTSIDER_ATTACKS, *INSIDER_ATTACKS)
 FAULT_KINDS = (*VEHICLE_FAULTS, "loss", *ATTACKS)
 VEHICLE_FLAGS = ("aborted", "killed", "restarted", "stalled")  # a report's per-vehicle marks
 ATTACK_SPACING_S = 3.7  # between two hostile frames of one attack
@@ -34,6 +39,9 @@ DEFAULT_PARTITION_S = 300.0
 DEFAULT_STALL_S = 300.0
 STALL_PERIOD_S = 8.0  # a stalled host: frozen for the first half of each period, then runs
 DEFAULT_ATTACK_FRAMES = 10
+# An insider's steps by default: the whole lie once, 24 phantom finds (issue 31's attack), a
+# busy announcement every 3.7 s for 10 minutes.
+INSIDER_STEPS = {"phantom": 24, "busy-hold": 162}
 
 
 class FaultError(ValueError):
@@ -58,6 +66,8 @@ class Fault:
             raise FaultError(f"fault value must be finite, got {self.value}")
         if self.kind in VEHICLE_FAULTS and not self.vid:
             raise FaultError(f"a {self.kind} names a vehicle")
+        if self.kind in INSIDER_ATTACKS and not self.vid:
+            raise FaultError(f"a {self.kind} attack names its insider (--insider ID)")
         if self.kind == "loss" and not 0.0 <= self.value <= 1.0:
             raise FaultError(f"loss must be in [0, 1], got {self.value}")
         if self.kind in ("partition", "stall") and not self.value > 0:
@@ -69,7 +79,8 @@ class Fault:
         what = {"partition": f" for {self.value:g} s", "stall": f" for {self.value:g} s",
                 "loss": f" {self.value:g}",
                 **{a: f" x{int(self.value)}" for a in ATTACKS}}.get(self.kind, "")
-        who = f" {self.vid}" if self.vid else ""
+        who = (f" by insider {self.vid}" if self.kind in INSIDER_ATTACKS else f" {self.vid}") \
+            if self.vid else ""
         return f"{self.kind}{who}{what} at t={self.t_s:g} s"
 
     def stall_phase(self, t_s: float) -> tuple[bool, float] | None:
@@ -107,10 +118,10 @@ def parse_at(spec: str) -> tuple[str, float]:
 def parse_faults(*, aborts: Iterable[str] = (), kills: Iterable[str] = (),
                  restarts: Iterable[str] = (), partitions: Iterable[str] = (),
                  losses: Iterable[str] = (), attacks: Iterable[str] = (),
-                 stalls: Iterable[str] = ()) -> list[Fault]:
+                 stalls: Iterable[str] = (), insider: str | None = None) -> list[Fault]:
     """Faults from command-line specs: ``ID@S`` (abort, kill, restart), ``ID@S+D``
     (partition or stall for D seconds), ``P@S`` (loss P from S), ``KIND@S`` or
-    ``KIND@S*N`` (attack: N frames, default 10)."""
+    ``KIND@S*N`` (attack: N frames, default 10; an insider attack's steps, by ``insider``)."""
     faults = []
     for kind, specs in (("abort", aborts), ("kill", kills), ("restart", restarts)):
         for spec in specs:
@@ -130,7 +141,15 @@ def parse_faults(*, aborts: Iterable[str] = (), kills: Iterable[str] = (),
         kind, t = parse_at(head)
         if kind not in ATTACKS:
             raise FaultError(f"attack kind must be one of {ATTACKS}, got {kind!r}")
-        faults.append(Fault(kind, t, "", _number(n, spec) if n else DEFAULT_ATTACK_FRAMES))
+        if kind in INSIDER_ATTACKS and not insider:
+            raise FaultError(f"--attack {spec}: an insider attack needs --insider ID (the "
+                             "vehicle whose credentials leaked)")
+        who = insider if kind in INSIDER_ATTACKS else ""
+        default = INSIDER_STEPS.get(kind, 1) if who else DEFAULT_ATTACK_FRAMES
+        faults.append(Fault(kind, t, who or "", _number(n, spec) if n else default))
+    if insider and not any(f.kind in INSIDER_ATTACKS for f in faults):
+        raise FaultError(f"--insider {insider}: no insider attack to make (--attack KIND@S "
+                         f"with KIND one of {INSIDER_ATTACKS})")
     return faults
 
 

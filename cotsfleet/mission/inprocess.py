@@ -21,7 +21,8 @@ from comms_sim.des import EventLoop, Handle, InProcessNetwork
 from comms_sim.seeds import MISSION_STREAMS, channel_rng
 from comms_sim.link_event import LinkEvent
 from comms_sim.stats import LinkCounts
-from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault
+from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, INSIDER_ATTACKS, Fault, FaultError
+from cotsfleet.mission.insider import Insider, insider_rng
 from cotsfleet.mission.intruder import NODE as INTRUDER
 from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.report_model import MissionReport, Oracle
@@ -123,6 +124,7 @@ class InProcessBackend:
         self.net = InProcessNetwork(self.channel, self.loop)
         self.net.add_listener(self._overhear)
         self.intruder = Intruder(problem, intruder_rng(seed))
+        self.insiders: dict[str, Insider] = {}
         self.oracle_iterations = oracle_iterations
         self.tap = tap
         self.ledger = FleetLedger()
@@ -137,12 +139,14 @@ class InProcessBackend:
     # -- the runner's interface --------------------------------------------------------------
 
     def check(self, faults: Sequence[Fault]) -> None:
-        pass  # every fault kind is simulated
+        if any(f.kind == "busy-hold" for f in faults):
+            raise FaultError("busy-hold holds the paced clock of `cotsfleet run`; a "
+                             "simulation has none to hold")
 
     def start(self, faults: Sequence[Fault]) -> None:
         for v in self.problem.vehicles:
             self._start_agent(v.id, 0.0, MemoryJournal())
-        if any(f.kind in ATTACKS for f in faults):
+        if any(f.kind in ATTACKS and f.kind not in INSIDER_ATTACKS for f in faults):
             self.channel.set_position(INTRUDER, self.intruder.position(), 0.0)
         self._pending = sorted(faults, key=lambda f: f.t_s)
         for f in self._pending:
@@ -283,15 +287,31 @@ class InProcessBackend:
         elif f.kind in ATTACKS:
             for i in range(int(f.value)):
                 self.loop.call_later(1.0 + ATTACK_SPACING_S * i,
-                                     lambda kind=f.kind: self._attack(kind))
+                                     lambda f=f: self._attack(f.kind, f.vid))
 
     def _overhear(self, event: LinkEvent) -> None:
         if event.delivered and event.src != INTRUDER:
             self.intruder.overhear(event.frame)
 
-    def _attack(self, kind: str) -> None:
-        """The intruder's modem transmits one hostile frame through the channel."""
-        self.net.send(INTRUDER, self.intruder.frame(kind, self.loop.now()), "data")
+    def _attack(self, kind: str, insider: str) -> None:
+        """The intruder's modem transmits one hostile frame through the channel; an insider's
+        frames leave from the insider's position."""
+        if kind not in INSIDER_ATTACKS:
+            self.net.send(INTRUDER, self.intruder.frame(kind, self.loop.now()), "data")
+            return
+        for frame in self._insider(insider).frames(kind, self.loop.now()):
+            self.net.send(insider, frame, "data")
+
+    def _insider(self, vid: str) -> Insider:
+        """The insider ``vid``: its leaked seed is the one its own agent was given."""
+        if vid not in self.insiders:
+            index = self.problem.vehicle_index[vid]
+            chains = self.fleet.chains
+            assert chains is not None and chains.seeds is not None, "a simulation derives " \
+                "every chain, seeds included"
+            self.insiders[vid] = Insider(self.problem, self.fleet.codec, chains, self.config,
+                                         index, chains.seeds[index], insider_rng(self.seed, index))
+        return self.insiders[vid]
 
     # -- the perfect-information reference ---------------------------------------------------
 

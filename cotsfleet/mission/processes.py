@@ -55,7 +55,8 @@ from typing import Any, Callable, Iterator, Mapping, Sequence
 import zenoh
 
 from comms_sim.stats import LinkCounts
-from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
+from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, INSIDER_ATTACKS, Fault, FaultError
+from cotsfleet.mission.insider_launch import Leaked
 from cotsfleet.mission.children import Child, ChildExited, Children
 from cotsfleet.mission.clock_control import ClockControl
 from cotsfleet.mission.disk import DiskReserve, cut_to_whole_lines
@@ -308,6 +309,7 @@ class ProcessBackend:
         self.procs.wait_ready(relay)
         if opts.loss and self.modem.name != "water":  # the relay takes it as an option
             self._put_link(LinkControl(extra_loss=opts.loss))
+        self._insiders = self._make_insiders(faults, config)
         for f in sorted(faults, key=lambda f: f.t_s):
             steps = int(f.value) if f.kind in ATTACKS else 1
             for i in range(steps):
@@ -596,7 +598,7 @@ class ProcessBackend:
             if step == "apply":
                 self._apply(f, now)
             else:
-                self._inject(f.kind, now)
+                self._inject(f, now)
 
     def _apply(self, f: Fault, now: float) -> None:
         self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value))
@@ -625,7 +627,7 @@ class ProcessBackend:
         elif f.kind == "loss":
             self._put_link(LinkControl(extra_loss=f.value))
         elif f.kind in ATTACKS:
-            self._inject(f.kind, now)
+            self._inject(f, now)
 
     def _stall(self, child: Child, f: Fault) -> None:
         """Freeze and thaw ``child`` as `Fault.thaw_at` says, in wall time at the requested
@@ -645,10 +647,33 @@ class ProcessBackend:
         finally:
             child.signal_group(signal.SIGCONT)
 
-    def _inject(self, kind: str, now: float) -> None:
-        """The intruder's modem transmits one hostile frame into the water (via the relay)."""
-        frame = self.intruder.frame(kind, now)
-        self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
+    def _inject(self, f: Fault, now: float) -> None:
+        """The intruder's modem transmits one hostile frame into the water (via the relay);
+        an insider's frames leave from where its vehicle last said it was, and its busy
+        announcements go out under its own bus login."""
+        if f.kind not in INSIDER_ATTACKS:
+            frame = self.intruder.frame(f.kind, now)
+            self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
+            return
+        insider = self._insiders[f.vid]  # its leaked credentials
+        if f.kind == "busy-hold":
+            insider.busy()
+            return
+        status = self.intake.statuses().get(f.vid)
+        at = tuple(status.pos) if status is not None else \
+            tuple(self.problem.vehicles[self.problem.vehicle_index[f.vid]].start)
+        for frame in insider.insider.frames(f.kind, now):
+            self._put_link(LinkControl(inject=frame, inject_at=at))
+
+    def _make_insiders(self, faults: Sequence[Fault], config: AgentConfig) -> dict[str, Leaked]:
+        """Each insider's leaked credentials (`insider_launch`), closed with the mission."""
+        out = {}
+        reef = reef_from_doc(self.scenario, self.problem)
+        for vid in sorted({f.vid for f in faults if f.kind in INSIDER_ATTACKS}):
+            out[vid] = Leaked.open(vid, self.problem, reef, config, self.run_id, self.seed,
+                                   self.modem.spec, self.creds, self.ids, self.endpoint)
+            self._closers.append(_Undeclare(out[vid].close))
+        return out
 
     def _put_link(self, control: LinkControl) -> None:
         assert self._session is not None and self.auth is not None
@@ -708,3 +733,13 @@ class ProcessBackend:
             state = "dead" if vid in self.dead else (s.state if s else "starting")
             parts.append(f"{vid} {state} {len(s.treated) if s else 0}")
         self.out(progress_line(now, collected, parts))
+
+
+@dataclass(frozen=True)
+class _Undeclare:
+    """A closer of the mission's `_closers` list that runs ``close``."""
+
+    close: Any
+
+    def undeclare(self) -> None:
+        self.close()
