@@ -68,7 +68,7 @@ def run_measured(doc: dict[str, Any], seed: int, **options: Any
         backend = MeasuredBackend(problem, doc, seed, ProcessOptions(
             run_dir=run_dir, progress_every_s=0, **options), out=lambda line: None)
         report = run_mission(problem, backend, (), seed=seed,
-                             step_s=options.get("warp", 60.0) * 0.25).report
+                             step_s=options.get("warp", 60.0) * 0.25).report.to_dict()
         return report, time.perf_counter() - t0, getattr(backend, "cpu", {})
     finally:
         shutil.rmtree(run_dir, ignore_errors=True)
@@ -104,7 +104,7 @@ def figures(report: dict[str, Any], warp: float) -> dict[str, Any]:
 def main(seed: int, warps: list[float], helms: list[str], write: bool) -> None:
     doc = scenario_doc(None, None, seed)
     problem = problem_from_dict(doc)
-    sim = simulate(problem, AgentConfig(), seed=seed).report["fleet"]["priority"]
+    sim = simulate(problem, AgentConfig(), seed=seed).report.fleet.priority
     print(f"cotsfleet sim: priority {sim:.1f}", flush=True)
     rows, notes = [], []
     path = moos_path()

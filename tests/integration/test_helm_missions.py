@@ -50,7 +50,7 @@ def sim_report() -> dict:
     doc = scenario()
     problem = problem_from_dict(doc)
     backend = InProcessBackend(problem, AgentConfig(), seed=SEED)
-    return run_mission(problem, backend, (), seed=SEED, step_s=60.0).report
+    return run_mission(problem, backend, (), seed=SEED, step_s=60.0).report.to_dict()
 
 
 def run_processes(run_dir: Path, **options) -> tuple[dict, ProcessBackend]:
@@ -60,7 +60,7 @@ def run_processes(run_dir: Path, **options) -> tuple[dict, ProcessBackend]:
     launcher = ProcessBackend(problem, doc, SEED, opts, out=lambda line: None)
     result: dict = {}
     thread = threading.Thread(target=lambda: result.update(report=run_mission(
-        problem, launcher, (), seed=SEED, step_s=25.0).report), daemon=True)
+        problem, launcher, (), seed=SEED, step_s=25.0).report.to_dict()), daemon=True)
     thread.start()
     try:
         thread.join(timeout=420)
