@@ -60,6 +60,11 @@ def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> 
     faults.add_argument("--attack", action="append", default=[], metavar="KIND@S[*N]",
                         help="an intruder's modem sends N (default 10) forge|replay|garbage "
                              "frames from S")
+    faults.add_argument("--ctl", action="append", default=[], metavar="ORDER@S",
+                        help="the operator's live order from the topside modem at S, words "
+                             "joined by ':' (recall:auv2@1200, pause:all@600, resume:all@900, "
+                             "drop-spot:17@300; unsigned:recall:auv2@1200 is an insider's "
+                             "forgery): docs/operator.md")
 
 
 @dataclass(frozen=True)
@@ -147,7 +152,7 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
         check_wire_limits(problem)
         faults = parse_faults(aborts=args.abort, kills=args.kill, restarts=args.restart,
                               partitions=args.partition, losses=args.loss_at,
-                              attacks=args.attack, stalls=args.stall)
+                              attacks=args.attack, stalls=args.stall, ctls=args.ctl)
         check_schedule(faults, [v.id for v in problem.vehicles], horizon_of(problem))
     except FaultError as exc:
         raise UsageError(str(exc)) from None

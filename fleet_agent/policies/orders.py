@@ -109,6 +109,7 @@ class Orders:
         return out
 
     def _disclose(self, sent_s: int, key: bytes, data: bytes, now: float) -> list[Intent]:
+        """A KEY frame: the topside's key of ``lag`` intervals before, passed on if news."""
         assert self.topside is not None
         cycle = self.schedule.disclosed_in(sent_s)
         if cycle < 1:
@@ -116,7 +117,7 @@ class Orders:
         before = self.topside.trusted_cycle
         if not self.topside.disclose(cycle, key):
             return [Count("ctl_unsigned")]
-        if data is not None and self.topside.trusted_cycle > before:  # news: pass it on
+        if self.topside.trusted_cycle > before:  # news: pass it on
             self._pass_on(data, now + self.schedule.interval_s)
         return []
 
@@ -126,13 +127,14 @@ class Orders:
         deadline = self.schedule.disclosure_s(interval)
         if now + CLOCK_MARGIN_S >= deadline:
             return [Count("ctl_replayed")]  # its key may be out: it proves nothing
-        out: list[Intent] = []
+        if data in self._seen:
+            return [Count("ctl_heard_again")]  # held already (a peer passed it on)
         cycle = self.schedule.disclosed_in(f.sent_s)
-        if cycle >= 1:
-            out += self._disclose(f.sent_s, f.disclosed, None, now)  # type: ignore[arg-type]
+        if cycle >= 1 and not self.topside.disclose(cycle, f.disclosed):
+            return [Count("ctl_unsigned")]  # the key it discloses is not the topside's
         self.topside.hold(Held(interval, f.data, f.tag, f.order))
         self._pass_on(data, deadline - CLOCK_MARGIN_S)
-        return out
+        return []
 
     # -- what an order does ------------------------------------------------------------------
 
