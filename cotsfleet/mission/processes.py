@@ -237,7 +237,8 @@ class ProcessBackend:
         for f in faults:
             if f.kind == "ctl":
                 raise FaultError(f"{f.describe()}: scheduled orders are for `cotsfleet sim`; "
-                                 "order a running mission with `cotsfleet ctl`")
+                                 "orders to a running mission are not built yet "
+                                 "(docs/operator.md)")
             if f.kind in ("kill", "restart", "stall") and f.vid in self.opts.remote:
                 raise FaultError(f"{f.describe()}: a {f.kind} needs the agent's process "
                                  "here; not for --remote vehicles")
