@@ -41,12 +41,14 @@ from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import discovery, hearing
 from fleet_agent.policies.cooperate import CoopClock, cooperate
 from fleet_agent.policies.navigation import Navigation
+from fleet_agent.policies.orders import Orders
 from fleet_agent.policies.route import sync
 from fleet_agent.provenance import Provenance
 from fleet_agent.radio import Radio, Slots
-from fleet_agent.restore import Snapshot, fold
+from fleet_agent.restore import fold, restore
 from fleet_agent.routing import fit_route
 from fleet_agent.wire import Message, radio_kind
+from fleet_bus.orders import is_topside_frame
 from fleet_bus.telemetry import Status
 from fleet_bus.vehicle_port import (Arrived, Injected, Looked, NavFix, Refused, Sighted,
                                     VehicleReport)
@@ -85,6 +87,10 @@ class Agent:
         self.provenance = Provenance(fleet.codec, chains, index, seed, config.slot_s)
         self.coop = CoopClock(now + config.coop_period_s * (1.0 + index / p.n_vehicles))
         self.nav = Navigation(config)  # fixes that stop, a vehicle that lags (`policies`)
+        assert fleet.orders is not None
+        self.orders = Orders(fleet.orders, fleet.topside, chains.topside, chains.length, index,
+                             config, journal)  # the operator's live orders
+        self.nav.paused = self.orders.paused
         self.counters: dict[str, int] = {}
         self.largest_frame = 0
         self.lag_s = 0.0  # worst lateness of the host since the last status (`note_lag`)
@@ -96,7 +102,10 @@ class Agent:
         self._commanded: tuple[Any, ...] | None = None  # what the vehicle was last told
         self._boot = self._outputs()
         if journal:
-            self._restore(fold(journal, p.n_tasks), now, self._boot)
+            snap = fold(journal, p.n_tasks)
+            if snap.bad_records:
+                self.count("journal_bad_records", snap.bad_records)
+            restore(snap, self.know, self.radio, fleet.base_routes[index], now, self._boot)
         else:
             self.own.set_route(fleet.base_routes[index])
             self._boot.record(rec.Start(now, index))
@@ -282,6 +291,9 @@ class Agent:
         """Bytes off the modem (`provenance`): evidence of life counts at once; the rest once
         proven its sender's, then through the replay window and `policies.hearing`."""
         self.count("rx_frames")
+        if is_topside_frame(data):  # the operator's orders, keys, acknowledgements
+            self._apply(self.orders.hear(data, now, self.know, self.nav), now, out)
+            return
         taken = self.provenance.hear(data, now)
         for reason, n in self.provenance.take_drops().items():
             self.count(f"drop_{reason}", n)
@@ -315,60 +327,31 @@ class Agent:
             self.count("slots_missed", skipped)
         if sent_s < now:
             self.count("slots_late")
-        msgs = self.radio.messages(now, self.know, self.fleet.modem.frames_per_packet)
-        if not msgs:
-            return
+        room = self.fleet.modem.frames_per_packet
+        msgs = self.radio.messages(now, self.know, room)
+        if self.orders.owes and (len(msgs) < room or radio_kind(msgs[-1]) == "pose"):
+            passed = self.orders.take_frame(now, self.config.slot_s)  # in place of a pose
+            msgs = msgs[:room - 1] if passed is not None else msgs
+        else:
+            passed = None
         sealed = [(m, self.provenance.seal(m)) for m in msgs]
         for reason, n in self.provenance.take_drops().items():
             self.count(f"tx_{reason}", n)
         msgs = [m for m, f in sealed if f is not None]
-        frames = tuple(f for _, f in sealed if f is not None)
+        frames = tuple(f for _, f in sealed if f is not None) + (
+            (passed,) if passed is not None else ())
         if not frames:
             return
-        names = tuple(type(m).__name__.lower() for m in msgs)
+        names = tuple(type(m).__name__.lower() for m in msgs) + (
+            ("order",) if passed is not None else ())
         for name, frame in zip(names, frames):
             self.count(f"tx_{name}")
             self.count("tx_bytes", len(frame))
             self.largest_frame = max(self.largest_frame, len(frame))
-        kind = "pose" if all(radio_kind(m) == "pose" for m in msgs) else "data"
+        kind = "pose" if passed is None and all(radio_kind(m) == "pose" for m in msgs) \
+            else "data"
         out.append(Send(frames, kind, names, sent_s))
         out.record(self.checkpoint(now))
-
-    # -- restarts ----------------------------------------------------------------------------
-
-    def _restore(self, snap: Snapshot, now: float, out: Outputs) -> None:
-        """Come back from a journal's snapshot at ``now``. Silence is counted from the
-        restart: the agent could not listen while it was down."""
-        know, own = self.know, self.own
-        if snap.bad_records:
-            self.count("journal_bad_records", snap.bad_records)
-        know.cleared.update(snap.cleared)
-        know.treated = list(snap.treated)
-        for f in snap.finds:
-            know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s)
-        for h in snap.holds:
-            know.holdings.apply(h.v, h.t_s, list(h.tasks), h.claim)
-        for p in snap.finals:
-            if p.v in know.members.peers:
-                know.members.mark(p.v, p.status, p.t_s)
-        for peer in know.members.peers.values():
-            peer.evidence_s = max(peer.evidence_s, now)
-            peer.since_s = max(peer.since_s, now)
-        know.rebind()  # finds back in the working problem before the route aims at them
-        ck = snap.checkpoint
-        if ck is not None:
-            self.radio.last_seq = ck.seq
-            know.replay.restore(dict(ck.high_water))
-            own.restore(now, ck.pos, ck.distance_m, list(ck.route), snap.aborted, snap.home_at_s)
-        else:
-            own.restore(now, own.pos, 0.0, self.fleet.base_routes[self.index], snap.aborted,
-                        snap.home_at_s)
-        know.touch()
-        if snap.aborted:
-            self.radio.outbox.owe(Owed.OWN_ABORT)
-        self.radio.outbox.owe(Owed.CLEARED, 1)  # tell the fleet what we know as soon as we can
-        out.record(rec.Restarted(now))
-        out.event(now, "restart", detail=f"{len(know.cleared)} cleared")
 
     # -- telemetry and checkpoints ---------------------------------------------------------
 

@@ -84,6 +84,9 @@ class AgentConfig:
     nav_hold_s: float = 10.0
     nav_limit_s: float = 120.0
     late_after_s: float = 60.0
+    # The operator's live orders (`policies.orders`): one issued longer ago than this is
+    # refused as stale (a recording kept back and played later, a topside far behind).
+    ctl_max_age_s: float = 600.0
     # Telemetry and persistence.
     status_period_s: float = 5.0
     truth_period_s: float = 5.0
@@ -92,7 +95,8 @@ class AgentConfig:
 
     def __post_init__(self) -> None:
         positive = ("slot_s", "lost_after_cycles", "coop_period_s", "nav_hold_s", "nav_limit_s",
-                    "late_after_s", "status_period_s", "truth_period_s", "checkpoint_period_s")
+                    "late_after_s", "ctl_max_age_s", "status_period_s", "truth_period_s",
+                    "checkpoint_period_s")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from fleet_agent.beliefs import FIND_MARGIN_M, expected_problem, initial_working_problem
 from fleet_agent.config import AgentConfig
@@ -11,6 +11,7 @@ from fleet_agent.sensor import Camera
 from fleet_bus.tesla import FleetChains, chain_length
 from fleet_agent.wire import Codec
 from fleet_bus.modem_port import WATER_SPEC, ModemSpec
+from fleet_bus.orders import OrderCodec, TopsideSchedule
 from hfc_core.model.paths import PathFn, path_function
 from hfc_core.model.problem import Problem
 
@@ -43,6 +44,8 @@ class Fleet:
     dynamic: Dynamic | None = None
     modem: ModemSpec = WATER_SPEC
     chains: FleetChains | None = None  # every vehicle's key chain (`fleet_bus.tesla`)
+    orders: OrderCodec | None = None  # the operator's orders' frames (`fleet_bus.orders`)
+    topside: TopsideSchedule = TopsideSchedule()  # the topside's key intervals
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
@@ -66,12 +69,16 @@ class Fleet:
             raise ValueError(f"key chains of {chains.length} cycles are too short for a "
                              f"mission of {cycles} cycles")
         if camera is not None:
-            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
-                                        chains)
-        codec = Fleet.wire_of(problem, key, run_id, config, None, modem)
-        planner = planner or Planner.from_config(problem, seed, config)
-        return Fleet(problem, codec, planner, path_function(problem), seed,
-                     planner.initial_routes(), modem=modem, chains=chains)
+            fleet = Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
+                                         chains)
+        else:
+            codec = Fleet.wire_of(problem, key, run_id, config, None, modem)
+            planner = planner or Planner.from_config(problem, seed, config)
+            fleet = Fleet(problem, codec, planner, path_function(problem), seed,
+                          planner.initial_routes(), modem=modem, chains=chains)
+        return replace(fleet, orders=OrderCodec(key, run_id, tuple(
+            v.id for v in problem.vehicles)), topside=TopsideSchedule.for_fleet(
+            problem.n_vehicles * config.slot_s))
 
     @staticmethod
     def wire_of(problem: Problem, key: bytes, run_id: str, config: AgentConfig,

@@ -39,6 +39,12 @@ EVENT_KINDS = (
     "refused",  # the vehicle did not carry out a command (detail: which, and why)
     "navigation",  # fixes stopped (keeping station), came back, or stopped too long (home)
     "late",  # the vehicle fell behind its plan (detail: by how much); refitted from its fix
+    # the operator's live orders (`fleet_bus.orders`, docs/operator.md)
+    "order",  # an order taken (detail: which, #number) or refused (detail: why)
+    "recall",  # recalled by the operator: heading home now, announced as an abort
+    "pause",  # paused by the operator: keeping station
+    "resume",  # resumed by the operator
+    "dropped",  # a spot the operator dropped: nobody treats it
     # dynamic missions (a hidden reef): what the camera showed
     "found",  # an aggregation the map missed (tasks: its find id; detail: "x,y,z rho r")
     "empty",  # a predicted spot inspected and found empty

@@ -64,6 +64,11 @@ def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> 
                              "docs/security.md)")
     faults.add_argument("--insider", metavar="ID",
                         help="the vehicle whose credentials leaked, for the insider attacks")
+    faults.add_argument("--ctl", action="append", default=[], metavar="ORDER@S",
+                        help="the operator's live order from the topside modem at S, words "
+                             "joined by ':' (recall:auv2@1200, pause:all@600, resume:all@900, "
+                             "drop-spot:17@300; unsigned:recall:auv2@1200 is an insider's "
+                             "forgery): docs/operator.md")
 
 
 @dataclass(frozen=True)
@@ -151,7 +156,8 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
         check_wire_limits(problem)
         faults = parse_faults(aborts=args.abort, kills=args.kill, restarts=args.restart,
                               partitions=args.partition, losses=args.loss_at,
-                              attacks=args.attack, stalls=args.stall, insider=args.insider)
+                              attacks=args.attack, stalls=args.stall, insider=args.insider,
+                              ctls=args.ctl)
         check_schedule(faults, [v.id for v in problem.vehicles], horizon_of(problem))
     except FaultError as exc:
         raise UsageError(str(exc)) from None

@@ -17,6 +17,9 @@ Kinds and their ``value``:
 - ``all-cleared``, ``claim-own``, ``claim-all``, ``abort-as``, ``phantom``, ``busy-hold``:
   the *insider* ``vid`` (a vehicle whose credentials leaked) attacks ``value`` times, 3.7 s
   apart (`cotsfleet.mission.insider`: what each sends and what stops it).
+- ``ctl``: the operator's live order ``words`` (`fleet_bus.orders.parse_words`: ``recall
+  auv2``, ``pause all``, ``drop-spot 17``, ...) goes out from the topside modem; with
+  ``unsigned`` first, an insider holding the fleet key but not the topside's chain sends it.
 
 `check_schedule` refuses faults that cannot happen (a restart without an earlier kill, a
 kill of a vehicle already dead, anything after the mission's end), with the reason.
@@ -28,11 +31,13 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
+from fleet_bus.orders import ALL, Order, OrderError, parse_words
+
 VEHICLE_FAULTS = ("abort", "kill", "restart", "partition", "stall")
 OUTSIDER_ATTACKS = ("forge", "replay", "garbage")
 INSIDER_ATTACKS = ("all-cleared", "claim-own", "claim-all", "abort-as", "phantom", "busy-hold")
 ATTACKS = (*OUTSIDER_ATTACKS, *INSIDER_ATTACKS)
-FAULT_KINDS = (*VEHICLE_FAULTS, "loss", *ATTACKS)
+FAULT_KINDS = (*VEHICLE_FAULTS, "loss", *ATTACKS, "ctl")
 VEHICLE_FLAGS = ("aborted", "killed", "restarted", "stalled")  # a report's per-vehicle marks
 ATTACK_SPACING_S = 3.7  # between two hostile frames of one attack
 DEFAULT_PARTITION_S = 300.0
@@ -56,6 +61,7 @@ class Fault:
     t_s: float
     vid: str = ""
     value: float = 0.0
+    words: tuple[str, ...] = ()  # a ``ctl``'s order
 
     def __post_init__(self) -> None:
         if self.kind not in FAULT_KINDS:
@@ -74,6 +80,24 @@ class Fault:
             raise FaultError(f"a {self.kind} lasts > 0 s, got {self.value}")
         if self.kind in ATTACKS and not (self.value >= 1 and float(self.value).is_integer()):
             raise FaultError(f"an attack sends a whole number >= 1 of frames, got {self.value}")
+        if self.kind == "ctl":
+            try:
+                parse_words(list(self.order_words))
+            except OrderError as exc:
+                raise FaultError(f"--ctl: {exc}") from None
+
+    @property
+    def unsigned(self) -> bool:
+        """A ``ctl`` an insider sends, unsigned by the topside's chain."""
+        return bool(self.words) and self.words[0] == "unsigned"
+
+    @property
+    def order_words(self) -> tuple[str, ...]:
+        return self.words[1:] if self.unsigned else self.words
+
+    def order(self) -> Order:
+        """A ``ctl``'s order, unnumbered."""
+        return parse_words(list(self.order_words))
 
     def describe(self) -> str:
         what = {"partition": f" for {self.value:g} s", "stall": f" for {self.value:g} s",
@@ -81,6 +105,8 @@ class Fault:
                 **{a: f" x{int(self.value)}" for a in ATTACKS}}.get(self.kind, "")
         who = (f" by insider {self.vid}" if self.kind in INSIDER_ATTACKS else f" {self.vid}") \
             if self.vid else ""
+        if self.kind == "ctl":
+            what = " " + " ".join(self.words)
         return f"{self.kind}{who}{what} at t={self.t_s:g} s"
 
     def stall_phase(self, t_s: float) -> tuple[bool, float] | None:
@@ -118,11 +144,17 @@ def parse_at(spec: str) -> tuple[str, float]:
 def parse_faults(*, aborts: Iterable[str] = (), kills: Iterable[str] = (),
                  restarts: Iterable[str] = (), partitions: Iterable[str] = (),
                  losses: Iterable[str] = (), attacks: Iterable[str] = (),
-                 stalls: Iterable[str] = (), insider: str | None = None) -> list[Fault]:
+                 stalls: Iterable[str] = (), insider: str | None = None,
+                 ctls: Iterable[str] = ()) -> list[Fault]:
     """Faults from command-line specs: ``ID@S`` (abort, kill, restart), ``ID@S+D``
     (partition or stall for D seconds), ``P@S`` (loss P from S), ``KIND@S`` or
-    ``KIND@S*N`` (attack: N frames, default 10; an insider attack's steps, by ``insider``)."""
+    ``KIND@S*N`` (attack: N frames, default 10; an insider attack's steps, by ``insider``),
+    ``WORD:WORD...@S`` (an order: ``recall:auv2@1200``, ``add-spot:500:300:80@900``,
+    ``unsigned:recall:auv2@1200``)."""
     faults = []
+    for spec in ctls:
+        head, t = parse_at(spec)
+        faults.append(Fault("ctl", t, "", 0.0, tuple(head.split(":"))))
     for kind, specs in (("abort", aborts), ("kill", kills), ("restart", restarts)):
         for spec in specs:
             vid, t = parse_at(spec)
@@ -166,6 +198,8 @@ def check_schedule(faults: Sequence[Fault], vehicles: Sequence[str], horizon_s: 
     known = set(vehicles)
     dead: set[str] = set()
     for f in sorted(faults, key=lambda f: f.t_s):
+        if f.kind == "ctl" and f.order().target not in (ALL, *known):
+            raise FaultError(f"{f.describe()}: unknown vehicle; the mission has {sorted(known)}")
         if f.vid and f.vid not in known:
             raise FaultError(f"{f.describe()}: unknown vehicle; the mission has {sorted(known)}")
         if f.t_s >= horizon_s:

@@ -27,6 +27,7 @@ from cotsfleet.mission.intruder import NODE as INTRUDER
 from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.report_model import MissionReport, Oracle
 from cotsfleet.mission.runner import Outcome, horizon_of, run_mission
+from cotsfleet.mission.topside import forged_order, topside_of
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
 from fleet_agent.driver import AgentDriver
@@ -40,6 +41,7 @@ from fleet_agent.routing import fit_route
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition
 from fleet_bus.modem_port import WATER_SPEC
+from fleet_bus.orders import TOPSIDE
 from fleet_bus.telemetry import Event, Status, Truth
 from hfc_core.model.problem import Problem
 from reef_sim.truth import Reef
@@ -125,6 +127,7 @@ class InProcessBackend:
         self.net.add_listener(self._overhear)
         self.intruder = Intruder(problem, intruder_rng(seed))
         self.insiders: dict[str, Insider] = {}
+        self.topside = topside_of(problem, self.fleet, self.config)
         self.oracle_iterations = oracle_iterations
         self.tap = tap
         self.ledger = FleetLedger()
@@ -135,6 +138,7 @@ class InProcessBackend:
         self.at_kill: dict[str, tuple[Status, frozenset[int]]] = {}  # status, cleared set
         self._pending: list[Fault] = []
         self._stuck = 0
+        self._topside_wake: Handle | None = None
 
     # -- the runner's interface --------------------------------------------------------------
 
@@ -146,8 +150,12 @@ class InProcessBackend:
     def start(self, faults: Sequence[Fault]) -> None:
         for v in self.problem.vehicles:
             self._start_agent(v.id, 0.0, MemoryJournal())
-        if any(f.kind in ATTACKS and f.kind not in INSIDER_ATTACKS for f in faults):
+        if any((f.kind in ATTACKS and f.kind not in INSIDER_ATTACKS)
+               or (f.kind == "ctl" and f.unsigned) for f in faults):
             self.channel.set_position(INTRUDER, self.intruder.position(), 0.0)
+        if any(f.kind == "ctl" for f in faults):  # the operator's modem, at the boat
+            self.net.attach(TOPSIDE, lambda data, t: self.topside.hear(data, t))
+            self.channel.set_position(TOPSIDE, self.topside.position, 0.0)
         self._pending = sorted(faults, key=lambda f: f.t_s)
         for f in self._pending:
             self.loop.call_at(f.t_s, lambda f=f: self._apply(f))
@@ -185,6 +193,9 @@ class InProcessBackend:
         out: dict[str, Any] = {"baseline": {
             "priority": round(float(sum(self.problem.priority[t] for t in plan)), 2),
             "spots": len(plan)}}
+        if self.topside.orders or any(f.kind == "ctl" for f in self.applied):
+            out["commands"] = self.topside.section(
+                {v: dict(st.counters) for v, st in self.ledger.statuses.items()})
         if not self.oracle:
             return out
         after = self._collected_after(self.oracle["t_s"], set(self.oracle["survivors"]),
@@ -261,7 +272,7 @@ class InProcessBackend:
 
     def _apply(self, f: Fault) -> None:
         now = self.loop.now()
-        self.applied.append(Fault(f.kind, now, f.vid, f.value))
+        self.applied.append(Fault(f.kind, now, f.vid, f.value, f.words))
         seat = self.seats.get(f.vid)
         if f.kind == "abort" and seat is not None and seat.driver is not None:
             self._step(seat, lambda d: d.command("abort", now), tick=False)
@@ -284,10 +295,27 @@ class InProcessBackend:
             seat.stall = f
         elif f.kind == "loss":
             apply_control(LinkControl(extra_loss=f.value), self.channel)
+        elif f.kind == "ctl" and f.unsigned:  # an insider: the fleet key, not the chain
+            self.net.send(INTRUDER, forged_order(self.fleet, f.order(), now), "data")
+        elif f.kind == "ctl":
+            self.topside.submit(f.order(), now)
+            self._topside_send()
         elif f.kind in ATTACKS:
             for i in range(int(f.value)):
                 self.loop.call_later(1.0 + ATTACK_SPACING_S * i,
                                      lambda f=f: self._attack(f.kind, f.vid))
+
+    def _topside_send(self) -> None:
+        """The topside's frames due now, and its next turn."""
+        now = self.loop.now()
+        for frame in self.topside.frames(now):
+            self.net.send(TOPSIDE, frame, "data")
+        due = self.topside.next_s(now)
+        if due is not None and (self._topside_wake is None or self._topside_wake.cancelled
+                                or self._topside_wake.t_s != due):
+            if self._topside_wake is not None:
+                self._topside_wake.cancel()
+            self._topside_wake = self.loop.call_at(due, self._topside_send)
 
     def _overhear(self, event: LinkEvent) -> None:
         if event.delivered and event.src != INTRUDER:

@@ -236,6 +236,10 @@ class ProcessBackend:
 
     def check(self, faults: Sequence[Fault]) -> None:
         for f in faults:
+            if f.kind == "ctl":
+                raise FaultError(f"{f.describe()}: scheduled orders are for `cotsfleet sim`; "
+                                 "orders to a running mission are not built yet "
+                                 "(docs/operator.md)")
             if f.kind in ("kill", "restart", "stall") and f.vid in self.opts.remote:
                 raise FaultError(f"{f.describe()}: a {f.kind} needs the agent's process "
                                  "here; not for --remote vehicles")
@@ -601,7 +605,7 @@ class ProcessBackend:
                 self._inject(f, now)
 
     def _apply(self, f: Fault, now: float) -> None:
-        self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value))
+        self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value, f.words))
         self.out(f"t={now:6.0f} s  fault: {f.describe()}")
         if f.kind == "abort":
             self._command(f.vid, ABORT)

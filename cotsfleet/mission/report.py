@@ -184,7 +184,8 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
         sections["security"] = msgspec.structs.replace(sections["security"], relay=None)
     return MissionReport(
         mode=mode, scenario=problem.name, seed=seed, end_s=round(end_s, 1),
-        faults=[FaultRow(kind=f.kind, vid=f.vid, t_s=f.t_s, value=f.value) for f in faults],
+        faults=[FaultRow(kind=f.kind, vid=f.vid, t_s=f.t_s, value=f.value,
+                         order=" ".join(f.words)) for f in faults],
         vehicles=vehicles, fleet=fleet, messages=messages,
         dynamic=dynamic_section(ledger, values) if reef is not None else None,
         suspects={k: dict(sorted(v.items())) for k, v in sorted(suspects.items())} or None,

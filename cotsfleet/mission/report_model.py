@@ -44,6 +44,31 @@ class FaultRow(_Section):
     vid: str
     t_s: float
     value: float
+    order: str = ""  # a ``ctl``'s order words
+
+
+class OrderRow(_Section):
+    """One of the operator's live orders (`cotsfleet.mission.topside`)."""
+
+    seq: int
+    order: str
+    verb: str
+    target: str
+    issued_s: float
+    transmissions: int
+    acked: dict[str, float]  # vehicle -> when the topside heard its acknowledgement
+    refused: dict[str, str]  # vehicle -> why it refused
+
+
+class Commands(_Section):
+    """The operator's live orders: what was sent and what came of it (docs/operator.md)."""
+
+    topside: list[float]  # where the topside modem was
+    sent: list[OrderRow]
+    refused: dict[str, int]  # by the vehicles, by reason (unsigned, replayed, stale, ...)
+    repeats: int  # orders heard again after they were taken (not acted on twice)
+    taken: dict[str, int]  # vehicle -> orders it took
+    operator_refused: dict[str, int]  # requests the operator's side refused, by reason
 
 
 class VehicleRow(_Section):
@@ -251,6 +276,7 @@ class MissionReport(Struct, kw_only=True, forbid_unknown_fields=True, omit_defau
     # accused -> accuser -> how many things it said that could not be (`fleet_agent.policies.
     # plausible`); absent when nobody lied
     suspects: dict[str, dict[str, int]] | None = None
+    commands: Commands | None = None  # the operator's live orders
     other: dict[str, Any] = {}  # top-level fields this version does not know
 
     # -- the document ------------------------------------------------------------------------

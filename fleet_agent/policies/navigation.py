@@ -51,18 +51,22 @@ class Navigation:
         self.late_s = config.late_after_s
         self.holding = False  # keeping station for want of navigation
         self.lost = False  # gave the mission up for want of navigation
+        self.paused = False  # the operator's pause (`policies.orders`): hold while under way
         self._stale_since: float | None = None
         self._base_end_s: float | None = None  # projected end when the route was set
         self._base_route: tuple[int, ...] = ()
 
+    def _holds(self, own: OwnVehicle) -> bool:
+        return self.holding or (self.paused and own.activity in MOVING and not own.aborted)
+
     def command_key(self, own: OwnVehicle) -> object:
         """What changes the vehicle's command: the route's (`OwnVehicle.command_key`), or the
-        hold while there is no navigation."""
-        return HOLD if self.holding else own.command_key()
+        hold while there is no navigation or the operator paused it."""
+        return HOLD if self._holds(own) else own.command_key()
 
     def command(self, own: OwnVehicle) -> HelmCommand | None:
         """The vehicle's command: the route's, or keeping station while it holds."""
-        return HOLD if self.holding else own.command()
+        return HOLD if self._holds(own) else own.command()
 
     def check(self, know: Knowledge, now: float, nav_age_s: float | None) -> list[Intent]:
         """What the age of the last fix (None: fresh) and the vehicle's progress call for."""
@@ -80,7 +84,9 @@ class Navigation:
             if active:  # on from where the vehicle now is (the route refitted there)
                 out.append(Steer(tuple(own.route), "navigation"))
             self._base_end_s = None
-        if active and not self.holding:
+        if self.paused:
+            self._base_end_s = None  # a pause is not lateness; measured again on resume
+        elif active and not self.holding:
             out += self._progress(know, now)
         return out
 
