@@ -41,6 +41,7 @@ from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import discovery, hearing
 from fleet_agent.policies.cooperate import CoopClock, cooperate
 from fleet_agent.policies.navigation import Navigation
+from fleet_agent.policies.rejoin import Rejoin
 from fleet_agent.policies.orders import Orders
 from fleet_agent.policies.route import sync
 from fleet_agent.provenance import Provenance
@@ -62,10 +63,11 @@ class Agent:
     """One vehicle's brain: call `step` with each input; `next_wakeup` says when to tick."""
 
     def __init__(self, fleet: Fleet, index: int, config: AgentConfig, now: float = 0.0,
-                 journal: Sequence[dict[str, Any]] = (), chain_seed: bytes | None = None
-                 ) -> None:
+                 journal: Sequence[dict[str, Any]] = (), chain_seed: bytes | None = None,
+                 journal_damaged: bool = False) -> None:
         """``chain_seed``: this vehicle's key chain (`fleet_bus.tesla`) from its
-        credentials; None where the fleet's chains are derived (a simulation)."""
+        credentials; None where the fleet's chains are derived (a simulation).
+        ``journal_damaged``: the journal's reader found bytes it could not read."""
         p = fleet.problem
         self.fleet, self.index, self.config = fleet, index, config
         self.id = p.vehicles[index].id
@@ -101,14 +103,24 @@ class Agent:
         self._synced = -1  # the knowledge's version the route was last checked against
         self._commanded: tuple[Any, ...] | None = None  # what the vehicle was last told
         self._boot = self._outputs()
+        lost = "damaged" if journal_damaged else None
         if journal:
             snap = fold(journal, p.n_tasks)
             if snap.bad_records:
                 self.count("journal_bad_records", snap.bad_records)
+                lost = "damaged"
             restore(snap, self.know, self.radio, fleet.base_routes[index], now, self._boot)
         else:
             self.own.set_route(fleet.base_routes[index])
             self._boot.record(rec.Start(now, index))
+            if now > 2 * slots.cycle_s:  # the mission is under way: a journal lost, or late
+                lost = "empty"
+        self.rejoin = Rejoin(lost, now, slots.cycle_s)  # learn the fleet's set before acting
+        self.nav.rejoining = self.rejoin.waiting
+        if lost is not None:
+            self.count(f"journal_{lost}")
+            self._boot.event(now, "restart", detail=f"journal {lost}: keeping station until "
+                             "the fleet's cleared set is learned")
         self.know.rebind()
 
     def _settled_s(self, task: int) -> float:
@@ -132,10 +144,14 @@ class Agent:
             self._on_command(inp.name, now, out)
         self._settle(now)
         self._apply(self.nav.check(self.know, now, nav_age_s), now, out)
+        if self.rejoin.waiting:
+            self._apply(self.rejoin.check(self.know, now), now, out)
+            self.nav.rejoining = self.rejoin.waiting
         self.know.rebind()
         for v in self.know.members.check(now):  # silence makes a suspect, nothing more
             out.event(now, "suspect", peer=self.know.vid(v))
-        if self.active and self.coop.due(now, self.config.coop_period_s):
+        if self.active and not self.rejoin.waiting and self.coop.due(now,
+                                                                     self.config.coop_period_s):
             self._apply(cooperate(self.know, self.config, now), now, out)
         if self.active and self.know.version != self._synced:
             self._synced = self.know.version

@@ -262,7 +262,8 @@ def drive(built: Built, vid: str, config: AgentConfig, journal: Journal, clock: 
         stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
     now = clock.now()
     index = built.problem.vehicle_index[vid]
-    agent = Agent(built.fleet, index, config, now, journal.records, built.chain_seed)
+    agent = Agent(built.fleet, index, config, now, journal.records, built.chain_seed,
+                  journal_damaged=journal.damage is not None)
     if opened is None and helm.name == "sim":
         sim = sim_vehicle(built.problem, index, seed=built.mission.seed, reef=built.reef,
                           t_s=now, pos=agent.own.pos, odometer_m=agent.own.distance_m)

@@ -20,7 +20,7 @@ LEVELS = {"abort": "WARN", "recall": "WARN", "lost": "WARN", "suspect": "WARN",
           "refused": "WARN", "takeover": "INFO", "revived": "INFO"}
 # Kinds an operator reads after a mission (the terminal, report.md); the others (claims,
 # clears, replans, inspections) are many and their sums are in the report's figures.
-NOTABLE = ("abort", "suspect", "lost", "revived", "takeover", "claim_lost", "restart",
+NOTABLE = ("abort", "suspect", "lost", "revived", "takeover", "claim_lost", "restart", "rejoined",
            "refused", "found", "order", "recall", "pause", "resume", "dropped")
 
 
@@ -109,6 +109,7 @@ _WORDS: dict[str, Callable[[Event], str]] = {
     "takeover": lambda e: f"{e.id} took over {spot_list(e.tasks)} from {e.peer or 'a peer'}",
     "replan": _replan,
     "restart": lambda e: f"{e.id}'s agent restarted from its journal{_detail(e)}",
+    "rejoined": lambda e: f"{e.id} rejoined the fleet{_detail(e)}",
     "refused": lambda e: f"{e.id} refused a command" + (f": {e.detail}" if e.detail else ""),
     "navigation": lambda e: f"{e.id}'s navigation{_detail(e)}",
     "late": lambda e: f"{e.id} is late{_detail(e)}",

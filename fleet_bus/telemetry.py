@@ -36,6 +36,7 @@ EVENT_KINDS = (
     "takeover",  # spots of a lost vehicle taken into this vehicle's route
     "replan",  # local route changed
     "restart",  # the agent process restarted from its log
+    "rejoined",  # after a lost or damaged journal: the fleet's cleared set learned, going on
     "refused",  # the vehicle did not carry out a command (detail: which, and why)
     "navigation",  # fixes stopped (keeping station), came back, or stopped too long (home)
     "late",  # the vehicle fell behind its plan (detail: by how much); refitted from its fix

@@ -52,12 +52,14 @@ class Navigation:
         self.holding = False  # keeping station for want of navigation
         self.lost = False  # gave the mission up for want of navigation
         self.paused = False  # the operator's pause (`policies.orders`): hold while under way
+        self.rejoining = False  # a lost journal (`policies.rejoin`): hold until rejoined
         self._stale_since: float | None = None
         self._base_end_s: float | None = None  # projected end when the route was set
         self._base_route: tuple[int, ...] = ()
 
     def _holds(self, own: OwnVehicle) -> bool:
-        return self.holding or (self.paused and own.activity in MOVING and not own.aborted)
+        return self.holding or ((self.paused or self.rejoining) and own.activity in MOVING
+                                and not own.aborted)
 
     def command_key(self, own: OwnVehicle) -> object:
         """What changes the vehicle's command: the route's (`OwnVehicle.command_key`), or the
@@ -84,7 +86,7 @@ class Navigation:
             if active:  # on from where the vehicle now is (the route refitted there)
                 out.append(Steer(tuple(own.route), "navigation"))
             self._base_end_s = None
-        if self.paused:
+        if self.paused or self.rejoining:
             self._base_end_s = None  # a pause is not lateness; measured again on resume
         elif active and not self.holding:
             out += self._progress(know, now)
