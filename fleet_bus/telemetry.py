@@ -103,7 +103,8 @@ class Status:
     cleared_known: int  # size of the vehicle's grow-only cleared set
     priority_collected: float
     distance_m: float
-    peers: dict[str, str] = field(default_factory=dict)  # id -> "alive" | "suspect" | "lost" | "aborted" | "home"
+    # id -> "alive" | "suspect" | "lost" | "aborted" | "home"
+    peers: dict[str, str] = field(default_factory=dict)
     claims: list[int] = field(default_factory=list)  # task ids this vehicle holds by claim
     counters: dict[str, int] = field(default_factory=dict)  # msgs sent/received/dropped[reason]
     # How far behind the mission clock the vehicle's process ran since its last status (its
