@@ -186,7 +186,7 @@ def dynamic_params(args: argparse.Namespace, base: GeneratorParams | AreaParams
     changes = {field: getattr(args, flag) for flag, field in flags.items()
                if getattr(args, flag) is not None}
     try:
-        return DynamicParams(base=base, **changes)  # type: ignore[arg-type]
+        return DynamicParams(base=base, **changes)
     except ValueError as exc:
         message = str(exc)
         for flag, field in flags.items():
