@@ -44,6 +44,7 @@ test: lint
 
 lint: $(TESTS)
 	$(PY) -m ruff check .
+	$(PY) -m mypy
 
 
 # Every benchmark; each prints its figures and rewrites its own section of benchmarks/RESULTS.md.
