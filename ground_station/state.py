@@ -23,6 +23,7 @@ import numpy as np
 from fleet_bus.event_text import find_priority, level, sentence
 from fleet_bus.ledger import FIND_MATCH_M, FleetLedger, RealReef, SpotValues
 from fleet_bus.link import BROADCAST, LinkRecord
+from fleet_bus.states import STOPPED_STATES, VehicleState
 from fleet_bus.telemetry import Event, Status, Truth, detail_position
 from ground_station import palette
 from ground_station.drawing import (
@@ -47,11 +48,11 @@ from ground_station.mapview import MapLayers
 from ground_station.series import Policy, SeriesThinner
 from hfc_core.model.current import TIDE_STEP_S
 
-STOPPED = ("aborted", "dead")  # states in which a vehicle's route is abandoned
-FINISHED = ("home",)
+STOPPED = STOPPED_STATES  # states in which a vehicle's route is abandoned
+FINISHED = (VehicleState.HOME,)
 # State changes written to the log: transit <-> injecting would flood it, and an arrival is
 # the vehicle's own event ("auv1 reached its rendezvous")
-LOGGED_STATES = (*STOPPED, "returning")
+LOGGED_STATES = (*STOPPED, VehicleState.RETURNING)
 
 # How each series is thinned (`ground_station.series`): the battery falls steadily (drawn once a
 # minute), T_diff jumps at replans (drawn at once, with the corner), counts step when they
@@ -347,7 +348,7 @@ class FleetPicture:
         elif e.kind == "found":
             out += self._found(e)
         elif e.kind == "abort":
-            out += self._set_state(v, "aborted", e.t_s, log=False)  # the event said it
+            out += self._set_state(v, VehicleState.ABORTED, e.t_s, log=False)  # the event said it
         elif e.kind in ("lost", "revived") and e.peer:
             peer = self._vehicle(e.peer)
             if e.kind == "lost":
