@@ -11,7 +11,7 @@ BASE   := $(VENV)/.installed
 TESTS  := $(VENV)/.installed-test
 BENCH  := $(VENV)/.installed-bench
 
-.PHONY: demo test bench clean
+.PHONY: demo test lint bench clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -38,8 +38,14 @@ demo: $(BASE)
 	$(VENV)/bin/cotsfleet scenario --paper --dynamic --seed 0 -o $$dir/dyn.json && \
 	$(VENV)/bin/cotsfleet run --scenario $$dir/dyn.json --run-dir $$dir --abort auv2@1200
 
-test: $(TESTS)
+# The linters first (configured in pyproject.toml): a style or type error fails the run early.
+test: lint
 	$(PY) -m pytest -q
+
+lint: $(TESTS)
+	$(PY) -m ruff check .
+	$(PY) -m mypy
+
 
 # Every benchmark; each prints its figures and rewrites its own section of benchmarks/RESULTS.md.
 bench: $(BENCH)

@@ -140,7 +140,7 @@ class Channel:
             raise ValueError(f"position must be 3 finite numbers, got {pos_xyz!r}")
         self._catch_up(t_s)
         self._now_s = max(self._now_s, t_s)
-        self._node(node).pos = pos  # type: ignore[assignment]
+        self._node(node).pos = pos
 
     def position(self, node: str) -> tuple[float, float, float] | None:
         n = self._nodes.get(node)

@@ -300,13 +300,15 @@ def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
         if epoch_unix is None:
             mission = fetch_mission(session, stop, mission_timeout_s, auth)
             if mission is None:
-                return _gave_up(stop, keys.MISSION, mission_timeout_s)
+                _gave_up(stop, keys.MISSION, mission_timeout_s)
+                return None
             seed = mission.seed if seed is None else seed
             vehicles = vehicles or mission.roster() or None
             sync = ClockSync(session, auth, stop)  # the operator's clock, measured
             clock = sync.join(mission_timeout_s)
             if clock is None:
-                return _gave_up(stop, keys.CLOCK, mission_timeout_s)
+                _gave_up(stop, keys.CLOCK, mission_timeout_s)
+                return None
             sync.start()
         else:  # a clock of its own, from a wall-clock epoch given by hand
             ref, w, _ = ClockRecord(epoch_unix, warp if warp is not None else 1.0).timing()
@@ -335,4 +337,3 @@ def _gave_up(stop: threading.Event, key: str, timeout_s: float) -> None:
     if not stop.is_set():
         print(f"comms_sim relay: no well-formed answer on {key} within {timeout_s:g} s",
               file=sys.stderr, flush=True)
-    return None

@@ -68,8 +68,9 @@ class AgentConfig:
     # A predicted spot is planned at its expected value, p_cots * rho (eq. 2's priority times
     # the chance it holds COTS), and costs the look (the camera's inspect_s) plus p_cots times
     # its injection time; within aggregation_radius_m of a find its value uses
-    # p_cots_near_find instead (COTS aggregate; the time stays at the prior's). 0.75: the share of predicted spots that held COTS in the paper-like
-    # preset of `cotsfleet scenario --dynamic` (67 of 90).
+    # p_cots_near_find instead (COTS aggregate; the time stays at the prior's). 0.75: the share
+    # of predicted spots that held COTS in the paper-like preset of `cotsfleet scenario
+    # --dynamic` (67 of 90).
     discovery: bool = True  # False: --no-discovery (ignore sightings, no reallocation)
     p_cots: float = 0.75
     p_cots_near_find: float = 0.9

@@ -4,10 +4,11 @@ A backend supplies the vehicle (a `fleet_bus.vehicle_port.VehiclePort`: the simu
 a MOOS-IvP or a ROS 2 helm), the modem (a `fleet_bus.modem_port.ModemPort`: the emulated
 water, or a Micro-Modem), a `Telemetry` sink and a `JournalSink`; it feeds
 `AgentDriver.step` with inputs at mission times (frames the modem received among them) and
-ticks the agent at `next_wakeup`. Two backends exist: the Zenoh node (`fleet_agent.node`, one OS process per
-vehicle on the shared warp clock) and the in-process simulation (`cotsfleet.mission.inprocess`,
-the whole fleet on a discrete-event loop). Both go through `carry_out`, so what a vehicle
-journals, sends, reports and commands, and in which order, never depends on the backend.
+ticks the agent at `next_wakeup`. Two backends exist: the Zenoh node (`fleet_agent.node`, one
+OS process per vehicle on the shared warp clock) and the in-process simulation
+(`cotsfleet.mission.inprocess`, the whole fleet on a discrete-event loop). Both go through
+`carry_out`, so what a vehicle journals, sends, reports and commands, and in which order, never
+depends on the backend.
 
 Before each input the driver polls the vehicle and hands its reports to the agent with the
 input. A simulated vehicle knows when its next report is due (`next_report_s`): the driver

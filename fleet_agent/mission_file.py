@@ -61,8 +61,7 @@ def read_mission_file(path: str | Path) -> tuple[Mission, float | None]:
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
         raise MissionFileError(f"{path}: not a mission file (format {FORMAT!r})")
     try:
-        mission = Mission.decode(Mission(doc.get("scenario"), doc.get("seed"),  # type: ignore
-                                         doc.get("run_id")).encode())
+        mission = Mission.from_doc(doc)  # the bus record's own check
     except (ValueError, TypeError) as exc:
         raise MissionFileError(f"{path}: {exc}") from None
     start = doc.get("start_unix")

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Callable, Sequence
 
+from fleet_bus.states import VehicleState
 from fleet_bus.vehicle_port import (HOME_TARGET, Abort, GoTo, HelmCommand, NavFix, ReturnHome,
                                     StationKeep, Work)
 from hfc_core.model.feasibility import fits, room_s
@@ -125,11 +126,12 @@ class OwnVehicle:
     def inspecting(self) -> int | None:
         return self.route[0] if self.activity is Activity.LOOKING and self.route else None
 
-    def state(self) -> str:
-        """The telemetry state (`fleet_bus.telemetry.STATES`): busy at a spot is injecting."""
+    def state(self) -> VehicleState:
+        """The telemetry state: busy at a spot is injecting."""
         if self.aborted and not self.done:
-            return "aborted"
-        return "injecting" if self.activity in AT_SPOT else self.activity.value
+            return VehicleState.ABORTED
+        return VehicleState.INJECTING if self.activity in AT_SPOT \
+            else VehicleState(self.activity.value)
 
     def battery_left_s(self, t_s: float | None = None) -> float:
         t = self.t_s if t_s is None else t_s

@@ -77,10 +77,12 @@ class Inbox:
     once."""
 
     def __init__(self, limit: int = INBOX_LIMIT) -> None:
-        self._q: queue.Queue[tuple[str, object, float]] = queue.Queue(limit)
+        # (kind, payload, arrival): a frame heard ("rx") or a command ("ctl") as bytes, or
+        # another report of the modem ("modem")
+        self._q: queue.Queue[tuple[str, bytes | ModemReport, float]] = queue.Queue(limit)
         self.overflow = 0
 
-    def put(self, kind: str, payload: object) -> None:
+    def put(self, kind: str, payload: bytes | ModemReport) -> None:
         try:  # the monotonic clock: a step of the wall clock must not move a frame in time
             self._q.put_nowait((kind, payload, time.monotonic()))
         except queue.Full:
@@ -98,7 +100,7 @@ class Inbox:
         n, self.overflow = self.overflow, 0
         return n
 
-    def get(self, timeout_s: float) -> tuple[str, object, float] | None:
+    def get(self, timeout_s: float) -> tuple[str, bytes | ModemReport, float] | None:
         try:
             return self._q.get(timeout=timeout_s) if timeout_s > 0 else self._q.get_nowait()
         except queue.Empty:
@@ -301,10 +303,10 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: MissionClock, stop: threadin
         while item is not None:
             kind, payload, wall = item
             at = clock.sim_of(wall)
-            if kind == "rx":
-                driver.frame(payload, at)  # type: ignore[arg-type]
-            elif kind == "modem":
+            if not isinstance(payload, bytes):  # kind "modem"
                 driver.agent.count(f"modem_{type(payload).__name__.lower()}")
+            elif kind == "rx":
+                driver.frame(payload, at)
             else:
                 try:
                     name = decode_command(payload)

@@ -85,7 +85,7 @@ def agent_config(path: Path | None) -> AgentConfig:
     env_key = os.environ.get("COTSFLEET_FLEET_KEY", "")
     if not config.fleet_key_hex and env_key:
         config = replace(config, fleet_key_hex=env_key)
-    config.fleet_key  # noqa: B018 - fail early without a key
+    config.fleet_key  # fail early without a key
     return config
 
 

@@ -164,14 +164,14 @@ def parse(doc: Mapping[str, Any]) -> JournalRecord | None:
             pos = tuple(float(c) for c in doc["pos"])
             if len(pos) != 3:
                 return None
-            return FoundSpot(t, int(doc["s"]), pos, float(doc["r"]),  # type: ignore[arg-type]
+            return FoundSpot(t, int(doc["s"]), pos, float(doc["r"]),
                              float(doc["d"]))
         if k == "ckpt":
             pos = tuple(float(c) for c in doc["pos"])
             if len(pos) != 3:
                 return None
             home = doc.get("home")
-            return Checkpoint(t, pos, float(doc.get("dist", 0.0)),  # type: ignore[arg-type]
+            return Checkpoint(t, pos, float(doc.get("dist", 0.0)),
                               _ints(doc.get("route", [])), int(doc.get("seq", -1)),
                               {int(s): int(q) for s, q in doc.get("hw", {}).items()},
                               None if home is None else float(home))

@@ -288,11 +288,11 @@ def load_tls(directory: Path) -> TlsIdentity:
     """The TLS files of a process's directory, checked: its key matches its certificate,
     which the directory's CA signed and which is valid now (`certificates.check_identity`)."""
     directory = Path(directory)
-    files = [directory / name for name in (CA_CERT, TLS_CERT, TLS_KEY)]
+    ca, cert, key = (directory / name for name in (CA_CERT, TLS_CERT, TLS_KEY))
     try:
-        info = check_identity(*(path.read_bytes() for path in files))
+        info = check_identity(ca.read_bytes(), cert.read_bytes(), key.read_bytes())
     except OSError as exc:
         raise CredentialsError(f"cannot read {exc.filename}: {exc.strerror or exc}") from None
     except CertificateError as exc:
         raise CredentialsError(f"{directory}/{TLS_CERT}: {exc}") from None
-    return TlsIdentity(*files, info)
+    return TlsIdentity(ca, cert, key, info)

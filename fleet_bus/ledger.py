@@ -18,7 +18,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
-from fleet_bus.telemetry import FINAL_STATES, Event, Status, detail_position
+from fleet_bus.states import FINAL_STATES
+from fleet_bus.telemetry import Event, Status, detail_position
 
 MAX_EVENTS = 1_000_000  # a mission's whole log; beyond, the oldest are dropped and counted
 # A find's position travels in its event detail in decimetres (`telemetry.position_detail`):

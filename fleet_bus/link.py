@@ -254,7 +254,8 @@ def decode_stats(payload: bytes) -> tuple[LinkCounts, dict[str, Any]]:
     for r in rows:
         if not isinstance(r, dict):
             raise ValueError("link stats: each link is a map")
-        src, dst = v.text(r.get("src"), "link stats.src", 64), v.text(r.get("dst"), "link stats.dst", 64)
+        src = v.text(r.get("src"), "link stats.src", 64)
+        dst = v.text(r.get("dst"), "link stats.dst", 64)
         counts[(src, dst)] = {k: v.integer(n, f"link stats.{k}", 0)
                               for k, n in r.items() if k not in ("src", "dst")}
     return counts, {k: x for k, x in doc.items() if k != "links"}

@@ -454,7 +454,8 @@ class Clock:
                  _int(f[2], "day", 1, 31), _int(f[3], "hour", 0, 23),
                  _int(f[4], "minute", 0, 59), _int(f[5], "second", 0, 60)]
         try:
-            when = dt.datetime(*parts[:5], min(parts[5], 59), tzinfo=dt.timezone.utc)
+            when = dt.datetime(parts[0], parts[1], parts[2], parts[3], parts[4], min(parts[5], 59),
+                               tzinfo=dt.timezone.utc)
         except ValueError as exc:
             raise NmeaError("value", f"bad date: {exc}") from None
         return cls(s.talker, when)

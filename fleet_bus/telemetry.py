@@ -16,13 +16,11 @@ from typing import Any
 import msgpack
 
 from fleet_bus import values as v
+from fleet_bus.states import VehicleState
 
-# Vehicle states, as the agent reports them and the dashboard and reports show them ("dead":
-# the mission runner's word for a vehicle whose agent was killed and not restarted).
-TRANSIT, INJECTING, RETURNING, HOME, ABORTED, DEAD = (
-    "transit", "injecting", "returning", "home", "aborted", "dead")
-STATES = (TRANSIT, INJECTING, RETURNING, HOME, ABORTED, DEAD)
-FINAL_STATES = (HOME, ABORTED, DEAD)  # a vehicle in one of these has left the mission
+# Vehicle states (`fleet_bus.states.VehicleState`), under the names the callers know.
+TRANSIT, INJECTING, RETURNING, HOME, ABORTED, DEAD = VehicleState
+STATES = tuple(VehicleState)
 
 # Event kinds of the dashboard's event log.
 EVENT_KINDS = (
@@ -110,7 +108,7 @@ class Status:
     cleared_known: int  # size of the vehicle's grow-only cleared set
     priority_collected: float
     distance_m: float
-    peers: dict[str, str] = field(default_factory=dict)  # id -> "alive" | "suspect" | "lost" | "aborted" | "home"
+    peers: dict[str, str] = field(default_factory=dict)  # id -> a `PeerState`
     claims: list[int] = field(default_factory=list)  # task ids this vehicle holds by claim
     counters: dict[str, int] = field(default_factory=dict)  # msgs sent/received/dropped[reason]
     # How far behind the mission clock the vehicle's process ran since its last status (its

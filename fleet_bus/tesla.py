@@ -133,7 +133,9 @@ class Sender:
 
     def release(self) -> tuple[list[Held], list[Held]]:
         """The held frames whose cycle's key is now trusted: (verified, forged)."""
-        good, bad, keep = [], [], deque()
+        good: list[Held] = []
+        bad: list[Held] = []
+        keep: deque[Held] = deque()
         for h in self.held:
             k = self.key(h.cycle)
             if k is None:

@@ -13,7 +13,7 @@ import json
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from cotsfleet.mission.report_model import MissionReport, Security
+from cotsfleet.mission.report_model import MissionReport, Security, TreatedRow
 from cotsfleet.reporting.plots import drop_reasons
 from cotsfleet.reporting.terminal import notable, suspects_line
 from cotsfleet.reporting.timeline import ACTIVITIES, Segment, Spots, time_shares
@@ -177,7 +177,7 @@ def _reef(report: MissionReport) -> list[str]:
                      _num(v.priority, 1)])
     lines += _table(["vehicle", "treatments", "real spots", "real priority"], rows)
     if d.treated:
-        first = {}
+        first: dict[int, TreatedRow] = {}
         for t in d.treated:
             first.setdefault(t.spot, t)
         again = [t for t in d.treated if first[t.spot] is not t]

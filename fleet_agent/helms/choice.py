@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from fleet_agent.helms.sim import sim_vehicle
 from fleet_bus.clock import Clock, MissionClock
@@ -27,6 +27,10 @@ from fleet_bus.vehicle_port import Point3, VehiclePort
 from hfc_core.model.problem import Problem
 from reef_sim.camera import ReefCamera
 from reef_sim.truth import Reef
+
+if TYPE_CHECKING:  # imported where used: the ROS 2 helm needs rclpy
+    from fleet_agent.helms.moos import MoosHelm
+    from fleet_agent.helms.ros2 import Ros2Helm
 
 HELMS = ("sim", "moos", "ros2")
 BEFORE_S = -1.0  # mission time before the clock record came: nothing is dated at 0 or later
@@ -105,6 +109,7 @@ def open_vehicle(choice: HelmChoice, problem: Problem, index: int, *, clock: Clo
         return sim, sim.true_pose
     camera = ReefCamera(reef, seed, index) if choice.emulated and reef is not None else None
     start = problem.vehicles[index].start
+    port: MoosHelm | Ros2Helm
     if choice.name == "moos":
         port = _moos(choice, problem, index, clock, camera)
     else:
@@ -113,14 +118,14 @@ def open_vehicle(choice: HelmChoice, problem: Problem, index: int, *, clock: Clo
         return port, None
 
     def truth() -> tuple[Point3, float, float]:
-        pose = port.true_pose()  # type: ignore[attr-defined]
+        pose = port.true_pose()
         return pose if pose is not None else (start, 0.0, 0.0)
 
     return port, truth
 
 
 def _moos(choice: HelmChoice, problem: Problem, index: int, clock: Clock,
-          camera: ReefCamera | None) -> VehiclePort:
+          camera: ReefCamera | None) -> MoosHelm:
     from fleet_agent.helms.moos import MoosHelm, MoosHelmConfig
 
     warp = choice.moos_warp or float(getattr(clock, "warp", 1.0))
@@ -142,7 +147,7 @@ def _moos(choice: HelmChoice, problem: Problem, index: int, clock: Clock,
 
 
 def _ros2(choice: HelmChoice, problem: Problem, index: int, clock: Clock,
-          camera: ReefCamera | None) -> VehiclePort:
+          camera: ReefCamera | None) -> Ros2Helm:
     from fleet_agent.helms.ros2 import Ros2Helm, Ros2HelmConfig  # needs rclpy
 
     ns = choice.namespace(problem.vehicles[index].id)

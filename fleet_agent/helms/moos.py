@@ -48,7 +48,13 @@ import re
 import threading
 from dataclasses import dataclass, field
 
-from fleet_agent.helms.camera import Camera, DetectionError, format_detection, parse_detection
+from fleet_agent.helms.camera import (
+    Camera,
+    DetectionError,
+    LookResult,
+    format_detection,
+    parse_detection,
+)
 from fleet_agent.helms.duty import Duty
 from fleet_agent.helms.frames import LocalFrame, finite_points, yaw_from_compass
 from fleet_agent.helms.moos_client import MoosClient
@@ -162,7 +168,7 @@ class MoosHelm:
         self._last_sent: dict[str, str] = {}
         self._helm_state = ""
         self._cmd_moos_t = math.inf  # MOOS time the command under way was posted
-        self._look_result: dict[str, object] | None = None
+        self._look_result: LookResult | None = None
         self.dropped_detections = 0
         # How far the vehicle's MOOS time has run from the mission clock since the first fix
         # (MOOS seconds less mission seconds): MOOSTimeWarp is fixed, the fleet's clock is not.
@@ -300,9 +306,9 @@ class MoosHelm:
         if self.camera is not None:
             return self.camera.inspect(task)
         seen = self._look_result
-        if seen is not None and seen["task"] == task:
+        if seen is not None and seen.task == task:
             self._look_result = None
-            return bool(seen["present"]), float(seen["priority"]), float(seen["service_s"])
+            return seen.present, seen.priority, seen.service_s
         return False, 0.0, 0.0  # the detector said nothing of this spot: nothing seen
 
     # -- mail ----------------------------------------------------------------------------------
@@ -319,10 +325,10 @@ class MoosHelm:
             nav_seen = False
             for m in mail:
                 if m.key in self._nav_vars and m.is_double:
-                    self._nav[self._nav_vars[m.key]] = (float(m.value), m.time)  # type: ignore[arg-type]
+                    self._nav[self._nav_vars[m.key]] = (float(m.value), m.time)
                     nav_seen = nav_seen or self._nav_vars[m.key] in ("X", "Y")
                 elif m.key in self._truth_vars and m.is_double:
-                    self._truth[self._truth_vars[m.key]] = float(m.value)  # type: ignore[arg-type]
+                    self._truth[self._truth_vars[m.key]] = float(m.value)
                 else:
                     self._on_event(m)
             if nav_seen:
@@ -370,7 +376,7 @@ class MoosHelm:
         for pos, prio, service in self.camera.sweep(true):  # type: ignore[union-attr]
             # Where the vehicle believes it is plus what the camera measured from it.
             seen = tuple(n + (p - t) for n, p, t in zip(fix.pos, pos, true))
-            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))  # type: ignore[arg-type]
+            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))
 
     def _on_event(self, m: MoosMsg) -> None:
         text = m.text if not m.is_double else ""
@@ -406,10 +412,10 @@ class MoosHelm:
             self.dropped_detections += 1
             log.warning("MOOS %s dropped: %s", DETECTION_VAR, err)
             return
-        if seen["kind"] == "look":
+        if isinstance(seen, LookResult):
             self._look_result = seen
             return
-        x, y, z = seen["pos"]  # type: ignore[misc]
+        x, y, z = seen.pos
         self._reports.add(Sighted(self._mission_time(m.time)[0],
                                   self.config.frame.to_scenario(x, y, z),
-                                  float(seen["priority"]), float(seen["service_s"])))  # type: ignore[arg-type]
+                                  seen.priority, seen.service_s))

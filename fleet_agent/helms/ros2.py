@@ -26,17 +26,19 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import rclpy
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry, Path
+from rclpy.client import Client
 from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 
-from fleet_agent.helms.camera import Camera, DetectionError, parse_detection
+from fleet_agent.helms.camera import Camera, DetectionError, LookResult, parse_detection
 from fleet_agent.helms.duty import Duty
 from fleet_agent.helms.frames import LocalFrame, finite_points
 from fleet_agent.helms.reports import NavStats, ReportBuffer
@@ -108,7 +110,7 @@ class Ros2Helm:
         self.stats = NavStats()
         self._truth: tuple[float, float, float] | None = None
         self._truth_yaw = 0.0
-        self._look_result: dict[str, object] | None = None
+        self._look_result: LookResult | None = None
         self._pending: list[tuple] = []  # (future, client, deadline, generation, kind)
         self.dropped = {"odometry": 0, "events": 0}
         self._closed = False
@@ -126,11 +128,13 @@ class Ros2Helm:
             self._goal_pub = node.create_publisher(PoseStamped, n.goal, LATCHED)
             self._plan_pub = node.create_publisher(Path, n.plan, LATCHED)
             self._route_pub = node.create_publisher(Path, n.route, LATCHED)
-            self._station = {Work.LOOK: node.create_client(Trigger, n.look),
-                             Work.INJECT: node.create_client(Trigger, n.inject),
-                             Work.WAIT: node.create_client(Trigger, n.hold)}
-            self._return = node.create_client(SetBool, n.return_home)
-            self._abort = node.create_client(SetBool, n.abort)
+            # Any: std_srvs from PyPI has no type information (pyproject's [tool.mypy])
+            self._station: dict[Work, Client[Any, Any]] = {
+                Work.LOOK: node.create_client(Trigger, n.look),
+                Work.INJECT: node.create_client(Trigger, n.inject),
+                Work.WAIT: node.create_client(Trigger, n.hold)}
+            self._return: Client[Any, Any] = node.create_client(SetBool, n.return_home)
+            self._abort: Client[Any, Any] = node.create_client(SetBool, n.abort)
             self._executor = SingleThreadedExecutor(context=self._context)
             self._executor.add_node(node)
             self._thread = threading.Thread(target=self._spin, name="ros2-helm", daemon=True)
@@ -313,9 +317,9 @@ class Ros2Helm:
         if self.camera is not None:
             return self.camera.inspect(task)
         seen = self._look_result
-        if seen is not None and seen["task"] == task:
+        if seen is not None and seen.task == task:
             self._look_result = None
-            return bool(seen["present"]), float(seen["priority"]), float(seen["service_s"])
+            return seen.present, seen.priority, seen.service_s
         return False, 0.0, 0.0
 
     # -- callbacks (executor thread) -----------------------------------------------------------
@@ -361,7 +365,7 @@ class Ros2Helm:
             true = self._truth
         for pos, prio, service in self.camera.sweep(true):  # type: ignore[union-attr]
             seen = tuple(n + (p - t) for n, p, t in zip(fix.pos, pos, true))
-            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))  # type: ignore[arg-type]
+            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))
 
     def _on_event(self, msg: String) -> None:
         text = msg.data
@@ -380,11 +384,10 @@ class Ros2Helm:
             log.warning("ROS 2 %s dropped: %s", self.config.names.events, err)
             return
         with self._lock:
-            if seen["kind"] == "look":
+            if isinstance(seen, LookResult):
                 self._look_result = seen
             elif self.camera is None:
-                x, y, z = seen["pos"]  # type: ignore[misc]
+                x, y, z = seen.pos
                 self._reports.add(Sighted(self.clock.now(),
                                           self.config.frame.to_scenario(x, y, z),
-                                          float(seen["priority"]),  # type: ignore[arg-type]
-                                          float(seen["service_s"])))  # type: ignore[arg-type]
+                                          seen.priority, seen.service_s))

@@ -38,7 +38,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path as FilePath
-from typing import Callable
+from typing import Callable, Iterable
 
 import rclpy
 from geometry_msgs.msg import PoseStamped
@@ -104,6 +104,8 @@ class VehicleBridge:
         self._aborted = False
         self.counters = {"fixes": 0, "plans": 0, "plans_dropped": 0, "events": 0}
         n = config.names
+        true_pose = getattr(port, "true_pose", None)  # an emulated vehicle's (not the port's)
+        self._true_pose: Callable[[], object] | None = true_pose if callable(true_pose) else None
         self._context = Context()
         rclpy.init(context=self._context, args=[])
         try:
@@ -111,7 +113,7 @@ class VehicleBridge:
                                                  context=self._context)
             self._odom = node.create_publisher(Odometry, n.odom, STREAM)
             self._truth = (node.create_publisher(Odometry, n.truth, STREAM)
-                           if callable(getattr(port, "true_pose", None)) else None)
+                           if self._true_pose is not None else None)
             self._events = node.create_publisher(String, n.events, EVENTS)
             node.create_subscription(Path, n.plan, self._on_plan, LATCHED)
             node.create_subscription(PoseStamped, n.goal, lambda _m: None, LATCHED)
@@ -148,7 +150,7 @@ class VehicleBridge:
     def _tick(self) -> None:
         with self._lock:
             reports = self.port.poll(self.clock.now())
-            truth = self.port.true_pose() if self._truth is not None else None  # type: ignore[attr-defined]
+            truth = self._true_pose() if self._true_pose is not None else None
         c, n, now = self.config, self.config.names, time.time()
         fixes = [r for r in reports if isinstance(r, NavFix)]
         if fixes:
@@ -239,8 +241,10 @@ def true_position(truth: object, yaw_deg: float) -> tuple[tuple[float, float, fl
     vehicle gives it (`reef_sim.vehicle.SimVehicle.true_pose`), an object with ``pos``, or
     a bare position (then the fix's yaw)."""
     if hasattr(truth, "pos"):
-        truth = truth.pos  # type: ignore[attr-defined]
-    items = tuple(truth)  # type: ignore[arg-type]
+        truth = getattr(truth, "pos")
+    if not isinstance(truth, Iterable):
+        raise TypeError(f"not a pose: {truth!r}")
+    items = tuple(truth)
     if len(items) == 3 and isinstance(items[0], (tuple, list)):
         pos, yaw = items[0], float(items[1])
     else:

@@ -44,7 +44,8 @@ def problem() -> Problem:
 
 @functools.lru_cache(maxsize=None)
 def fleet() -> Fleet:
-    return Fleet.build(problem(), KEY, 5, CONFIG, run_id="sim-5")  # as InProcessBackend names seed 5
+    # run_id as InProcessBackend names seed 5
+    return Fleet.build(problem(), KEY, 5, CONFIG, run_id="sim-5")
 
 
 class World:

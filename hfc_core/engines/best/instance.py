@@ -81,7 +81,7 @@ class Instance:
         for moves evaluated across all routes at once."""
         if "_stacked" not in self.__dict__:
             ids: dict[int, int] = {}
-            arrays = []
+            arrays: list[np.ndarray] = []
             for t in self.travel_s:
                 if id(t) not in ids:
                     ids[id(t)] = len(arrays)
