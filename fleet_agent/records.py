@@ -133,8 +133,22 @@ class FoundSpot:
                 "r": self.priority, "d": self.service_s}
 
 
+@dataclass(frozen=True)
+class OrderTaken:
+    """The operator's order ``seq`` taken at ``t_s`` (its verb, for a restart's pause):
+    read back by `policies.orders`, so a repeat is never acted on twice."""
+
+    t_s: float
+    seq: int
+    verb: str
+    durable: bool = True
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "ord", "t": self.t_s, "n": self.seq, "verb": self.verb}
+
+
 JournalRecord = Union[Start, Clear, Hold, PeerState, Aborted, Home, Restarted, Checkpoint,
-                      FoundSpot]
+                      FoundSpot, OrderTaken]
 
 
 def _ints(value: Any) -> tuple[int, ...]:

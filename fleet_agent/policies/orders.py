@@ -27,7 +27,6 @@ Pure: no I/O, no clock; the agent feeds `hear` and asks `take_frame` when its sl
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
 from typing import Any, Iterable, Mapping
 
 from fleet_agent.config import AgentConfig
@@ -44,19 +43,6 @@ MAX_LEAD_S = 30.0  # a topside frame dated further ahead of this vehicle's clock
 MAX_PENDING = 16  # frames waiting for this vehicle's slot (oldest dropped beyond)
 MAX_SEEN = 256  # frames remembered as already passed on
 STOP_VERBS = ("recall", "abort")
-
-
-@dataclass(frozen=True)
-class OrderTaken:
-    """A journal record: order ``seq`` taken at ``t_s`` (its verb, for a restart's pause)."""
-
-    t_s: float
-    seq: int
-    verb: str
-    durable = True
-
-    def doc(self) -> dict[str, Any]:
-        return {"k": "ord", "t": self.t_s, "n": self.seq, "verb": self.verb}
 
 
 class Orders:
@@ -105,7 +91,8 @@ class Orders:
         if bad:
             out.append(Count("ctl_unsigned", len(bad)))
         for h in good:
-            out += self._take(h.payload, now, know, nav)
+            if isinstance(h.payload, Order):  # what `_hold` put there
+                out += self._take(h.payload, now, know, nav)
         return out
 
     def _disclose(self, sent_s: int, key: bytes, data: bytes, now: float) -> list[Intent]:
@@ -156,9 +143,10 @@ class Orders:
                                               f"{order.describe()} #{order.seq}: {out}")]
         self.taken.add(order.seq)
         self._ack(order.seq, ACKED, now)
-        return [Note(OrderTaken(now, order.seq, order.verb)),  # type: ignore[arg-type]
-                Count("ctl_taken"),
-                Tell(now, "order", detail=f"{order.describe()} #{order.seq}")] + out
+        taken: list[Intent] = [Note(rec.OrderTaken(now, order.seq, order.verb)),
+                               Count("ctl_taken"),
+                               Tell(now, "order", detail=f"{order.describe()} #{order.seq}")]
+        return taken + out
 
     def _act(self, order: Order, now: float, know: Knowledge, nav: Navigation
              ) -> list[Intent] | str:
