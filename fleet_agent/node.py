@@ -35,6 +35,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import msgpack
 import zenoh
@@ -240,6 +241,13 @@ class Built:
     chain_seed: bytes | None = None  # this vehicle's key chain (None: from the fleet key)
 
 
+class WallStepSource(Protocol):
+    """Whatever tells the agent how often this host's wall clock stepped (`ClockSync` on the
+    bus, `onboard.WallSteps` on a vehicle's own clock)."""
+
+    def take_wall_steps(self) -> int: ...
+
+
 def open_live(helm: HelmChoice, built: Built, vid: str, clock: Clock,
               now: float = BEFORE_S) -> tuple[VehiclePort, TruePose | None] | None:
     """The vehicle (`open_vehicle`), or None after one line on stderr."""
@@ -255,7 +263,7 @@ def open_live(helm: HelmChoice, built: Built, vid: str, clock: Clock,
 
 def drive(built: Built, vid: str, config: AgentConfig, journal: Journal, clock: MissionClock,
           port: ModemPort, telemetry: Telemetry, helm: HelmChoice, stop: threading.Event,
-          inbox: Inbox, auth: BusAuth | None = None, sync: ClockSync | None = None,
+          inbox: Inbox, auth: BusAuth | None = None, sync: WallStepSource | None = None,
           opened: tuple[VehiclePort, TruePose | None] | None = None) -> int:
     """The agent on its vehicle (``opened``, or opened here: the simulated one where the
     agent last knew it was) from mission time 0 (or now, restarted from its journal) until
@@ -294,7 +302,7 @@ def drive(built: Built, vid: str, config: AgentConfig, journal: Journal, clock: 
 
 
 def _loop(driver: AgentDriver, inbox: Inbox, clock: MissionClock, stop: threading.Event,
-          auth: BusAuth | None = None, sync: ClockSync | None = None) -> None:
+          auth: BusAuth | None = None, sync: WallStepSource | None = None) -> None:
     driver.tick(clock.now())
     while not stop.is_set():
         due = driver.next_wakeup()

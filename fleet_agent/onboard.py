@@ -89,8 +89,8 @@ class FileTelemetry:
             self._file.flush()
         except OSError:  # a full disk costs the telemetry, never the agent
             pass
-        if topic == "event":
-            e: Event = payload  # type: ignore[assignment]
+        if isinstance(payload, Event):
+            e = payload
             print(f"t={e.t_s:.0f} s {e.kind} {e.tasks or ''} {e.peer} {e.detail}".rstrip(),
                   file=self._out, flush=True)
 
@@ -144,7 +144,7 @@ def main(vid: str, config: AgentConfig, journal_path: Path, stop: threading.Even
                     journal_path.name + ".telemetry.jsonl"))
                 try:
                     return drive(built, vid, config, journal, clock, port, telemetry, helm,
-                                 stop, inbox, auth, WallSteps())  # type: ignore[arg-type]
+                                 stop, inbox, auth, WallSteps())
                 finally:
                     telemetry.close()
             with zenoh.open(conf) as session:
@@ -157,6 +157,6 @@ def main(vid: str, config: AgentConfig, journal_path: Path, stop: threading.Even
                     bus = ZenohTelemetry(session, vid, auth)
                     set_planning_hook(None)  # no operator holds a clock on board
                     return drive(built, vid, config, journal, clock, port, bus, helm, stop,
-                                 inbox, auth, WallSteps())  # type: ignore[arg-type]
+                                 inbox, auth, WallSteps())
     finally:
         port.close()

@@ -248,10 +248,10 @@ class RerunDashboard:
             self.rec.set_time(TIMELINE, duration=d.t_s)
             self._draw(d)
 
-    def _style(self, path: str, *archetypes: object) -> None:
+    def _style(self, path: str, first: rr.AsComponents, *more: rr.AsComponents) -> None:
         """What never changes on ``path``, logged once, static."""
         if path not in self._styled:
-            self.rec.log(path, *archetypes, static=True)  # type: ignore[arg-type]
+            self.rec.log(path, first, *more, static=True)
             self._styled.add(path)
 
     def _draw(self, d: Drawing) -> None:

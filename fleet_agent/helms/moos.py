@@ -373,9 +373,14 @@ class MoosHelm:
                 return
             true = self.config.frame.to_scenario(
                 self._truth["X"], self._truth["Y"], -self._truth.get("DEPTH", 0.0))
-        for pos, prio, service in self.camera.sweep(true):  # type: ignore[union-attr]
+        camera = self.camera
+        if camera is None:  # no camera on this vehicle: nothing to see
+            return
+        for pos, prio, service in camera.sweep(true):
             # Where the vehicle believes it is plus what the camera measured from it.
-            seen = tuple(n + (p - t) for n, p, t in zip(fix.pos, pos, true))
+            # where it lies in the vehicle's own navigation frame
+            seen = (fix.pos[0] + (pos[0] - true[0]), fix.pos[1] + (pos[1] - true[1]),
+                    fix.pos[2] + (pos[2] - true[2]))
             self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))
 
     def _on_event(self, m: MoosMsg) -> None:

@@ -363,8 +363,13 @@ class Ros2Helm:
             if self._truth is None:
                 return
             true = self._truth
-        for pos, prio, service in self.camera.sweep(true):  # type: ignore[union-attr]
-            seen = tuple(n + (p - t) for n, p, t in zip(fix.pos, pos, true))
+        camera = self.camera
+        if camera is None:  # no camera on this vehicle: nothing to see
+            return
+        for pos, prio, service in camera.sweep(true):
+            # where it lies in the vehicle's own navigation frame
+            seen = (fix.pos[0] + (pos[0] - true[0]), fix.pos[1] + (pos[1] - true[1]),
+                    fix.pos[2] + (pos[2] - true[2]))
             self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))
 
     def _on_event(self, msg: String) -> None:

@@ -3,15 +3,18 @@
 from __future__ import annotations
 
 from dataclasses import fields
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
-P = TypeVar("P")
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+P = TypeVar("P", bound="DataclassInstance")
 
 
 def engine_params(cls: type[P], params: dict[str, Any]) -> P:
     """``cls(**params)`` for an engine's parameter dataclass, refusing unknown names with
     the list of known ones (a typo must not silently fall back to a default)."""
-    known = {f.name for f in fields(cls)}  # type: ignore[arg-type]
+    known = {f.name for f in fields(cls)}
     unknown = set(params) - known
     if unknown:
         raise ValueError(
