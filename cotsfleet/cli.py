@@ -27,6 +27,7 @@ COMMANDS = {
     "credentials": "credentials",
     "water": "water",
     "agent": "agent",
+    "ctl": "ctl",
 }
 
 

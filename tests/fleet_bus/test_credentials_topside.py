@@ -10,8 +10,12 @@ from pathlib import Path
 
 import pytest
 
-from fleet_bus.credentials import (CredentialsError, load_frame_chains, load_frame_seed,
-                                   write_run_credentials)
+from fleet_bus.credentials import (
+    CredentialsError,
+    load_frame_chains,
+    load_frame_seed,
+    write_run_credentials,
+)
 from fleet_bus.tesla import FleetChains, KeyChain
 
 VEHICLES = ("auv1", "auv2", "auv3")
