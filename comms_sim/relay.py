@@ -38,7 +38,7 @@ from comms_sim.water import SimClock, Water
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, Refused, seal
 from fleet_bus.clock import MissionClock
-from fleet_bus.link import INTRUDER, LinkControl, LinkRecord, TxTag, encode_stats
+from fleet_bus.link import LinkControl, LinkRecord, TxTag, encode_stats
 from fleet_bus.mission import ClockRecord, ClockSync, fetch_mission
 from fleet_bus.process import RELAY_READY, ready
 from fleet_bus.query_limits import QueryGate, gate_queryable
@@ -170,8 +170,10 @@ class Relay:
                     return []
                 apply_control(control, channel, now)
                 if control.inject is not None and control.inject_at is not None:
-                    channel.set_position(INTRUDER, control.inject_at, now)
-                    return channel.submit(INTRUDER, control.inject, now, "data")
+                    # from the intruder's modem, or the operator's topside (whose node then
+                    # hears the water: its deliveries go out on fleet/rx/topside)
+                    channel.set_position(control.inject_from, control.inject_at, now)
+                    return channel.submit(control.inject_from, control.inject, now, "data")
             except ValueError:
                 self.counters["malformed_ctl"] += 1
             return []

@@ -28,6 +28,7 @@ COMMANDS = {
     "credentials": "credentials",
     "water": "water",
     "agent": "agent",
+    "ctl": "ctl",
 }
 
 

@@ -39,7 +39,7 @@ import hashlib
 import hmac
 import math
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import msgpack
 
@@ -149,14 +149,68 @@ def parse_words(words: list[str]) -> Order:
 
 # -- the operator's request on the bus (`cotsfleet ctl` -> the launcher) ----------------------
 
+MAX_REF_CHARS = 64
 
-def encode_request(order: Order) -> bytes:
-    """Payload of ``fleet/ctl/order`` (signed by the operator: `fleet_bus.auth`)."""
-    return msgpack.packb(order.to_doc())
+
+def encode_request(order: Order, ref: str = "") -> bytes:
+    """Payload of ``fleet/ctl/order`` (signed by the operator: `fleet_bus.auth`); ``ref``
+    names the request in the launcher's answers."""
+    return msgpack.packb({**order.to_doc(), "ref": ref[:MAX_REF_CHARS]})
 
 
 def decode_request(payload: bytes) -> Order:
     return Order.from_doc(v.unpack_map(payload, "order"))
+
+
+def request_ref(payload: bytes) -> str:
+    """The ``ref`` of a request (``""`` if it has none or it is not text)."""
+    ref = v.unpack_map(payload, "order").get("ref", "")
+    return ref[:MAX_REF_CHARS] if isinstance(ref, str) else ""
+
+
+@dataclass(frozen=True)
+class Answer:
+    """The launcher's word on a request (``fleet/ctl/order/answer``): the order as numbered
+    (``seq`` 0 and ``error`` when refused), and who acknowledged (vehicle -> mission time the
+    topside heard it) or refused it (vehicle -> reason) so far."""
+
+    ref: str
+    seq: int = 0
+    order: str = ""
+    targets: tuple[str, ...] = ()
+    issued_s: float = 0.0
+    acked: dict[str, float] = field(default_factory=dict)
+    refused: dict[str, str] = field(default_factory=dict)
+    error: str = ""
+
+    def encode(self) -> bytes:
+        return msgpack.packb({"ref": self.ref, "seq": self.seq, "order": self.order,
+                              "targets": list(self.targets), "issued_s": self.issued_s,
+                              "acked": dict(self.acked), "refused": dict(self.refused),
+                              "error": self.error})
+
+    @staticmethod
+    def decode(payload: bytes) -> Answer:
+        doc = v.unpack_map(payload, "order answer")
+        try:
+            acked, refused = doc.get("acked", {}), doc.get("refused", {})
+            targets = doc.get("targets", [])
+            if not (isinstance(acked, dict) and isinstance(refused, dict)
+                    and isinstance(targets, list) and len(targets) <= 255):
+                raise ValueError("order answer: acked and refused are maps, targets a list")
+            return Answer(
+                v.text(doc["ref"], "answer.ref", MAX_REF_CHARS),
+                v.integer(doc.get("seq", 0), "answer.seq", 0, MAX_SEQ),
+                v.text(doc.get("order", ""), "answer.order", 128),
+                tuple(v.text(t, "answer.targets", 64) for t in targets),
+                v.number(doc.get("issued_s", 0.0), "answer.issued_s"),
+                {v.text(k, "answer.acked", 64): v.number(t, "answer.acked")
+                 for k, t in acked.items()},
+                {v.text(k, "answer.refused", 64): v.text(r, "answer.refused", 32)
+                 for k, r in refused.items()},
+                v.text(doc.get("error", ""), "answer.error", 256))
+        except (KeyError, TypeError) as exc:
+            raise ValueError(f"order answer: {exc!r}") from None
 
 
 # -- the topside's key schedule ------------------------------------------------------------------

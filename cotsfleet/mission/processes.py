@@ -65,6 +65,9 @@ from cotsfleet.mission.intake import Intake
 from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.report import values_of
 from cotsfleet.mission.modem_launch import ModemLaunch
+from cotsfleet.mission.order_desk import OrderDesk
+from cotsfleet.mission.run_record import RunRecord, remove_run_record, write_run_record
+from cotsfleet.mission.topside import Topside, forged_frame, topside_position
 from cotsfleet.mission.transport import choose_transport
 from cotsfleet.reporting.terminal import progress_line
 from fleet_agent.config import AgentConfig, dump_config
@@ -77,8 +80,10 @@ from fleet_bus.commands import ABORT, STOP, encode_command
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition, decode_stats
 from fleet_bus.mission import Mission
-from fleet_bus.credentials import (OPERATOR_ID, ROUTER_ID, STATION_ID, load_auth, load_ring,
+from fleet_bus.credentials import (OPERATOR_ID, ROUTER_ID, STATION_ID, CredentialsError,
+                                   load_auth, load_frame_chains, load_frame_seed, load_ring,
                                    new_run_id, write_run_credentials)
+from fleet_bus.orders import TOPSIDE, OrderCodec, TopsideSchedule
 from fleet_bus.process import ROUTER_READY
 from fleet_bus.query_limits import QueryGate, gate_queryable
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
@@ -231,15 +236,16 @@ class ProcessBackend:
         self.intake = Intake(problem, self.ids, self.run_id, finds, self._busy,
                              self.intruder.overhear)
         self.queries = QueryGate(None)  # who asks the operator what (`start`: with the key)
+        self.desk: OrderDesk | None = None  # the operator's live orders (`start`)
 
     # -- the runner's interface --------------------------------------------------------------
 
     def check(self, faults: Sequence[Fault]) -> None:
         for f in faults:
-            if f.kind == "ctl":
-                raise FaultError(f"{f.describe()}: scheduled orders are for `cotsfleet sim`; "
-                                 "orders to a running mission are not built yet "
-                                 "(docs/operator.md)")
+            if f.kind == "ctl" and self.modem.name != "water":
+                raise FaultError(f"{f.describe()}: the operator's orders go into the water "
+                                 "through the relay (--modem water); the emulated "
+                                 "Micro-Modems do not carry the topside's frames yet")
             if f.kind in ("kill", "restart", "stall") and f.vid in self.opts.remote:
                 raise FaultError(f"{f.describe()}: a {f.kind} needs the agent's process "
                                  "here; not for --remote vehicles")
@@ -271,7 +277,11 @@ class ProcessBackend:
                                                            credentials=creds / OPERATOR_ID))
         if any(f.kind == "replay" for f in faults):  # the modem intruder's material only
             self._closers.append(session.declare_subscriber(keys.RX_ALL, self.intake.rx))
+        desk = self.desk = self._order_desk(creds, config)
         self._closers += [
+            session.declare_subscriber(keys.ORDER_REQUEST, lambda sample: desk.request(
+                sample.payload.to_bytes()) if sample.kind == zenoh.SampleKind.PUT else None),
+            session.declare_subscriber(keys.rx_key(TOPSIDE), self._topside_heard),
             session.declare_subscriber(keys.STATUS_ALL, self.intake.status),
             session.declare_subscriber(keys.EVENT_ALL, self.intake.event),
             session.declare_subscriber(keys.ALIVE_ALL, self.intake.alive),
@@ -321,6 +331,8 @@ class ProcessBackend:
                 self._pending.append((at, f, "apply" if i == 0 else "attack"))
         self._pending.sort(key=lambda p: p[0])
         self.started.set()
+        write_run_record(self.run_dir, RunRecord(self.run_id, self.endpoint, os.getpid(),
+                                                 str(creds.resolve()), tuple(self.ids)))
         self.out(f"mission {self.run_id}: {len(self.ids)} vehicles, warp {opts.warp:g}"
                  f"{' (held fixed: ' + self.helm.name + ')' if self.pinned else ''}, loss "
                  f"{opts.loss:g}, helm {self.helm.name}, modem {self.modem.name} (slot "
@@ -351,6 +363,7 @@ class ProcessBackend:
     def advance(self, t_s: float) -> None:
         while self.now() < t_s:
             self._apply_due()
+            self._orders_due()
             self._pace_clock()
             self._watch_children()
             self._progress()
@@ -427,9 +440,17 @@ class ProcessBackend:
                 "saved": dict(self.saved),
                 "queries": {"operator": self.queries.counts(),
                             "relay": self._relay_extra.get("queries", {})},
-                "helm": self._helm_report(),
+                "helm": self._helm_report(), **self._commands(),
                 "modem": self.modem.describe(self.opts.agent_config.slot_s,
                                              self.opts.slot_from_modem)}
+
+    def _commands(self) -> dict[str, Any]:
+        """The report's ``commands`` section, if the operator gave any order."""
+        if self.desk is None:
+            return {}
+        section = self.desk.section({vid: dict(s.counters)
+                                     for vid, s in self.intake.statuses().items()})
+        return {} if section is None else {"commands": section}
 
     def _helm_report(self) -> dict[str, Any]:
         """Which helm drove each vehicle, and whether the clock was kept at the warp for it
@@ -458,10 +479,11 @@ class ProcessBackend:
         agents = {vid: row for vid, row in (
             (vid, {k[len("drop_auth_"):]: n for k, n in s.counters.items()
                    if k.startswith("drop_auth_")}) for vid, s in sorted(statuses.items())) if row}
+        orders = self.desk.refusals() if self.desk is not None else {}
         total = sum(operator.values()) + sum(relay.values()) + sum(
-            sum(a.values()) for a in agents.values())
+            sum(a.values()) for a in agents.values()) + sum(orders.values())
         return {"refused_total": total, "operator": operator, "relay": relay,
-                "agents": agents}
+                "agents": agents, **({"orders": orders} if orders else {})}
 
     def close(self) -> None:
         """Stop the fleet (agents first: their final statuses), fetch the link counters, stop
@@ -476,6 +498,7 @@ class ProcessBackend:
             self._close()
 
     def _close(self) -> None:
+        remove_run_record(self.run_dir)  # `cotsfleet ctl` finds no mission from now on
         try:
             self.procs.stop(self.ids)
             if self._session is not None:
@@ -630,8 +653,75 @@ class ProcessBackend:
             self._put_link(LinkControl(partition=Partition(now, now + f.value, ((f.vid,),))))
         elif f.kind == "loss":
             self._put_link(LinkControl(extra_loss=f.value))
+        elif f.kind == "ctl" and f.unsigned:  # an insider: the fleet key, not the chain
+            assert self.desk is not None and self.desk.topside is not None
+            top = self.desk.topside
+            frame = forged_frame(top.codec, top.schedule, top.chain.length, f.order(), now)
+            self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
+        elif f.kind == "ctl":
+            assert self.desk is not None
+            answer = self.desk.submit(f.order(), now)
+            if answer.error:
+                self.out(f"t={now:6.0f} s  order refused: {answer.error}")
+            self._orders_due()
         elif f.kind in ATTACKS:
             self._inject(f, now)
+
+    # -- the operator's live orders -----------------------------------------------------------
+
+    def _order_desk(self, creds: Path, config: AgentConfig) -> OrderDesk:
+        """The topside modem of this run (its chain's seed in the operator's credentials)
+        behind the desk that takes `cotsfleet ctl`'s requests (`order_desk`)."""
+        verifier = load_ring(creds / OPERATOR_ID)
+        why = ("the emulated Micro-Modems do not carry the topside's frames yet (--modem "
+               "water does)") if self.modem.name != "water" else ""
+        try:
+            seed = load_frame_seed(creds / OPERATOR_ID)
+            length = load_frame_chains(creds / OPERATOR_ID, self.ids).length
+        except CredentialsError:
+            why = why or (f"{creds} holds no topside key chain (made before live orders): "
+                          "make the credentials again to order this fleet")
+            seed, length = b"", 0
+        if why:
+            return OrderDesk(None, verifier, why)
+        codec = OrderCodec(config.fleet_key, self.run_id, tuple(self.ids))
+        schedule = TopsideSchedule.for_fleet(len(self.ids) * config.slot_s)
+        return OrderDesk(Topside(codec, schedule, seed, length, topside_position(self.problem),
+                                 config.ctl_max_age_s), verifier)
+
+    def _topside_heard(self, sample: Any) -> None:
+        """A frame the water delivered to the topside (signed by the relay)."""
+        if self.desk is None or sample.kind != zenoh.SampleKind.PUT:
+            return
+        assert self.auth is not None
+        frame = self.auth.open_payload(keys.rx_key(TOPSIDE), sample.payload.to_bytes())
+        if frame is not None:
+            self.desk.hear(frame, self.now())
+
+    def _orders_due(self) -> None:
+        """The topside's frames due now go into the water from its place; the answers to
+        `cotsfleet ctl` go out on the bus."""
+        if self.desk is None or self._session is None or self.clock is None:
+            return
+        now = self.now()
+        due = self.desk.due(now)
+        top = self.desk.topside
+        for frame in due.frames:
+            assert top is not None
+            self._put_link(LinkControl(inject=frame, inject_at=top.position,
+                                       inject_from=TOPSIDE))
+        for answer in due.answers:
+            assert self.auth is not None
+            self._session.put(keys.ORDER_ANSWER, self.auth.seal(keys.ORDER_ANSWER,
+                                                                answer.encode()))
+            if answer.error:
+                self.out(f"t={now:6.0f} s  order refused: {answer.error}")
+            elif not answer.acked and not answer.refused:
+                self.out(f"t={now:6.0f} s  order #{answer.seq}: {answer.order} (topside)")
+            else:
+                self.out(f"t={now:6.0f} s  order #{answer.seq}: acknowledged by "
+                         f"{', '.join(sorted(answer.acked)) or 'nobody'}"
+                         + (f"; refused by {answer.refused}" if answer.refused else ""))
 
     def _stall(self, child: Child, f: Fault) -> None:
         """Freeze and thaw ``child`` as `Fault.thaw_at` says, in wall time at the requested

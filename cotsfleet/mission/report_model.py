@@ -240,6 +240,9 @@ class Security(_Section):
     operator: dict[str, int]
     relay: dict[str, int] | None  # None: the relay's counters never came
     agents: dict[str, dict[str, int]]
+    # Requests on fleet/ctl/order the launcher refused (`cotsfleet ctl`'s key: not the
+    # operator's signature, garbage, not an order), by reason; absent when none.
+    orders: dict[str, int] = msgspec.field(default_factory=dict)
 
 
 class MissionReport(Struct, kw_only=True, forbid_unknown_fields=True, omit_defaults=True):

@@ -165,9 +165,15 @@ def forged_order(fleet: Fleet, order: Order, now: float) -> bytes:
     """An order an insider makes: the fleet MAC right (it holds the fleet key), the topside's
     tag under a chain it made up (it does not hold the topside's seed)."""
     assert fleet.orders is not None
-    fake = KeyChain(b"an insider's own made-up seed", fleet.chains.length if fleet.chains
-                    else 64)
+    return forged_frame(fleet.orders, fleet.topside, fleet.chains.length if fleet.chains
+                        else 64, order, now)
+
+
+def forged_frame(codec: OrderCodec, schedule: TopsideSchedule, length: int, order: Order,
+                 now: float) -> bytes:
+    """`forged_order` from the parts a launcher holds (the fleet key's codec, the schedule)."""
+    fake = KeyChain(b"an insider's own made-up seed", length)
     numbered = Order(order.verb, order.target, 4_000_000_000, int(now), order.x, order.y,
                      order.priority, order.spot)
-    i = fleet.topside.interval(now)
-    return fleet.orders.order(numbered, now, fake.key(i), fake.key(max(1, i - 1)))
+    i = schedule.interval(now)
+    return codec.order(numbered, now, fake.key(i), fake.key(max(1, i - 1)))

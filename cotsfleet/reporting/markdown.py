@@ -364,6 +364,8 @@ def _security(sec: Security) -> list[str]:
              f"- **By the relay:** {reasons(sec.relay)}"]
     for vid, row in sec.agents.items():
         lines.append(f"- **By {vid}:** {reasons(row)}")
+    if sec.orders:
+        lines.append(f"- **Order requests refused by the launcher:** {reasons(sec.orders)}")
     return lines + [""]
 
 

@@ -40,7 +40,8 @@ def test_each_directory_holds_its_own_secrets_and_no_password(creds: Path) -> No
     for d in dirs:
         names = {p.name for p in (creds / d).iterdir()}
         expect = public | {"tls.key"} | ({"signing.key"} if d in SIGNERS else set()) | (
-            {"frames.key"} if d in VEHICLES else set())  # its key chain's seed (`tesla`)
+            {"frames.key"} if d in (*VEHICLES, "operator") else set())  # its key chain's
+        # seed (`tesla`); the operator's is the topside modem's (live orders)
         assert names == expect, d
         assert stat.S_IMODE((creds / d).stat().st_mode) == 0o700
         for secret in expect - public:
