@@ -21,7 +21,8 @@ from comms_sim.des import EventLoop, Handle, InProcessNetwork
 from comms_sim.seeds import MISSION_STREAMS, channel_rng
 from comms_sim.link_event import LinkEvent
 from comms_sim.stats import LinkCounts
-from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, INSIDER_ATTACKS, Fault, FaultError
+from cotsfleet.mission.fault_plan import Step, awaited, carry_out, plan
+from cotsfleet.mission.faults import ATTACKS, INSIDER_ATTACKS, Fault, FaultError
 from cotsfleet.mission.insider import Insider, insider_rng
 from cotsfleet.mission.intruder import NODE as INTRUDER
 from cotsfleet.mission.intruder import Intruder, intruder_rng
@@ -136,7 +137,7 @@ class InProcessBackend:
         self.seats: dict[str, Seat] = {}
         self.oracle: dict[str, Any] = {}
         self.at_kill: dict[str, tuple[Status, frozenset[int]]] = {}  # status, cleared set
-        self._pending: list[Fault] = []
+        self._pending: list[Step] = []  # the fault plan (`fault_plan.plan`)
         self._stuck = 0
         self._topside_wake: Handle | None = None
 
@@ -156,9 +157,9 @@ class InProcessBackend:
         if any(f.kind == "ctl" for f in faults):  # the operator's modem, at the boat
             self.net.attach(TOPSIDE, lambda data, t: self.topside.hear(data, t))
             self.channel.set_position(TOPSIDE, self.topside.position, 0.0)
-        self._pending = sorted(faults, key=lambda f: f.t_s)
-        for f in self._pending:
-            self.loop.call_at(f.t_s, lambda f=f: self._apply(f))
+        self._pending = plan(faults)
+        for s in self._pending:
+            self.loop.call_at(s.t_s, lambda s=s: carry_out(s, self, self.loop.now()))
 
     def now(self) -> float:
         return self.loop.now()
@@ -168,7 +169,7 @@ class InProcessBackend:
 
     def finished(self) -> bool:
         now = self.now()
-        if any(f.t_s > now for f in self._pending if f.kind in ("restart", "abort")):
+        if awaited(self._pending, now):
             return False
         dead = {vid for vid, s in self.seats.items() if s.driver is None}
         return self.ledger.all_final(list(self.seats), dead)
@@ -270,8 +271,8 @@ class InProcessBackend:
 
     # -- faults -----------------------------------------------------------------------------
 
-    def _apply(self, f: Fault) -> None:
-        now = self.loop.now()
+    def apply(self, f: Fault, now: float) -> None:
+        """A fault at ``now`` (`fault_plan.FleetControl`)."""
         self.applied.append(Fault(f.kind, now, f.vid, f.value, f.words))
         seat = self.seats.get(f.vid)
         if f.kind == "abort" and seat is not None and seat.driver is not None:
@@ -300,10 +301,6 @@ class InProcessBackend:
         elif f.kind == "ctl":
             self.topside.submit(f.order(), now)
             self._topside_send()
-        elif f.kind in ATTACKS:
-            for i in range(int(f.value)):
-                self.loop.call_later(1.0 + ATTACK_SPACING_S * i,
-                                     lambda f=f: self._attack(f.kind, f.vid))
 
     def _topside_send(self) -> None:
         """The topside's frames due now, and its next turn."""
@@ -321,14 +318,14 @@ class InProcessBackend:
         if event.delivered and event.src != INTRUDER:
             self.intruder.overhear(event.frame)
 
-    def _attack(self, kind: str, insider: str) -> None:
-        """The intruder's modem transmits one hostile frame through the channel; an insider's
-        frames leave from the insider's position."""
-        if kind not in INSIDER_ATTACKS:
-            self.net.send(INTRUDER, self.intruder.frame(kind, self.loop.now()), "data")
+    def attack(self, f: Fault, now: float) -> None:
+        """One hostile frame of ``f`` (`fault_plan.FleetControl`): the intruder's modem
+        transmits it through the channel; an insider's frames leave from its position."""
+        if f.kind not in INSIDER_ATTACKS:
+            self.net.send(INTRUDER, self.intruder.frame(f.kind, now), "data")
             return
-        for frame in self._insider(insider).frames(kind, self.loop.now()):
-            self.net.send(insider, frame, "data")
+        for frame in self._insider(f.vid).frames(f.kind, now):
+            self.net.send(f.vid, frame, "data")
 
     def _insider(self, vid: str) -> Insider:
         """The insider ``vid``: its leaked seed is the one its own agent was given."""

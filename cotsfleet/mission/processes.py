@@ -55,7 +55,8 @@ from typing import Any, Callable, Iterator, Mapping, Sequence
 import zenoh
 
 from comms_sim.stats import LinkCounts
-from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, INSIDER_ATTACKS, Fault, FaultError
+from cotsfleet.mission.fault_plan import Step, awaited, carry_out, plan
+from cotsfleet.mission.faults import INSIDER_ATTACKS, Fault, FaultError
 from cotsfleet.mission.insider_launch import Leaked
 from cotsfleet.mission.children import Child, ChildExited, Children
 from cotsfleet.mission.clock_control import ClockControl
@@ -214,7 +215,7 @@ class ProcessBackend:
         self.endpoint = ""
         self.started = threading.Event()  # set once the mission clock runs
         self.interrupted = False
-        self._pending: list[tuple[float, Fault, str]] = []  # (time, fault, step)
+        self._pending: list[Step] = []  # the fault plan's steps still to come
         self._link: LinkCounts | None = None
         self._session: zenoh.Session | None = None
         self._closers: list[Any] = []
@@ -324,12 +325,7 @@ class ProcessBackend:
         if opts.loss and self.modem.name != "water":  # the relay takes it as an option
             self._put_link(LinkControl(extra_loss=opts.loss))
         self._insiders = self._make_insiders(faults, config)
-        for f in sorted(faults, key=lambda f: f.t_s):
-            steps = int(f.value) if f.kind in ATTACKS else 1
-            for i in range(steps):
-                at = f.t_s + (1.0 + ATTACK_SPACING_S * i if f.kind in ATTACKS else 0.0)
-                self._pending.append((at, f, "apply" if i == 0 else "attack"))
-        self._pending.sort(key=lambda p: p[0])
+        self._pending = plan(faults)
         self.started.set()
         write_run_record(self.run_dir, RunRecord(self.run_id, self.endpoint, os.getpid(),
                                                  str(creds.resolve()), tuple(self.ids)))
@@ -371,7 +367,7 @@ class ProcessBackend:
         self._apply_due()
 
     def finished(self) -> bool:
-        if any(f.kind in ("restart", "abort") for _, f, _ in self._pending):
+        if awaited(self._pending, self.now()):
             return False
         return self.intake.all_final(self.dead)
 
@@ -620,14 +616,11 @@ class ProcessBackend:
 
     def _apply_due(self) -> None:
         now = self.now()
-        while self._pending and self._pending[0][0] <= now:
-            _, f, step = self._pending.pop(0)
-            if step == "apply":
-                self._apply(f, now)
-            else:
-                self._inject(f, now)
+        while self._pending and self._pending[0].t_s <= now:
+            carry_out(self._pending.pop(0), self, now)
 
-    def _apply(self, f: Fault, now: float) -> None:
+    def apply(self, f: Fault, now: float) -> None:
+        """A fault at ``now`` (`fault_plan.FleetControl`)."""
         self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value, f.words))
         self.out(f"t={now:6.0f} s  fault: {f.describe()}")
         if f.kind == "abort":
@@ -664,8 +657,6 @@ class ProcessBackend:
             if answer.error:
                 self.out(f"t={now:6.0f} s  order refused: {answer.error}")
             self._orders_due()
-        elif f.kind in ATTACKS:
-            self._inject(f, now)
 
     # -- the operator's live orders -----------------------------------------------------------
 
@@ -741,7 +732,7 @@ class ProcessBackend:
         finally:
             child.signal_group(signal.SIGCONT)
 
-    def _inject(self, f: Fault, now: float) -> None:
+    def attack(self, f: Fault, now: float) -> None:
         """The intruder's modem transmits one hostile frame into the water (via the relay);
         an insider's frames leave from where its vehicle last said it was, and its busy
         announcements go out under its own bus login."""
