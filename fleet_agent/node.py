@@ -48,6 +48,7 @@ from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth, encode_busy
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.model.errors import ScenarioError
+from reef_sim.navigation import navigation_from_doc
 from reef_sim.truth import reef_from_doc
 
 MAX_WAIT_WALL_S = 0.25  # longest sleep between looks at the stop flag
@@ -144,6 +145,7 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
         try:
             problem = problem_from_dict(mission.scenario)
             reef = reef_from_doc(mission.scenario, problem)  # the simulated world's reef
+            navigation = navigation_from_doc(mission.scenario)  # and its vehicles' navigation
         except ScenarioError as exc:
             print(f"fleet_agent {vid}: the mission's scenario is not valid: {exc}",
                   file=sys.stderr)
@@ -173,7 +175,8 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
             set_planning_hook(transport.planning)
             index = problem.vehicle_index[vid]
             vehicle = sim_vehicle(problem, index, seed=mission.seed, reef=reef, t_s=now,
-                                  pos=agent.own.pos, odometer_m=agent.own.distance_m)
+                                  pos=agent.own.pos, odometer_m=agent.own.distance_m,
+                                  navigation=navigation)
             driver = AgentDriver(agent, vehicle, transport, journal, truth=vehicle.true_pose,
                                  truth_period_s=config.truth_period_s)
             start = f"restart, {len(journal.records)} records" if journal.records else "fresh"

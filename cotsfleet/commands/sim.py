@@ -40,6 +40,7 @@ def _out_dir(args: argparse.Namespace) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     from cotsfleet.mission.inprocess import simulate
+    from reef_sim.navigation import navigation_from_doc
 
     if args.runs < 1:
         raise UsageError("--runs must be >= 1")
@@ -50,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
                   "(--runs N)", file=sys.stderr)
         m = mission_args(args)
         result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
-                          reef=m.reef)
+                          reef=m.reef, navigation=navigation_from_doc(m.scenario))
         report = {**result.report, "wall_s": round(result.wall_s, 3)}
         write_reports(report, args.report or out / "report.json", result.events, m.scenario)
         print(f"wall {result.wall_s:.2f} s")
