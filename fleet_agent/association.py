@@ -26,7 +26,11 @@ to at most one sighting, by `scipy.optimize.linear_sum_assignment`).
 "Never treated twice" is the same test with a looser gate (``treated_gate_p``): a candidate
 spot is *probably treated* if any treated estimate could be it (`probably_treated`). Skipping
 a distinct aggregation that close to a treated one costs its priority; treating one twice
-costs an injection's time and is what the project has promised never to do.
+costs an injection's time and is what the project has promised never to do. Which treated
+estimates to hold a candidate against: a find (or a new sighting) against every treatment;
+a predicted spot only against treated *finds* (a find may have been that spot, seen by a
+drifted vehicle), never against other predicted spots: the map says they are distinct, and a
+look at the spot (its footprint around where the vehicle really is) tells them apart.
 
 Figures (defaults, per-axis 1-sigma): with 1 % drift over 300 m each, two vehicles' estimates
 of one aggregation 8 m apart give d2 = 64 / (9.25 + 9.25 + 12.5) = 2.1: one aggregation; two
@@ -79,16 +83,19 @@ class AssociationParams:
     ``treated_gate_p``: the same for "already treated" (looser: rather skip than treat
     twice); ``extent_m``: an aggregation's radius; ``map_sigma_m``: a predicted spot's
     position error on the map; ``camera_sigma_m``: what the camera's measured offset adds to
-    the vehicle's navigation sigma (`reef_sim.navigation`'s ``camera_sigma_m``)."""
+    the vehicle's navigation sigma (`reef_sim.navigation`'s ``camera_sigma_m``); ``sure_p``:
+    how likely the nearest of several candidates in the gate must be to be taken for the
+    one (`resolve`)."""
 
     gate_p: float = 0.99
     treated_gate_p: float = 0.999
     extent_m: float = 5.0
     map_sigma_m: float = 3.0
     camera_sigma_m: float = 0.5
+    sure_p: float = 0.9
 
     def __post_init__(self) -> None:
-        for name in ("gate_p", "treated_gate_p"):
+        for name in ("gate_p", "treated_gate_p", "sure_p"):
             value = getattr(self, name)
             if not 0.0 < value < 1.0:
                 raise ValueError(f"{name} must be in (0, 1), got {value!r}")
@@ -153,20 +160,55 @@ def _cost(a: Estimate, b: Estimate, params: AssociationParams) -> float:
     return distance2(a, b, params) + (2.0 * math.log(s) if s > 0 else -_INFEASIBLE)
 
 
+def gated(seen: Estimate, candidates: Iterable[tuple[K, Estimate]],
+          params: AssociationParams = DEFAULT_PARAMS) -> list[K]:
+    """The candidates ``seen`` may be (inside the gate), nearest in generalised distance
+    first (ties in the order listed)."""
+    inside = [(_cost(seen, est, params), k, key) for k, (key, est) in enumerate(candidates)
+              if distance2(seen, est, params) <= params.gate]
+    return [key for _, _, key in sorted(inside, key=lambda e: e[:2])]
+
+
+def posteriors(seen: Estimate, candidates: Iterable[tuple[K, Estimate]],
+               params: AssociationParams = DEFAULT_PARAMS) -> list[tuple[K, float]]:
+    """Each candidate inside the gate with the chance it is the one ``seen`` is, given that
+    it is one of them (Gaussian likelihoods, equal priors: exp(-cost / 2) normalised),
+    nearest first."""
+    inside = [(_cost(seen, est, params), k, key) for k, (key, est) in enumerate(candidates)
+              if distance2(seen, est, params) <= params.gate]
+    if not inside:
+        return []
+    inside.sort(key=lambda e: e[:2])
+    low = inside[0][0]
+    w = [math.exp(-(c - low) / 2.0) for c, _, _ in inside]
+    total = sum(w)
+    return [(key, wi / total) for (_, _, key), wi in zip(inside, w)]
+
+
+def resolve(seen: Estimate, candidates: Iterable[tuple[K, Estimate]],
+            params: AssociationParams = DEFAULT_PARAMS) -> tuple[K | None, bool]:
+    """(the candidate ``seen`` is, whether that is sure): (None, True) for a new
+    aggregation; (nearest, True) when the nearest in the gate has at least ``sure_p`` of the
+    chance; (nearest, False) when several are alike (a look must tell which)."""
+    post = posteriors(seen, candidates, params)
+    if not post:
+        return None, True
+    return post[0][0], post[0][1] >= params.sure_p
+
+
 def match(seen: Estimate, candidates: Iterable[tuple[K, Estimate]],
           params: AssociationParams = DEFAULT_PARAMS) -> K | None:
     """The candidate ``seen`` is (nearest in generalised distance among those inside the
     gate), or None: a new aggregation. ``candidates``: (key, estimate) pairs, e.g. the
     predicted spots not known empty (`predicted`) and the known finds (each with its
-    finder's sigma); ties go to the first listed."""
-    best, best_cost = None, math.inf
-    for key, est in candidates:
-        if distance2(seen, est, params) > params.gate:
-            continue
-        cost = _cost(seen, est, params)
-        if cost < best_cost:
-            best, best_cost = key, cost
-    return best
+    finder's sigma); ties go to the first listed.
+
+    Where the map is denser than the gate (predicted spots closer than ~15 m: half of them in
+    the paper's preset) a sighting may fall in the gate of several predicted spots: it is
+    not new, but which spot it is only a look can tell (the look is at the spot: see
+    `gated`, and `docs/search.md` for the rule the agent follows)."""
+    inside = gated(seen, candidates, params)
+    return inside[0] if inside else None
 
 
 def assign(seen: Sequence[Estimate], candidates: Sequence[tuple[K, Estimate]],

@@ -13,8 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fleet_agent.association import (AssociationParams, Estimate, assign, chi2_gate,
-                                     distance2, fuse, match, predicted, probably_treated,
-                                     same_aggregation, sighting)
+                                     distance2, fuse, match, posteriors, predicted,
+                                     probably_treated, resolve, same_aggregation, sighting)
 
 REPO = Path(__file__).resolve().parents[2]
 P = AssociationParams()
@@ -75,6 +75,21 @@ def test_green_island_every_mapped_aggregation_is_a_predicted_spot_never_new():
            if min(math.dist(s["pos"][:2], t.xy) for t in tasks) > 30.0]
     for s in far:  # the aggregations the map missed far from any spot are new
         assert match(sighting(s["pos"], 0.0, P), list(enumerate(tasks)), P) is None
+
+
+def test_between_two_predicted_spots_alike_only_a_look_can_tell():
+    # Green Island's first aggregation: 7.4 m from its spot (task 0), 6.6 m from an empty one
+    seen = sighting((0.0, 0.0), 0.0, P)
+    own, empty = predicted((7.4, 0.0), P), predicted((-6.6, 0.0), P)
+    key, sure = resolve(seen, [(0, own), (3, empty)], P)
+    assert key == 3 and not sure  # nearest, but not nearer by enough to be taken for it
+    probs = dict(posteriors(seen, [(0, own), (3, empty)], P))
+    assert probs[3] + probs[0] == pytest.approx(1.0) and 0.5 < probs[3] < P.sure_p
+    # on a generated map the aggregation is at its spot: the next one 10 m off is no rival
+    key, sure = resolve(seen, [(0, predicted((0.0, 0.0), P)), (1, predicted((10.0, 0.0), P))],
+                        P)
+    assert (key, sure) == (0, True)
+    assert resolve(seen, [(0, predicted((90.0, 0.0), P))], P) == (None, True)
 
 
 def test_a_treated_aggregation_seen_again_by_another_vehicle_is_not_treated_again():
