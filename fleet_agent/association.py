@@ -119,6 +119,10 @@ class AssociationParams:
 
 
 DEFAULT_PARAMS = AssociationParams()
+# A map whose predicted spots are exactly where their aggregations are, and aggregations that
+# are points (the dynamic generator's reefs, `reef_sim.scenarios.dynamic`): only navigation
+# and the camera make two estimates of one aggregation differ.
+EXACT_MAP = AssociationParams(map_sigma_m=0.5, extent_m=1.0)
 
 
 def sighting(pos: Sequence[float], nav_sigma_m: float,

@@ -133,9 +133,12 @@ class SimVehicle:
             self._held.append(Refused(self.t_s, type(cmd).__name__, "recovered"))
             return
         if isinstance(cmd, GoTo):
-            if self.phase is Phase.FLYING and self.target == cmd.target:
+            if self.phase is Phase.FLYING and self.target == cmd.target and (
+                    not cmd.waypoints or not self._waypoints
+                    or as_point3(cmd.waypoints[-1]) == self._waypoints[-1]):
                 self.ahead = cmd.ahead  # the same leg: fly on, only the route after it changed
                 return
+            # the same target somewhere else (its camera saw it there): a new leg
             self.ahead = cmd.ahead
             self._fly_to(cmd.target, cmd.waypoints)
         elif isinstance(cmd, StationKeep):

@@ -101,6 +101,12 @@ class Item:
     done: bool = False
     waypoints: tuple[tuple[float, float], ...] = ()  # an orbit's pattern
     centre: int = -1  # an orbit: the item it is around
+    # where each vehicle's own camera last saw it, in that vehicle's navigation frame: a
+    # vehicle flies to what it saw (its own error cancels), others to the shared estimate
+    seen: dict[int, Point3] = field(default_factory=dict)
+
+    def goal_for(self, vehicle: int) -> Point3:
+        return self.seen.get(vehicle, self.pos)
 
 
 class Activity(Enum):
@@ -124,7 +130,7 @@ class Seat:
     distance_m: float = 0.0
     route: list[int] = field(default_factory=list)
     activity: Activity = Activity.RETURNING
-    commanded: tuple[Activity, int | None] | None = None
+    commanded: tuple[Activity, int | None, Point3 | None] | None = None
     treated: list[int] = field(default_factory=list)  # task ids
     collected: float = 0.0
     home_at_s: float | None = None
@@ -239,6 +245,7 @@ class Central:
             if not sure:
                 self.counters["sightings_ambiguous"] += 1  # which spot: a look will tell
                 return False
+            it.seen[seat.index] = (float(r.pos[0]), float(r.pos[1]), float(r.pos[2]))
             if it.kind == "predicted" and it.state == UNKNOWN and not it.done:
                 self._learn_present(i, r.priority, r.service_s)
                 return True
@@ -252,7 +259,7 @@ class Central:
             self.counters["finds_on_land"] += 1  # the estimate fell ashore: nobody could go
             return False
         item = Item("find", self._new_id(), seen, pos, float(r.priority), float(r.service_s),
-                    PRESENT)
+                    PRESENT, seen={seat.index: pos})
         self.items.append(item)
         self.counters["finds"] += 1
         self.ledger.add_event(Event(r.t_s, seat.vid, "found", [item.task_id],
@@ -360,19 +367,22 @@ class Central:
     def _command(self, seat: Seat, t: float) -> None:
         act = seat.activity
         head = seat.route[0] if seat.route else None
-        key = (act, head)
+        goal = None if head is None or act is not Activity.TRANSIT else \
+            self.items[head].goal_for(seat.index)
+        key = (act, head, goal)
         if act is Activity.HOME or key == seat.commanded:
             return
         seat.commanded = key
         spec = self.problem.vehicles[seat.index]
         if act is Activity.RETURNING or head is None:
             seat.activity = Activity.RETURNING
-            seat.commanded = (Activity.RETURNING, None)
+            seat.commanded = (Activity.RETURNING, None, None)
             seat.port.command(ReturnHome(tuple(self.paths(seat.est, spec.rendezvous)[1])), t)
             return
         it = self.items[head]
         if act is Activity.TRANSIT:
-            seat.port.command(GoTo(head, tuple(self.paths(seat.est, it.pos)[1])), t)
+            assert goal is not None
+            seat.port.command(GoTo(head, tuple(self.paths(seat.est, goal)[1])), t)
         elif act is Activity.SEARCHING:
             depth = it.pos[2]
             seat.port.command(GoTo(head, tuple((x, y, depth) for x, y in it.waypoints[1:])), t)

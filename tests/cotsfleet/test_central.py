@@ -127,3 +127,21 @@ def test_a_belief_that_expects_nothing_flies_no_search():
 def test_bad_parameters_are_refused(bad):
     with pytest.raises(ValueError):
         CentralParams(**bad)
+
+
+def test_a_drifting_vehicle_flies_to_what_its_camera_saw_and_finds_the_spot_there():
+    start = (0.0, 0.0, -5.0)
+    spot = (600.0, 0.0, -5.0)
+    problem = Problem.build("far", [Spec("auv1", start, start, 3000.0, 1.0)],
+                            [Task(0, spot, 50.0, 60.0)])
+    # the camera sees 40 m around; a look sees only 5 m around where the vehicle really is
+    reef = Reef(40.0, 1.0, 20.0, (TruthSpot(spot, 50.0, 60.0, 0),), look_radius_m=5.0)
+    nav = NavigationParams(drift_pct=3.0, walk_m_per_sqrt_km=0.0, start_sigma_m=0.0)
+    result = run_central(problem, reef, seed=2, navigation=nav, params=FAST)
+    vehicle = result.central.seats[0].port
+    # sent to the map's position it would have ended this far off: beyond the look's reach
+    assert math.hypot(*vehicle.navigation.error(spot, 600.0)) > 5.0
+    # but it saw the aggregation on the way, flew to it, looked and treated it
+    assert [t.spot for t in vehicle.treatments] == [0]
+    assert math.dist(vehicle.treatments[0].pos[:2], spot[:2]) <= 5.0
+    assert result.report["world"]["priority"] == 50.0
