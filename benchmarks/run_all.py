@@ -29,6 +29,8 @@ BENCHMARKS: list[tuple[str, list[str]]] = [
     ("benchmarks.demo_warp", []),
     ("benchmarks.fleet_scale", []),
     ("benchmarks.security", []),
+    ("benchmarks.crash_table", []),
+    ("benchmarks.startup_scale", []),
     ("benchmarks.dynamic", ["--jobs", "2"]),
     ("benchmarks.sweep_bench", []),
     ("benchmarks.dashboard_bench", []),

@@ -37,10 +37,11 @@ from comms_sim.seeds import channel_rng
 from comms_sim.water import SimClock, Water
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, Refused, seal
-from fleet_bus.clock import WarpClock
+from fleet_bus.clock import MissionClock
 from fleet_bus.link import INTRUDER, LinkControl, LinkRecord, TxTag, encode_stats
-from fleet_bus.mission import fetch_clock, fetch_mission, follow_clock
+from fleet_bus.mission import ClockRecord, ClockSync, fetch_mission
 from fleet_bus.process import RELAY_READY, ready
+from fleet_bus.query_limits import QueryGate, gate_queryable
 from fleet_bus.telemetry import Truth
 
 Put = Callable[[str, bytes, "bytes | None"], None]  # key, payload, attachment
@@ -87,6 +88,8 @@ class Relay:
         self._lock = self.water.lock
         self.counters = dict.fromkeys(RELAY_COUNTERS, 0)
         self.max_late_s = 0.0  # the most a frame was placed back from its arrival (late_tx)
+        self.queries: QueryGate | None = None  # who asked for the stats (`serve`)
+        self.clock_sync: ClockSync | None = None  # the relay's clock exchanges (`main`)
         self.water.add_listener(self._publish)
 
     # -- inputs (any thread) ---------------------------------------------------------------
@@ -182,7 +185,16 @@ class Relay:
                 "max_late_s": round(self.max_late_s, 3),
                 "refused": dict(self.auth.verifier.refused) if self.auth else {},
                 "extra_loss": self.channel.extra_loss,
-                "partitions": [p.to_dict() for p in self.channel.partitions]})
+                "partitions": [p.to_dict() for p in self.channel.partitions],
+                "queries": self.queries.counts() if self.queries is not None else {},
+                "clock": self._clock_counts()})
+
+    def _clock_counts(self) -> dict[str, float]:
+        sync = self.clock_sync
+        if sync is None:
+            return {}
+        return {"wall_steps": sync.watch.steps, "exchanges": sync.exchanges,
+                "failed": sync.failed, "offset_s": getattr(self.clock, "offset_s", 0.0)}
 
     # -- scheduler (one thread): the water's --------------------------------------------
 
@@ -255,8 +267,9 @@ def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threa
         if sample.kind == zenoh.SampleKind.PUT:
             relay.on_ctl(sample.payload.to_bytes())
 
-    def on_stats(query: zenoh.Query) -> None:
-        query.reply(keys.LINK_STATS, seal(auth, keys.LINK_STATS, relay.stats_payload()))
+    relay.queries = QueryGate(auth)  # each asker rationed and counted
+    on_stats = gate_queryable(relay.queries, keys.LINK_STATS, lambda query: query.reply(
+        keys.LINK_STATS, seal(auth, keys.LINK_STATS, relay.stats_payload())))
 
     try:
         with contextlib.ExitStack() as stack:
@@ -283,31 +296,39 @@ def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
     agents count them. Returns the relay (counters), or None if stopped or no mission came
     (the reason is printed)."""
     with zenoh.open(conf) as session:
+        sync = None
         if epoch_unix is None:
             mission = fetch_mission(session, stop, mission_timeout_s, auth)
             if mission is None:
                 return _gave_up(stop, keys.MISSION, mission_timeout_s)
             seed = mission.seed if seed is None else seed
             vehicles = vehicles or mission.roster() or None
-            record = fetch_clock(session, stop, mission_timeout_s, auth)
-            if record is None:
+            sync = ClockSync(session, auth, stop)  # the operator's clock, measured
+            clock = sync.join(mission_timeout_s)
+            if clock is None:
                 return _gave_up(stop, keys.CLOCK, mission_timeout_s)
-            epoch_unix, warp, clock_seq = record.epoch_unix, record.warp, record.seq
-        else:
-            clock_seq = 0
+            sync.start()
+        else:  # a clock of its own, from a wall-clock epoch given by hand
+            ref, w, _ = ClockRecord(epoch_unix, warp if warp is not None else 1.0).timing()
+            clock = MissionClock(ref, w, epoch_unix=epoch_unix)
         if tdma:
             if not vehicles:
                 raise ValueError("TDMA needs the roster (--vehicles or the mission's)")
             config = with_tdma(config, list(vehicles))
-        clock = WarpClock(epoch_unix, warp if warp is not None else 1.0, seq=clock_seq)
-        follower = follow_clock(session, clock, auth)  # noqa: F841  (a slowdown, kept alive)
         channel = Channel(config, channel_rng(0 if seed is None else seed))
         roster = frozenset(vehicles) if vehicles else None
-        return serve(session, channel, clock, stop, roster, on_ready=lambda _: ready(
-            READY, f"epoch_unix={clock.epoch_unix} warp={clock.warp} "
-                   f"mac={'tdma' if config.tdma else 'aloha'} "
-                   f"roster={','.join(vehicles) if vehicles else 'open'} "
-                   f"auth={'signed' if auth else 'open'}"), auth=auth)
+
+        def on_ready(relay: Relay) -> None:
+            relay.clock_sync = sync
+            ready(READY, f"epoch_unix={clock.epoch_unix} warp={clock.warp} "
+                         f"mac={'tdma' if config.tdma else 'aloha'} "
+                         f"roster={','.join(vehicles) if vehicles else 'open'} "
+                         f"auth={'signed' if auth else 'open'}")
+        try:
+            return serve(session, channel, clock, stop, roster, on_ready=on_ready, auth=auth)
+        finally:
+            if sync is not None:
+                sync.close()
 
 
 def _gave_up(stop: threading.Event, key: str, timeout_s: float) -> None:

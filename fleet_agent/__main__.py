@@ -1,4 +1,5 @@
-"""``python -m fleet_agent --id auv2 [--config C.toml] [--connect ENDPOINT]``: one AUV's agent.
+"""``python -m fleet_agent --id auv2 [--config C.toml] [--connect ENDPOINT] [--modem M]``: one
+AUV's agent.
 
 Connects to the Zenoh router (``--connect``), reads the mission (scenario, seed) from the
 operator's ``fleet/mission`` record, computes the shared initial plan, waits for the mission
@@ -16,7 +17,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from fleet_agent.config import AgentConfig, load_config
-from fleet_agent.node import main
+from fleet_agent.node import ModemChoice, main
 from fleet_bus.credentials import load_auth
 from fleet_bus.process import process_stop
 from fleet_bus.session import DEFAULT_ENDPOINT, client_config
@@ -29,6 +30,12 @@ if __name__ == "__main__":
                         help=f"Zenoh router (repeatable; default {DEFAULT_ENDPOINT})")
     parser.add_argument("--journal", type=Path, help="journal file (default ./<id>.journal)")
     parser.add_argument("--mission-timeout", type=float, default=120.0, metavar="S")
+    parser.add_argument("--modem", default="water", metavar="M",
+                        help="water (the emulated water over Zenoh, default) or "
+                             "micromodem:LINK (a WHOI Micro-Modem on a serial device or "
+                             "tcp:HOST:PORT; docs/modems.md)")
+    parser.add_argument("--modem-rate", type=int, default=1, metavar="R",
+                        help="the Micro-Modem's packet rate (default 1: 3 frames of 64 bytes)")
     parser.add_argument("--credentials", type=Path, metavar="DIR",
                         help="this vehicle's credentials directory (its own signing key, the "
                              "run's key ring, its Zenoh login; docs/security.md); without it "
@@ -41,10 +48,11 @@ if __name__ == "__main__":
         if not config.fleet_key_hex and env_key:
             config = replace(config, fleet_key_hex=env_key)
         config.fleet_key  # noqa: B018 - fail early without a key
+        modem = ModemChoice.parse(args.modem, args.modem_rate)
     except (OSError, ValueError) as exc:  # CredentialsError is a ValueError
         print(f"fleet_agent: {exc}", file=sys.stderr)
         raise SystemExit(2)
     raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT],
                                         credentials=args.credentials), args.id, config,
                           args.journal or Path(f"{args.id}.journal"), process_stop(),
-                          args.mission_timeout, auth))
+                          args.mission_timeout, auth, modem, args.credentials))

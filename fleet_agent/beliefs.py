@@ -1,4 +1,5 @@
-"""What a vehicle believes about the reef in a dynamic mission: the map is a prior.
+"""What a vehicle believes about the reef: the map is a prior (an exact map is the degenerate
+case: every predicted spot known, no finds).
 
 Each predicted spot is *unknown* until the camera shows it (`fleet_agent.sensor`): *present*
 (with its real priority rho and injection time t, eq. 2) or *empty*. Aggregations the map
@@ -62,10 +63,6 @@ def expected_problem(scenario: Problem, camera: Camera, p_cots: float) -> Proble
                          dist_m=scenario.dist_m, current=scenario.current)
 
 
-def working_size(scenario: Problem, config: AgentConfig) -> int:
-    return scenario.n_tasks + scenario.n_vehicles * config.find_slots
-
-
 def find_ids(scenario: Problem, config: AgentConfig) -> range:
     """The task ids finds go by in telemetry (after the scenario's largest id), so a report
     or an operator can tell them from predicted spots."""
@@ -74,17 +71,22 @@ def find_ids(scenario: Problem, config: AgentConfig) -> range:
 
 
 class Beliefs:
-    """Predicted spots' states, finds and aliases, and the working problem they make."""
+    """Predicted spots' states, finds and aliases, and the working problem they make.
 
-    def __init__(self, scenario: Problem, camera: Camera, config: AgentConfig, index: int,
-                 seed: int, cycle_s: float) -> None:
+    Without a ``camera`` the map is exact (a mission without a hidden reef): every predicted
+    spot is known as the map gives it, nothing is looked at or found, and the working problem
+    is the scenario itself, planned by the fleet's own ``planner``."""
+
+    def __init__(self, scenario: Problem, camera: Camera | None, config: AgentConfig,
+                 index: int, seed: int, cycle_s: float, planner: Planner | None = None) -> None:
         self.scenario, self.camera, self.config = scenario, camera, config
         self.index, self.seed = index, seed
+        self.exact = camera is None
         self.n = scenario.n_tasks
-        self.cap = config.find_slots
-        self.size = working_size(scenario, config)
+        self.cap = 0 if self.exact else config.find_slots
+        self.size = self.n + scenario.n_vehicles * self.cap
         self.settle_s = config.find_settle_cycles * cycle_s
-        self.state = [UNKNOWN] * self.n
+        self.state = [PRESENT if self.exact else UNKNOWN] * self.n
         self.real: dict[int, tuple[float, float]] = {}  # present predicted: (rho, t)
         self.finds: dict[int, Find] = {}
         self.alias: dict[int, int] = {}  # slot -> the slot it is an alias of
@@ -96,8 +98,8 @@ class Beliefs:
         self._hash = 0
         self._base_id = find_ids(scenario, config).start
         self._pred_xyz = np.array([t.pos for t in scenario.tasks], dtype=float).reshape(-1, 3)
-        self._problem: Problem | None = None
-        self._planner: Planner | None = None
+        self._problem: Problem | None = scenario if self.exact else None
+        self._planner: Planner | None = planner if self.exact else None
         self._dist: np.ndarray | None = None
         self._dist_finds = -1  # number of finds the cached distances include
         self.version = 0
@@ -152,8 +154,9 @@ class Beliefs:
 
     def learn(self, task: int, present: bool, priority: float = 0.0,
               service_s: float = 0.0) -> bool:
-        """A predicted spot seen (present, with rho and t) or inspected empty; True if news."""
-        if not 0 <= task < self.n:
+        """A predicted spot seen (present, with rho and t) or inspected empty; True if news
+        (never on an exact map: nothing to learn)."""
+        if self.exact or not 0 <= task < self.n:
             return False
         new = PRESENT if present else EMPTY
         if self.state[task] == new and (not present
@@ -252,6 +255,7 @@ class Beliefs:
                 # it near every find would overfill the routes and drop spots that would have
                 # fit (COTS are dense: most spots are near some find).
                 rho = self.p_of(i) * t.priority
+                assert self.camera is not None  # an exact map has no unknown spot
                 service = self.camera.inspect_s + self.config.p_cots * t.service_s
             out.append(Task(t.id, t.pos, rho, service))
         station = self.scenario.vehicles[0].start
@@ -299,5 +303,5 @@ def initial_working_problem(scenario: Problem, camera: Camera, config: AgentConf
     return Beliefs(scenario, camera, config, 0, 0, 1.0).problem
 
 
-__all__ = ["Beliefs", "Find", "expected_problem", "initial_working_problem", "working_size",
-           "UNKNOWN", "PRESENT", "EMPTY", "MATCH_M", "MERGE_M", "FIND_MARGIN_M"]
+__all__ = ["Beliefs", "Find", "expected_problem", "initial_working_problem", "UNKNOWN",
+           "PRESENT", "EMPTY", "MATCH_M", "MERGE_M", "FIND_MARGIN_M"]

@@ -4,7 +4,8 @@ Merging is bitwise OR, so loss, duplication and reordering of gossip can never u
 spot, and any two vehicles that have exchanged their states hold the same set. The digest
 (size mod 128 and a 16-bit sum of per-spot hashes, both order-free and updated in O(1)) rides
 on every pose; a vehicle that hears a digest unlike its own pushes its full state, one
-`wire.SEGMENT_BITS` segment per frame, and so does the other side: that is the anti-entropy.
+segment of the codec's ``segment_bits`` per frame, and so does the other side: that is the
+anti-entropy.
 """
 
 from __future__ import annotations
@@ -23,8 +24,9 @@ def _spot_hash(i: int) -> int:
 
 
 class ClearedSet:
-    def __init__(self, n_tasks: int) -> None:
+    def __init__(self, n_tasks: int, segment_bits: int = SEGMENT_BITS) -> None:
         self.n_tasks = n_tasks
+        self.segment_bits = segment_bits  # spots per segment, from the frame budget
         self._bits = 0
         self._count = 0
         self._hash = 0
@@ -63,22 +65,23 @@ class ClearedSet:
 
     @property
     def n_segments(self) -> int:
-        return max(1, math.ceil(self.n_tasks / SEGMENT_BITS))
+        return max(1, math.ceil(self.n_tasks / self.segment_bits))
 
     def segment_of(self, task: int) -> int:
-        return task // SEGMENT_BITS
+        return task // self.segment_bits
 
     def segment(self, segment: int) -> bytes:
         """The bitmap bytes of one segment (little-endian bit order)."""
-        lo = segment * SEGMENT_BITS
-        bits = min(SEGMENT_BITS, self.n_tasks - lo)
+        lo = segment * self.segment_bits
+        bits = min(self.segment_bits, self.n_tasks - lo)
         width = max(1, math.ceil(bits / 8))
         return ((self._bits >> lo) & ((1 << bits) - 1)).to_bytes(width, "little")
 
     def merge_segment(self, segment: int, data: bytes) -> list[int]:
         """OR a received segment in; returns the spots that were new here."""
-        lo = segment * SEGMENT_BITS
-        incoming = int.from_bytes(data, "little") & ((1 << min(SEGMENT_BITS, self.n_tasks - lo)) - 1)
+        lo = segment * self.segment_bits
+        width = min(self.segment_bits, self.n_tasks - lo)
+        incoming = int.from_bytes(data, "little") & ((1 << width) - 1)
         new = (incoming << lo) & ~self._bits
         out: list[int] = []
         while new:
@@ -91,7 +94,7 @@ class ClearedSet:
 
     def missing_from(self, segment: int, data: bytes) -> bool:
         """Whether a peer's segment lacks a spot this set has (so a push would help it)."""
-        lo = segment * SEGMENT_BITS
+        lo = segment * self.segment_bits
         theirs = int.from_bytes(data, "little") << lo
-        mask = ((1 << min(SEGMENT_BITS, self.n_tasks - lo)) - 1) << lo
+        mask = ((1 << min(self.segment_bits, self.n_tasks - lo)) - 1) << lo
         return bool(self._bits & mask & ~theirs)

@@ -1,9 +1,10 @@
 """The one shell around an agent: inputs in, outputs carried out, the same under every backend.
 
 A backend supplies the vehicle (a `fleet_bus.vehicle_port.VehiclePort`: the simulated vehicle,
-a MOOS-IvP or a ROS 2 helm), a `Transport` (frames to the modem, telemetry to the bus) and a
-`JournalSink`; it feeds `AgentDriver.step` with inputs at mission times and ticks the agent at
-`next_wakeup`. Two backends exist: the Zenoh node (`fleet_agent.node`, one OS process per
+a MOOS-IvP or a ROS 2 helm), the modem (a `fleet_bus.modem_port.ModemPort`: the emulated
+water, or a Micro-Modem), a `Telemetry` sink and a `JournalSink`; it feeds
+`AgentDriver.step` with inputs at mission times (frames the modem received among them) and
+ticks the agent at `next_wakeup`. Two backends exist: the Zenoh node (`fleet_agent.node`, one OS process per
 vehicle on the shared warp clock) and the in-process simulation (`cotsfleet.mission.inprocess`,
 the whole fleet on a discrete-event loop). Both go through `carry_out`, so what a vehicle
 journals, sends, reports and commands, and in which order, never depends on the backend.
@@ -27,17 +28,14 @@ from typing import Any, Callable, Protocol, Sequence
 from fleet_agent.agent import Agent
 from fleet_agent.io_types import Command, Frame, Helm, Input, Output, Publish, Record, Send, Tick
 from fleet_bus.telemetry import Event, Status, Truth
+from fleet_bus.modem_port import ModemPort
 from fleet_bus.vehicle_port import NavFix, VehiclePort
 
 Point3 = tuple[float, float, float]
 TruePose = Callable[[], tuple[Point3, float, float]]  # where the vehicle is: pos, yaw, pitch
 
 
-class Transport(Protocol):
-    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
-        """Put ``frame`` on the radio (``kind``: the relay's queue class; ``sent_s``: when
-        the vehicle sends it on the mission clock, `fleet_bus.link.TxTag`)."""
-
+class Telemetry(Protocol):
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
         """Telemetry for the ground station and the mission runner."""
 
@@ -49,12 +47,12 @@ class JournalSink(Protocol):
 class AgentDriver:
     """Steps one agent with its vehicle's reports and carries out what it decides."""
 
-    def __init__(self, agent: Agent, vehicle: VehiclePort, transport: Transport,
-                 journal: JournalSink, *, truth: TruePose | None = None,
+    def __init__(self, agent: Agent, vehicle: VehiclePort, modem: ModemPort,
+                 telemetry: Telemetry, journal: JournalSink, *, truth: TruePose | None = None,
                  truth_period_s: float = 5.0,
                  tap: Callable[[Sequence[Output]], None] | None = None) -> None:
-        self.agent, self.vehicle, self.transport, self.journal = (
-            agent, vehicle, transport, journal)
+        self.agent, self.vehicle, self.modem, self.journal = agent, vehicle, modem, journal
+        self.telemetry = telemetry
         self.truth, self.truth_period_s = truth, truth_period_s
         self.tap = tap  # sees every step's outputs (tests, debugging)
         self.nav_fixes = 0  # fixes the agent took from its vehicle
@@ -91,11 +89,12 @@ class AgentDriver:
             return
         self._next_truth = now + self.truth_period_s
         pos, yaw, pitch = self.truth()
-        self.transport.publish("truth", Truth(now, pos, yaw, pitch, self.agent.state))
+        self.telemetry.publish("truth", Truth(now, pos, yaw, pitch, self.agent.state))
 
     def carry_out(self, outputs: Sequence[Output]) -> None:
         """Journal first (what is announced is already on record if the process dies right
-        after), then radio, telemetry and the vehicle in the order the agent produced them."""
+        after), then the modem, telemetry and the vehicle in the order the agent produced
+        them."""
         if self.tap is not None:
             self.tap(outputs)
         for o in outputs:
@@ -103,12 +102,12 @@ class AgentDriver:
                 self.journal.append(o.doc, o.durable)
         for o in outputs:
             if isinstance(o, Send):
-                self.transport.send(o.frame, o.kind, o.sent_s)
+                self.modem.transmit(o.frames, o.kind, o.sent_s)
             elif isinstance(o, Publish):
-                self.transport.publish(o.topic, o.payload)
+                self.telemetry.publish(o.topic, o.payload)
             elif isinstance(o, Helm):
                 self.vehicle.command(o.command, self.agent.t)
 
     def final_status(self, now: float) -> None:
         """The last word on the way out (shutdown): a status at ``now``."""
-        self.transport.publish("status", self.agent.status(now))
+        self.telemetry.publish("status", self.agent.status(now))

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from fleet_agent.beliefs import FIND_MARGIN_M, expected_problem, initial_working_problem
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
+from fleet_bus.tesla import FleetChains, chain_length
 from fleet_agent.wire import Codec
+from fleet_bus.modem_port import WATER_SPEC, ModemSpec
 from hfc_core.model.paths import PathFn, path_function
 from hfc_core.model.problem import Problem
 
@@ -23,9 +26,9 @@ class Dynamic:
 
 @dataclass(frozen=True)
 class Fleet:
-    """The scenario, the wire codec under the run's keys (fleet key and run id), the planner,
-    the land metric, the mission seed, and the initial fleet plan every agent computes alone
-    (no messages).
+    """The scenario, the wire codec under the run's keys (fleet key and run id) and the
+    modem's frame budget, the planner, the land metric, the mission seed, and the initial
+    fleet plan every agent computes alone (no messages).
 
     In a dynamic mission ``problem`` is the working problem before anything is seen
     (`fleet_agent.beliefs`: predicted spots at their expected value, then a slot per possible
@@ -38,28 +41,48 @@ class Fleet:
     seed: int
     base_routes: tuple[tuple[int, ...], ...]
     dynamic: Dynamic | None = None
+    modem: ModemSpec = WATER_SPEC
+    chains: FleetChains | None = None  # every vehicle's key chain (`fleet_bus.tesla`)
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
               planner: Planner | None = None, *, run_id: str,
-              camera: Camera | None = None) -> "Fleet":
+              camera: Camera | None = None, modem: ModemSpec = WATER_SPEC,
+              chains: FleetChains | None = None) -> "Fleet":
+        """``modem``: what every vehicle's modem carries (one frame budget for the fleet);
+        ValueError if its frames cannot carry what the mission needs. ``chains``: the key
+        chains the credentials issued (None: derived from the fleet key, as a simulation's)."""
+        if chains is None:
+            cycle_s = problem.n_vehicles * config.slot_s
+            horizon_s = max(v.battery_s for v in problem.vehicles) + 600.0
+            chains = FleetChains.derived(key, run_id, problem.n_vehicles,
+                                         chain_length(horizon_s, cycle_s))
+        if len(chains.commitments) != problem.n_vehicles:
+            raise ValueError(f"key chains for {len(chains.commitments)} vehicles, the "
+                             f"scenario has {problem.n_vehicles}")
+        cycles = chain_length(max(v.battery_s for v in problem.vehicles),
+                              problem.n_vehicles * config.slot_s) - 16
+        if chains.length < cycles:
+            raise ValueError(f"key chains of {chains.length} cycles are too short for a "
+                             f"mission of {cycles} cycles")
         if camera is not None:
-            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera)
+            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
+                                        chains)
+        codec = Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
         planner = planner or Planner.from_config(problem, seed, config)
-        return Fleet(problem, Codec.for_problem(problem, key, run_id), planner, path_function(problem),
-                     seed, planner.initial_routes())
+        return Fleet(problem, codec, planner, path_function(problem), seed,
+                     planner.initial_routes(), modem=modem, chains=chains)
 
     @staticmethod
     def _build_dynamic(scenario: Problem, key: bytes, seed: int, config: AgentConfig,
-                       run_id: str, camera: Camera) -> "Fleet":
-        from fleet_agent.beliefs import (FIND_MARGIN_M, expected_problem,
-                                         initial_working_problem)
-
+                       run_id: str, camera: Camera, modem: ModemSpec,
+                       chains: FleetChains) -> "Fleet":
+        working = initial_working_problem(scenario, camera, config)
+        codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
+                                  found_from=scenario.n_tasks,
+                                  max_frame_bytes=modem.max_frame_bytes)
         expected = expected_problem(scenario, camera, config.p_cots)
         routes = Planner.from_config(expected, seed, config).initial_routes()
-        working = initial_working_problem(scenario, camera, config)
         planner = Planner.from_config(working, seed, config)
-        codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
-                                  found_from=scenario.n_tasks)
         return Fleet(working, codec, planner, path_function(working), seed, routes,
-                     Dynamic(scenario, camera))
+                     Dynamic(scenario, camera), modem, chains)

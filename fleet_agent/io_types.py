@@ -38,11 +38,11 @@ Input = Union[Tick, Frame, Command]
 
 @dataclass(frozen=True)
 class Send:
-    """A frame for the radio."""
+    """One transmission for the modem: its frames (at most the modem's frames per packet)."""
 
-    frame: bytes
-    kind: str  # the relay's queue class: "pose" (may be superseded) or "data"
-    message: str  # wire kind name, for counters
+    frames: tuple[bytes, ...]
+    kind: str  # the modem's queue class: "pose" (may be superseded) or "data"
+    messages: tuple[str, ...]  # wire kind names, for counters
     # When the vehicle sends it, on its own clock: its slot's opening if the host ran late
     # (`Radio.take_slot`); the channel places the frame there, not when the bus delivers it.
     sent_s: float | None = None

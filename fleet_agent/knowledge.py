@@ -1,9 +1,12 @@
-"""What one vehicle knows about the fleet: the cleared spots, who holds what, who is alive,
-where the others were last heard, and which frames it has already taken.
+"""What one vehicle knows: where it is and what it is doing, the cleared spots, who holds
+what, who is alive, where the others were last heard, what it believes of the reef, and
+which frames it has already taken. One object with a version.
 
-State and queries only; what to do about it is decided elsewhere (`fleet_agent.decisions`).
-Every query that depends on membership uses the same view (`Membership.alive`), so the
-holder of a spot, the free spots and the peers to plan for always agree within a step.
+State and queries, and the changes that bump `version`; what to do about it is decided by the
+policies (`fleet_agent.policies`), which read this and return intents. Every query that
+depends on membership uses the same view (`Membership.alive`), so the holder of a spot, the
+free spots and the peers to plan for always agree within a step. The beliefs are always
+present: on an exact map (no hidden reef) every predicted spot is known and nothing is found.
 """
 
 from __future__ import annotations
@@ -17,10 +20,12 @@ from fleet_agent.cleared import ClearedSet
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
 from fleet_agent.membership import Membership
+from fleet_agent.motion import OwnVehicle
 from fleet_agent.negotiation import Holdings
 from fleet_agent.plans import Planner
 from fleet_agent.replay import ReplayWindow
 from fleet_agent.wire import Digest
+from hfc_core.model.problem import Problem
 
 Point3 = tuple[float, float, float]
 
@@ -36,33 +41,80 @@ class PeerPose:
 
 class Knowledge:
     def __init__(self, fleet: Fleet, index: int, config: AgentConfig, cycle_s: float,
-                 beliefs: Beliefs | None = None) -> None:
+                 beliefs: Beliefs, own: OwnVehicle) -> None:
         p = fleet.problem
-        self.fleet, self.index = fleet, index
+        self.fleet, self.index, self.beliefs, self.own = fleet, index, beliefs, own
         self.k = p.n_vehicles
-        self.cleared = ClearedSet(p.n_tasks)
+        self.cleared = ClearedSet(p.n_tasks, fleet.codec.segment_bits)
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
         self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s)
-        # A claim has settled once any earlier claim of its spot has been heard (`settled_s`).
-        self.claim_settle_s = config.claim_settle_cycles * cycle_s + config.slot_s + 1.0
+        # A claim has settled once any earlier claim of its spot has been heard and proven its
+        # claimer's (`settled_s`; proving takes a cycle, `fleet_bus.tesla`).
+        self.claim_settle_s = (config.claim_settle_cycles + 1.0) * cycle_s + config.slot_s + 1.0
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
         self.peer_digest: dict[int, Digest] = {}
-        # Dynamic missions: what this vehicle believes of the reef (None: the map is exact).
-        self.beliefs = beliefs
+        # Bumped by every change a decision may depend on: the route is checked against the
+        # knowledge again whenever it moved (`policies.route.sync`).
+        self.version = 0
+        self._beliefs_seen = beliefs.version
+
+    # -- changes ---------------------------------------------------------------------------
+
+    def touch(self) -> None:
+        """Something changed that the route may depend on (the vehicle's own state, time)."""
+        self.version += 1
+
+    def clear(self, tasks: Iterable[int]) -> list[int]:
+        """Spots known cleared (heard, looked at empty, an alias's aggregation); the new."""
+        new = self.cleared.update(tasks)
+        if new:
+            self.touch()
+        return new
+
+    def merge_segment(self, segment: int, bits: bytes) -> list[int]:
+        new = self.cleared.merge_segment(segment, bits)
+        if new:
+            self.touch()
+        return new
+
+    def treat(self, task: int, t_s: float) -> None:
+        """This vehicle injected ``task`` at ``t_s``."""
+        self.treated.append((task, t_s))
+        self.cleared.add(task)
+        self.touch()
+
+    def hold(self, v: int, t_s: int, tasks: Iterable[int], claim: bool) -> list[int]:
+        """A claim (or release) by ``v`` at ``t_s``; the spots whose record changed."""
+        changed = self.holdings.apply(v, t_s, list(tasks), claim)
+        if changed:
+            self.touch()
+        return changed
+
+    def rebind(self) -> bool:
+        """The beliefs changed (a find, a look): the vehicle times its route on the new
+        working problem. True if they had."""
+        if self.beliefs.version == self._beliefs_seen:
+            return False
+        self._beliefs_seen = self.beliefs.version
+        self.own.rebind(self.beliefs.problem)
+        self.touch()
+        return True
+
+    # -- the working problem ---------------------------------------------------------------
 
     @property
-    def problem(self):  # -> Problem: the working problem in a dynamic mission
-        return self.fleet.problem if self.beliefs is None else self.beliefs.problem
+    def problem(self) -> Problem:
+        return self.beliefs.problem
 
     @property
     def planner(self) -> Planner:
-        return self.fleet.planner if self.beliefs is None else self.beliefs.planner
+        return self.beliefs.planner
 
     def blocked(self, now: float) -> frozenset[int]:
-        """Spots the planner must not be offered (`Beliefs.blocked`; none on an exact map)."""
-        return frozenset() if self.beliefs is None else self.beliefs.blocked(now)
+        """Spots the planner must not be offered (`Beliefs.blocked`)."""
+        return self.beliefs.blocked(now)
 
     def unavailable(self, now: float) -> frozenset[int]:
         """Cleared or blocked: what a replan must leave out."""
@@ -76,7 +128,7 @@ class Knowledge:
     def held_map(self) -> dict[int, int]:
         """Spot -> holder, for every held spot nobody has cleared (an alias of a find is not
         a spot: its aggregation is held under the find's own slot)."""
-        alias = {} if self.beliefs is None else self.beliefs.alias
+        alias = self.beliefs.alias
         return {t: h for t, h in self.holdings.holders(self.members.alive).items()
                 if t not in self.cleared and t not in alias}
 
@@ -92,10 +144,11 @@ class Knowledge:
     def settled_s(self, task: int) -> float:
         """When this vehicle may start work at ``task``: at once (0) on its initial plan,
         else ``claim_settle_s`` after its own claim. Why: the holder is the earliest claimant,
-        and a claim goes out in the claimer's next slot (`Radio.choose`), so a peer's claim
-        made before ours (whole seconds) is on the air within a cycle and heard within a
-        slot more; by then, on a working link, we know we lost the spot. Without the wait,
-        two vehicles near a find that both claimed it seconds apart each treat it."""
+        and a claim goes out in the claimer's next slot (`fleet_agent.outbox`), so a peer's
+        claim made before ours (whole seconds) is on the air within a cycle and heard within a
+        slot more, and proven its claimer's a cycle later; by then, on a working link, we know
+        we lost the spot. Without the wait, two vehicles near a find that both claimed it
+        seconds apart each treat it."""
         c = self.holdings.claim_time(task, self.index)
         return float(c) + self.claim_settle_s if c else 0.0
 

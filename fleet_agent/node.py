@@ -1,16 +1,19 @@
-"""The Zenoh backend of the agent driver: one OS process per vehicle on the shared warp clock.
+"""The Zenoh backend of the agent driver: one OS process per vehicle on the shared mission clock.
 
-Zenoh callbacks only enqueue into a bounded inbox; one loop feeds the inbox to the driver with
-each item's arrival time on the mission clock, ticks the agent at its `next_wakeup`, and the
-driver carries out the outputs: frames to ``fleet/tx/<id>`` (attachment: the relay's queue
-class), telemetry to ``fleet/truth|status|event/<id>``, records to the journal. Commands
-arrive on ``fleet/ctl/<id>``: ``abort`` goes to the agent's logic; ``stop`` ends the process
-cleanly.
+Zenoh callbacks and the modem's reader only enqueue into a bounded inbox; one loop feeds the
+inbox to the driver with each item's arrival time on the mission clock, ticks the agent at its
+`next_wakeup`, and the driver carries out the outputs: frames to the modem (`--modem`: the
+emulated water over Zenoh, `fleet_agent.modems.water`, or a WHOI Micro-Modem,
+`fleet_agent.modems.micromodem`), telemetry to ``fleet/truth|status|event/<id>``, records to
+the journal, commands to the vehicle (`fleet_agent.helms`). Commands arrive on
+``fleet/ctl/<id>``: ``abort`` goes to the agent's logic; ``stop`` ends the process cleanly.
 
 Start-up: the agent reads the mission record (``fleet/mission``: scenario, seed, run id),
 computes the shared initial plan, announces itself ready on ``fleet/alive/<id>`` (a signed
 put, repeated until the clock comes, and a liveliness token), then waits for the clock record
-(``fleet/clock``), which the operator serves once every agent is ready.
+(``fleet/clock``), which the operator serves once every agent is ready, and keeps its
+`MissionClock` on the operator's (`ClockSync`: monotonic, offset measured, records followed;
+a step of this host's wall clock is counted as ``clock_wall_steps`` and changes nothing).
 
 Authentication (`fleet_bus.auth`, with ``--credentials``): everything this agent puts is
 signed with its own key; it takes deliveries only signed by the relay and commands, mission
@@ -25,8 +28,8 @@ import queue
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 import msgpack
 import zenoh
@@ -38,12 +41,16 @@ from fleet_agent.fleet import Fleet
 from fleet_agent.journal import Journal
 from fleet_agent.plans import set_planning_hook
 from fleet_agent.helms.sim import camera_figures, sim_vehicle
+from fleet_agent.modems.link import parse_link
+from fleet_agent.modems.micromodem import MicroModem, micromodem_spec
+from fleet_agent.modems.water import ZenohWater
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
-from fleet_bus.clock import WarpClock
+from fleet_bus.clock import MissionClock
 from fleet_bus.commands import STOP, decode_command
-from fleet_bus.link import TxTag
-from fleet_bus.mission import clock_of, fetch_clock, fetch_mission
+from fleet_bus.credentials import CredentialsError, load_frame_chains, load_frame_seed
+from fleet_bus.mission import ClockSync, fetch_mission
+from fleet_bus.modem_port import WATER_SPEC, ModemPort, ModemReport, ModemSpec, Received
 from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth, encode_busy
 from hfc_core.formats.scenario import problem_from_dict
@@ -57,17 +64,18 @@ ALIVE_EVERY_S = 1.0  # the ready announcement is repeated until the clock record
 
 
 class Inbox:
-    """Bounded FIFO between Zenoh's threads and the agent loop. Items carry their arrival
-    (wall) time: after a long computation the agent still sees each frame at the moment it
-    came, not all of them at once."""
+    """Bounded FIFO between Zenoh's and the modem's threads and the agent loop. Items carry
+    their arrival time (monotonic, `MissionClock.sim_of` turns it into mission time): after a
+    long computation the agent still sees each frame at the moment it came, not all of them at
+    once."""
 
     def __init__(self, limit: int = INBOX_LIMIT) -> None:
-        self._q: queue.Queue[tuple[str, bytes, float]] = queue.Queue(limit)
+        self._q: queue.Queue[tuple[str, object, float]] = queue.Queue(limit)
         self.overflow = 0
 
-    def put(self, kind: str, payload: bytes) -> None:
-        try:
-            self._q.put_nowait((kind, payload, time.time()))
+    def put(self, kind: str, payload: object) -> None:
+        try:  # the monotonic clock: a step of the wall clock must not move a frame in time
+            self._q.put_nowait((kind, payload, time.monotonic()))
         except queue.Full:
             self.overflow += 1
 
@@ -76,28 +84,22 @@ class Inbox:
         n, self.overflow = self.overflow, 0
         return n
 
-    def get(self, timeout_s: float) -> tuple[str, bytes, float] | None:
+    def get(self, timeout_s: float) -> tuple[str, object, float] | None:
         try:
             return self._q.get(timeout=timeout_s) if timeout_s > 0 else self._q.get_nowait()
         except queue.Empty:
             return None
 
 
-class ZenohTransport:
-    """Puts the driver's frames and telemetry on the bus under this vehicle's keys."""
+class ZenohTelemetry:
+    """Puts the driver's telemetry on the bus under this vehicle's keys."""
 
     def __init__(self, session: zenoh.Session, vid: str, auth: BusAuth | None = None) -> None:
         self._auth = auth
-        self._tx_key = keys.tx_key(vid)
-        self._tx = session.declare_publisher(self._tx_key)
         self._telemetry = {topic: (key, session.declare_publisher(key)) for topic, key in
                            ((t, f"{keys.PREFIX}/{t}/{vid}") for t in keys.TELEMETRY_KINDS)}
         self._busy_key = keys.busy_key(vid)
         self._busy = session.declare_publisher(self._busy_key)
-
-    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
-        self._tx.put(seal(self._auth, self._tx_key, frame),
-                     attachment=TxTag(kind, sent_s).encode())
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
         key, publisher = self._telemetry[topic]
@@ -121,24 +123,66 @@ def _announce_ready(session: zenoh.Session, vid: str, auth: BusAuth | None,
             return
 
 
+@dataclass(frozen=True)
+class ModemChoice:
+    """Which modem the agent talks through: the emulated water (``water``) or a WHOI
+    Micro-Modem (``micromodem:LINK``, LINK a serial device or ``tcp:HOST:PORT``) at ``rate``."""
+
+    name: str = "water"
+    rate: int = 1
+
+    @property
+    def spec(self) -> ModemSpec:
+        return WATER_SPEC if self.name == "water" else micromodem_spec(self.rate)
+
+    @staticmethod
+    def parse(text: str, rate: int = 1) -> "ModemChoice":
+        """ValueError, saying why, for anything but ``water`` or ``micromodem:LINK``."""
+        if text == "water":
+            return ModemChoice()
+        kind, _, link = text.partition(":")
+        if kind != "micromodem" or not link:
+            raise ValueError(f"--modem is water or micromodem:LINK, got {text!r}")
+        parse_link(link)
+        micromodem_spec(rate)
+        return ModemChoice(text, rate)
+
+
+class _MissionTime:
+    """Mission time once the clock record has come (before: -1, nothing is dated yet)."""
+
+    clock: MissionClock | None = None
+
+    def now(self) -> float:
+        return -1.0 if self.clock is None else self.clock.now()
+
+
 def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
          stop: threading.Event, mission_timeout_s: float = 120.0,
-         auth: BusAuth | None = None) -> int:
+         auth: BusAuth | None = None, modem: ModemChoice = ModemChoice(),
+         credentials: Path | None = None) -> int:
     """Run agent ``vid`` until ``stop``. Returns 0, 2 if the vehicle is not in the mission,
     or 3 if no mission or clock record came. With ``auth`` (its own key and the run's ring)
-    it signs what it puts and takes only what its rightful senders signed."""
+    it signs what it puts and takes only what its rightful senders signed; with
+    ``credentials`` (its directory) its frames are provably its own (its key chain, and the
+    fleet's commitments: `fleet_bus.tesla`), else every chain derives from the fleet key."""
     inbox = Inbox()
+    mission_time = _MissionTime()
 
-    def take(kind: str, key: str) -> Callable[[zenoh.Sample], None]:
-        def on_sample(sample: zenoh.Sample) -> None:
-            payload = unseal(auth, key, sample.payload.to_bytes())
-            if payload is not None:
-                inbox.put(kind, payload)
-        return on_sample
+    def hear(report: ModemReport) -> None:  # the modem's thread: enqueue only
+        inbox.put("rx", report.frame) if isinstance(report, Received) else \
+            inbox.put("modem", report)
+
+    def take_ctl(sample: zenoh.Sample) -> None:
+        payload = unseal(auth, keys.ctl_key(vid), sample.payload.to_bytes())
+        if payload is not None:
+            inbox.put("ctl", payload)
 
     with Journal(journal_path) as journal, zenoh.open(conf) as session, \
-            session.declare_subscriber(keys.rx_key(vid), take("rx", keys.rx_key(vid))), \
-            session.declare_subscriber(keys.ctl_key(vid), take("ctl", keys.ctl_key(vid))):
+            session.declare_subscriber(keys.ctl_key(vid), take_ctl):
+        port: ModemPort | None = None
+        if modem.name == "water":  # listening from the start, as the relay may be early
+            port = ZenohWater(session, vid, hear, mission_time, auth)
         mission = fetch_mission(session, stop, mission_timeout_s, auth)
         if mission is None:
             return 0 if stop.is_set() else 3
@@ -153,32 +197,45 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
         if vid not in problem.vehicle_index:
             print(f"fleet_agent: {vid!r} is not a vehicle of the mission", file=sys.stderr)
             return 2
+        chains, seed = None, None
+        if credentials is not None:
+            try:
+                chains = load_frame_chains(credentials, [v.id for v in problem.vehicles])
+                seed = load_frame_seed(credentials)
+            except CredentialsError as exc:
+                print(f"fleet_agent {vid}: {exc}", file=sys.stderr)
+                return 2
         fleet = Fleet.build(problem, config.fleet_key, mission.seed, config,  # initial plan
                             run_id=mission.run_id,  # the wire keys bind the run
-                            camera=None if reef is None else camera_figures(reef))
+                            camera=None if reef is None else camera_figures(reef),
+                            modem=modem.spec, chains=chains)
         clocked = threading.Event()
         threading.Thread(target=_announce_ready, args=(session, vid, auth, clocked),
                          name="ready", daemon=True).start()
         with session.liveliness().declare_token(keys.alive_key(vid)):
+            sync = ClockSync(session, auth, stop)  # the operator's clock, measured
             try:
-                record = fetch_clock(session, stop, mission_timeout_s, auth)
+                clock = sync.join(mission_timeout_s)
             finally:
                 clocked.set()
-            if record is None:
+            if clock is None:
                 return 0 if stop.is_set() else 3
-            clock, follower = clock_of(session, record, auth)  # noqa: F841  (kept alive)
+            sync.start()
+            mission_time.clock = clock
+            if port is None:
+                port = MicroModem(modem.name.partition(":")[2], hear, clock, rate=modem.rate)
             while clock.now() < 0 and not stop.is_set():
                 stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
             now = clock.now()
-            agent = Agent(fleet, problem.vehicle_index[vid], config, now, journal.records)
-            transport = ZenohTransport(session, vid, auth)
-            set_planning_hook(transport.planning)
+            agent = Agent(fleet, problem.vehicle_index[vid], config, now, journal.records, seed)
+            telemetry = ZenohTelemetry(session, vid, auth)
+            set_planning_hook(telemetry.planning)
             index = problem.vehicle_index[vid]
             vehicle = sim_vehicle(problem, index, seed=mission.seed, reef=reef, t_s=now,
                                   pos=agent.own.pos, odometer_m=agent.own.distance_m,
                                   navigation=navigation)
-            driver = AgentDriver(agent, vehicle, transport, journal, truth=vehicle.true_pose,
-                                 truth_period_s=config.truth_period_s)
+            driver = AgentDriver(agent, vehicle, port, telemetry, journal,
+                                 truth=vehicle.true_pose, truth_period_s=config.truth_period_s)
             start = f"restart, {len(journal.records)} records" if journal.records else "fresh"
             damage = journal.describe_damage()
             if damage:  # what the restart could not read, and where the evidence is
@@ -187,13 +244,17 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
             if journal.damage is not None:
                 agent.count("journal_damaged_bytes", journal.damage.damaged_bytes)
             ready(AGENT_READY, f"{vid} at t={now:.1f} s ({start})")
-            _loop(driver, inbox, clock, stop, auth)
-            driver.final_status(clock.now())
+            try:
+                _loop(driver, inbox, clock, stop, auth, sync)
+                driver.final_status(clock.now())
+            finally:
+                sync.close()
+                port.close()
     return 0
 
 
-def _loop(driver: AgentDriver, inbox: Inbox, clock: WarpClock, stop: threading.Event,
-          auth: BusAuth | None = None) -> None:
+def _loop(driver: AgentDriver, inbox: Inbox, clock: MissionClock, stop: threading.Event,
+          auth: BusAuth | None = None, sync: ClockSync | None = None) -> None:
     driver.tick(clock.now())
     while not stop.is_set():
         due = driver.next_wakeup()
@@ -203,7 +264,9 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: WarpClock, stop: threading.E
             kind, payload, wall = item
             at = clock.sim_of(wall)
             if kind == "rx":
-                driver.frame(payload, at)
+                driver.frame(payload, at)  # type: ignore[arg-type]
+            elif kind == "modem":
+                driver.agent.count(f"modem_{type(payload).__name__.lower()}")
             else:
                 try:
                     name = decode_command(payload)
@@ -222,6 +285,9 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: WarpClock, stop: threading.E
         if auth is not None:
             for reason, n in auth.verifier.take_refused().items():
                 driver.agent.count(f"drop_auth_{reason}", n)
+        steps = sync.take_wall_steps() if sync is not None else 0
+        if steps:  # this host's wall clock stepped: named in the status, nothing else
+            driver.agent.count("clock_wall_steps", steps)
         now = clock.now()
         driver.agent.note_lag(max(0.0, now - due))  # how late this host runs the mission
         driver.tick(now)

@@ -1,4 +1,4 @@
-"""The acoustic wire protocol, version 2: compact, quantised, versioned, authenticated frames.
+"""The acoustic wire protocol, version 3: compact, quantised, versioned, authenticated frames.
 
 Layout of every frame (fixed binary fields, big-endian; `docs/wire.md` has the full table)::
 
@@ -7,8 +7,10 @@ Layout of every frame (fixed binary fields, big-endian; `docs/wire.md` has the f
     bytes 2-5     seq: the send time in whole simulation seconds (uint32)
     byte 6        heard offset: the roster index of the first peer in the heard window
     next c bytes  heard codes, 2 bits each, for min(n, `HEARD_WINDOW`) peers from the offset
+    next 8        every kind but POSE: the sender's disclosed key of its previous cycle
     body          kind-specific fixed fields (`_BODY`), then a tail (id list, bitmap)
-    last 8        HMAC-SHA256 under the sender's run key, truncated to `MAC_BYTES`
+    next 4        the sender's own tag (`fleet_bus.tesla`: its chain key of the frame's cycle)
+    last 4        HMAC-SHA256 under the sender's run key over all before it (the fleet MAC)
 
 The sequence number is strictly increasing per sender (replay protection) and a timestamp at
 once, so no separate time field is needed: bumped by one when two frames would share a second.
@@ -18,14 +20,20 @@ long ago the sender last heard each peer of a window that rotates over the roste
 each sender whatever the fleet size. Positions are decimetres from the scenario's south-west
 corner (coarser only for fields wider than 6.5 km), depth in decimetres, yaw in whole degrees.
 Task ids travel as their index in the scenario (one byte for up to 256 spots, else two).
-Every frame is at most 64 bytes and a pose at most 32 (`Codec.max_size` gives the worst case of
-each kind; `encode` refuses anything larger).
+The frame budget is the modem's (`fleet_bus.modem_port.ModemSpec.max_frame_bytes`, 64 bytes
+on the emulated water): a claim carries as many ids and a cleared-set segment as many bits
+as it leaves room for, and a pose is at most 32 bytes whatever the budget (a WHOI
+Micro-Modem rate-0 frame). `Codec.max_size` gives the worst case of each kind; `encode`
+refuses anything larger, and a codec whose budget cannot carry a kind the mission needs is
+refused when it is made.
 
-Keys: the MAC key of sender ``s`` is derived from the fleet key, the run id and ``s``
-(`sender_key`), so a frame recorded in one run fails the MAC in every other run, and a frame
-cannot be re-attributed to another sender. Every vehicle holds the fleet key (it must verify
-everyone), so a vehicle's key material speaks for the whole fleet of that fleet key:
-`docs/wire.md` says what such an insider can still do and why nothing cheaper fits 64 bytes.
+Keys: the fleet MAC key of sender ``s`` is derived from the fleet key, the run id and ``s``
+(`sender_key`), so a frame recorded in one run fails the MAC in every other run; it keeps
+outsiders out at once. Every vehicle holds the fleet key (it must check everyone), so the
+fleet MAC cannot say which vehicle sent a frame: the sender's tag does, once the key of the
+frame's cycle is disclosed (`fleet_bus.tesla`, delayed key disclosure). `decode` checks the
+fleet MAC and returns what the tag check needs (`Sealed`); the agent holds the frame until
+then.
 """
 
 from __future__ import annotations
@@ -38,13 +46,18 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Callable, Sequence, Union
 
+from fleet_bus.tesla import tag as tesla_tag
 from hfc_core.model.problem import Problem
 
-VERSION = 2
-MAC_BYTES = 8  # 2^-64 per forged frame: online forging at acoustic rates is hopeless
+VERSION = 3
+FLEET_MAC_BYTES = 4  # 2^-32 per frame an outsider forges, each costing a slot of airtime
+TAG_BYTES = 4  # the sender's own tag (`fleet_bus.tesla`)
+KEY_BYTES = 8  # a disclosed chain key
+MAC_BYTES = FLEET_MAC_BYTES + TAG_BYTES
 HEADER_BYTES = 7  # version|kind, sender, seq (4), heard offset; the heard codes follow
-MAX_FRAME_BYTES = 64
+MAX_FRAME_BYTES = 64  # the emulated water's budget, the default (`fleet_bus.modem_port`)
 MAX_POSE_BYTES = 32
+MIN_FRAME_BYTES = 40  # a cleared segment of 64 spots with its disclosed key
 MAX_VEHICLES = 255  # the sender index is one byte
 MAX_TASKS = 65536  # a task id is at most two bytes
 MAX_SEQ = 2**32 - 1
@@ -52,9 +65,20 @@ MAX_SEQ = 2**32 - 1
 # receiver's clock than this is forged (an insider's way to push a sender's replay high-water
 # mark to the end of time and silence it); the agent drops it as "future".
 MAX_LEAD_S = 30
-SEGMENT_BITS = 320  # tasks covered by one cleared-set bitmap segment (40 bytes)
 HEARD_WINDOW = 16  # peers whose heard code one frame carries (4 bytes)
-MAX_ID_BYTES = 41  # room for task ids in a claim/release frame (64 - 23 bytes of the rest)
+# Around a claim's ids and a segment's bitmap: header 7, heard codes up to 4, a disclosed key
+# 8, MACs 8, and the claim's time (4) or the segment's count, hash and number (4, one byte
+# kept spare).
+CLAIM_OVERHEAD_BYTES = 31
+SEGMENT_OVERHEAD_BYTES = 32
+
+
+def segment_bits(max_frame_bytes: int) -> int:
+    """Spots one cleared-set segment covers in frames of ``max_frame_bytes`` (256 in 64)."""
+    return 8 * (max_frame_bytes - SEGMENT_OVERHEAD_BYTES)
+
+
+SEGMENT_BITS = segment_bits(MAX_FRAME_BYTES)
 # "heard" codes 0, 1, 2: the peer was heard at most this many heartbeat periods (TDMA cycles)
 # before the frame was sent; code 3: not within the last of them (or never).
 HEARD_AGES = (1, 2, 4)
@@ -101,6 +125,7 @@ class Kind(IntEnum):
     # sender, or a vehicle whose abort the sender heard: aborts spread epidemically)
     FOUND = 6  # a COTS aggregation the map missed: its slot, position, priority, injection
     # time, and the digest of the sender's finds (gossiped until digests agree)
+    KEY = 7  # nothing but the disclosed key: a sender with nothing else to say after a pose
 
 
 class WireError(ValueError):
@@ -164,7 +189,7 @@ class ClearedSegment:
     seq: int
     digest: Digest  # of the sender's whole set
     segment: int
-    bits: bytes  # bit i of byte j: task index segment * SEGMENT_BITS + 8 j + i
+    bits: bytes  # bit i of byte j: task index segment * segment_bits + 8 j + i
     heard: Heard = NO_HEARD
 
 
@@ -219,9 +244,29 @@ class Found:
     heard: Heard = NO_HEARD
 
 
-Message = Union[Pose, ClearedSegment, Claim, Release, Abort, Found]
+@dataclass(frozen=True)
+class Key:
+    """A frame that only discloses its sender's key of the previous cycle."""
+
+    sender: int
+    seq: int
+    heard: Heard = NO_HEARD
+
+
+Message = Union[Pose, ClearedSegment, Claim, Release, Abort, Found, Key]
 _KIND_OF = {Pose: Kind.POSE, ClearedSegment: Kind.CLEARED, Claim: Kind.CLAIM,
-            Release: Kind.RELEASE, Abort: Kind.ABORT, Found: Kind.FOUND}
+            Release: Kind.RELEASE, Abort: Kind.ABORT, Found: Kind.FOUND, Key: Kind.KEY}
+
+
+@dataclass(frozen=True)
+class Sealed:
+    """A frame whose fleet MAC checked: its message, and what its sender's tag covers (``data``),
+    the tag, and the key it discloses (None: a pose discloses none)."""
+
+    msg: Message
+    data: bytes
+    tag: bytes
+    disclosed: bytes | None
 MAX_TENTHS = 65535  # a find's priority and injection time travel as tenths in 16 bits
 
 
@@ -240,9 +285,10 @@ _BODY = {
     Kind.ABORT: struct.Struct(">IB"),  # abort time, the vehicle that aborted
     # finds' count, hash16, slot, x, y, z, priority and injection time in tenths
     Kind.FOUND: struct.Struct(">BHHHHhHH"),
+    Kind.KEY: struct.Struct(">"),  # nothing: the disclosed key is the frame
 }
 _HEAD = struct.Struct(">BBIB")  # version|kind, sender, seq, heard offset
-_MIN_BODY = 5  # the smallest body of any kind: an abort; a release of one spot
+_MIN_BODY = 0  # the smallest body of any kind: a KEY frame's
 
 
 class Codec:
@@ -250,7 +296,8 @@ class Codec:
 
     def __init__(self, key: bytes, run_id: str, n_vehicles: int, n_tasks: int,
                  origin_xy: tuple[float, float] = (0.0, 0.0), unit_m: float = 0.1,
-                 found_from: int | None = None) -> None:
+                 found_from: int | None = None,
+                 max_frame_bytes: int = MAX_FRAME_BYTES) -> None:
         if len(key) < 16:
             raise ValueError("fleet key must be at least 16 bytes")
         if not isinstance(run_id, str) or not run_id:
@@ -259,14 +306,20 @@ class Codec:
             raise ValueError(f"the wire format carries 1..{MAX_VEHICLES} vehicles")
         if not 0 <= n_tasks <= MAX_TASKS:
             raise ValueError(f"the wire format carries at most {MAX_TASKS} spots")
+        if not MIN_FRAME_BYTES <= max_frame_bytes <= 4096:
+            raise ValueError(f"the wire format needs frames of {MIN_FRAME_BYTES}..4096 bytes, "
+                             f"the modem carries {max_frame_bytes}")
         self.run_id = run_id
         self.n_vehicles = n_vehicles
         self.n_tasks = n_tasks
         self.origin_xy = (float(origin_xy[0]), float(origin_xy[1]))
         self.unit_m = float(unit_m)
+        self.max_frame_bytes = int(max_frame_bytes)
+        self.max_pose_bytes = min(MAX_POSE_BYTES, self.max_frame_bytes)
         self.id_width = 1 if n_tasks <= 256 else 2
-        self.max_ids = MAX_ID_BYTES // self.id_width
-        self.n_segments = max(1, math.ceil(n_tasks / SEGMENT_BITS))
+        self.max_ids = (self.max_frame_bytes - CLAIM_OVERHEAD_BYTES) // self.id_width
+        self.segment_bits = segment_bits(self.max_frame_bytes)
+        self.n_segments = max(1, math.ceil(n_tasks / self.segment_bits))
         # FOUND frames name slots found_from..n_tasks-1 (None: a mission without discovery)
         self.found_from = n_tasks if found_from is None else int(found_from)
         self.window = heard_window(n_vehicles)
@@ -275,23 +328,44 @@ class Codec:
         # per frame).
         self._macs = [hmac.new(sender_key(key, run_id, s), digestmod=hashlib.sha256)
                       for s in range(n_vehicles)]
+        kinds = [k for k in Kind if (k != Kind.FOUND or self.found_from < n_tasks)
+                 and (k not in (Kind.CLAIM, Kind.RELEASE) or n_tasks > 0)]
+        too_big = [k.name for k in kinds if len(self._pack(self.largest(k))) >
+                   (self.max_pose_bytes if k == Kind.POSE else self.max_frame_bytes)]
+        if too_big:
+            raise ValueError(f"frames of {self.max_frame_bytes} bytes cannot carry "
+                             f"{', '.join(too_big)} frames of this mission: use a modem (rate) "
+                             "with larger frames")
 
     @staticmethod
     def for_problem(problem: Problem, key: bytes, run_id: str, margin_m: float = 100.0,
-                    found_from: int | None = None) -> "Codec":
+                    found_from: int | None = None,
+                    max_frame_bytes: int = MAX_FRAME_BYTES) -> "Codec":
         """Origin at the south-west corner of everything in the scenario (``margin_m``
         margin: wider in dynamic missions, where finds may lie off the map); decimetres unless
-        the field is wider than 6.5 km."""
+        the field is wider than 6.5 km; frames of the modem's ``max_frame_bytes``."""
         xy = problem.xyz[:, :2]
         lo = xy.min(axis=0) - margin_m
         span = float((xy.max(axis=0) + margin_m - lo).max())
         unit = max(0.1, span / 65535.0)
         return Codec(key, run_id, problem.n_vehicles, problem.n_tasks,
-                     (float(lo[0]), float(lo[1])), unit, found_from)
+                     (float(lo[0]), float(lo[1])), unit, found_from, max_frame_bytes)
 
     # -- encoding --------------------------------------------------------------------------
 
-    def encode(self, msg: Message) -> bytes:
+    def encode(self, msg: Message, chain_key: bytes = bytes(KEY_BYTES),
+               disclosed: bytes = bytes(KEY_BYTES)) -> bytes:
+        """The frame of ``msg``: tagged under the sender's ``chain_key`` of the frame's cycle,
+        disclosing ``disclosed`` (its key of the cycle before; ignored for a pose)."""
+        frame = self._pack(msg, chain_key, disclosed)
+        kind = _KIND_OF[type(msg)]
+        limit = self.max_pose_bytes if kind == Kind.POSE else self.max_frame_bytes
+        if len(frame) > limit:
+            raise WireSizeError(f"{kind.name} frame of {len(frame)} bytes exceeds {limit}")
+        return frame
+
+    def _pack(self, msg: Message, chain_key: bytes = bytes(KEY_BYTES),
+              disclosed: bytes = bytes(KEY_BYTES)) -> bytes:
         kind = _KIND_OF[type(msg)]
         if not 0 <= msg.sender < self.n_vehicles:
             raise ValueError(f"sender index {msg.sender} outside the roster")
@@ -299,12 +373,13 @@ class Codec:
             raise ValueError(f"sequence number {msg.seq} out of range")
         head = _HEAD.pack((VERSION << 4) | int(kind), msg.sender, msg.seq,
                           self._check_heard(msg.heard)) + self._pack_codes(msg.heard.codes)
+        if kind != Kind.POSE:
+            if len(disclosed) != KEY_BYTES:
+                raise ValueError(f"a disclosed key is {KEY_BYTES} bytes")
+            head += bytes(disclosed)
         data = head + self._body(kind, msg)
-        frame = data + self._mac(msg.sender, data)
-        limit = MAX_POSE_BYTES if kind == Kind.POSE else MAX_FRAME_BYTES
-        if len(frame) > limit:
-            raise WireSizeError(f"{kind.name} frame of {len(frame)} bytes exceeds {limit}")
-        return frame
+        data += tesla_tag(chain_key, data)
+        return data + self._mac(msg.sender, data)
 
     def _check_heard(self, heard: Heard) -> int:
         if not 0 <= heard.offset < self.n_vehicles:
@@ -341,6 +416,8 @@ class Codec:
             if not 0 <= msg.t_s <= msg.seq:
                 raise ValueError("claim time out of range (after the frame was sent)")
             return fmt.pack(msg.t_s) + self._pack_ids(msg.tasks)
+        if isinstance(msg, Key):
+            return b""
         if isinstance(msg, Found):
             if not 0 <= msg.slot < self.n_tasks:  # decode also checks it is a find's slot
                 raise ValueError(f"find slot {msg.slot} outside the scenario")
@@ -375,18 +452,22 @@ class Codec:
         return bytes(out)
 
     def _segment_bytes(self, segment: int) -> int:
-        bits = min(SEGMENT_BITS, self.n_tasks - segment * SEGMENT_BITS)
+        bits = min(self.segment_bits, self.n_tasks - segment * self.segment_bits)
         return max(1, math.ceil(bits / 8))
 
     def _mac(self, sender: int, data: bytes) -> bytes:
         h = self._macs[sender].copy()
         h.update(data)
-        return h.digest()[:MAC_BYTES]
+        return h.digest()[:FLEET_MAC_BYTES]
 
     # -- decoding --------------------------------------------------------------------------
 
     def decode(self, frame: bytes) -> Message:
-        """The message in ``frame``, or `WireError` naming why it was refused.
+        """The message in ``frame`` (fleet MAC checked), or `WireError` naming why not."""
+        return self.unseal(frame).msg
+
+    def unseal(self, frame: bytes) -> Sealed:
+        """The frame with its fleet MAC checked, or `WireError` naming why it was refused.
 
         Only the first two bytes are looked at before the MAC is checked: nothing
         unauthenticated reaches the field parser."""
@@ -394,7 +475,7 @@ class Codec:
         head_len = HEADER_BYTES + self.code_bytes
         if len(frame) < 2:
             raise WireError("short", f"{len(frame)} bytes")
-        if len(frame) > MAX_FRAME_BYTES:
+        if len(frame) > self.max_frame_bytes:
             raise WireError("long", f"{len(frame)} bytes")
         version, kind_no, sender = frame[0] >> 4, frame[0] & 0x0F, frame[1]
         if version != VERSION:  # before the length: an old frame counts as old, whatever size
@@ -405,19 +486,23 @@ class Codec:
             raise WireError("kind", str(kind_no)) from None
         if sender >= self.n_vehicles:
             raise WireError("sender", str(sender))
-        if len(frame) < head_len + _MIN_BODY + MAC_BYTES:
+        key_len = 0 if kind == Kind.POSE else KEY_BYTES
+        if len(frame) < head_len + key_len + _MIN_BODY + MAC_BYTES:
             raise WireError("short", f"{len(frame)} bytes")
-        if not hmac.compare_digest(self._mac(sender, frame[:-MAC_BYTES]), frame[-MAC_BYTES:]):
+        signed = frame[:-FLEET_MAC_BYTES]
+        if not hmac.compare_digest(self._mac(sender, signed), frame[-FLEET_MAC_BYTES:]):
             raise WireError("mac")
         _, _, seq, offset = _HEAD.unpack_from(frame)
         if offset >= self.n_vehicles:
             raise WireError("malformed", "heard offset outside the roster")
         heard = Heard(offset, self._unpack_codes(frame[HEADER_BYTES:head_len]))
-        body = frame[head_len:-MAC_BYTES]
+        disclosed = frame[head_len:head_len + key_len] if key_len else None
+        body = frame[head_len + key_len:-MAC_BYTES]
         fmt = _BODY[kind]
         if len(body) < fmt.size:
             raise WireError("malformed", "body too short")
-        return _PARSE[kind](self, sender, seq, heard, fmt.unpack_from(body), body[fmt.size:])
+        msg = _PARSE[kind](self, sender, seq, heard, fmt.unpack_from(body), body[fmt.size:])
+        return Sealed(msg, signed[:-TAG_BYTES], signed[-TAG_BYTES:], disclosed)
 
     def _unpack_codes(self, raw: bytes) -> tuple[int, ...]:
         codes = [b >> (2 * j) & 3 for b in raw for j in range(4)]
@@ -459,6 +544,11 @@ class Codec:
             raise WireError("malformed", "abort out of range")
         return Abort(sender, seq, t_s, heard, None if who == sender else who)
 
+    def _key(self, sender: int, seq: int, heard: Heard, f: tuple, tail: bytes) -> Key:
+        if tail:
+            raise WireError("malformed", "a key frame carries nothing else")
+        return Key(sender, seq, heard)
+
     def _found(self, sender: int, seq: int, heard: Heard, f: tuple, tail: bytes) -> Found:
         count, h16, slot, x, y, z, prio, service = f
         if tail or not (count < 128 and self.found_from <= slot < self.n_tasks):
@@ -488,6 +578,8 @@ class Codec:
         if kind == Kind.FOUND:
             return Found(top, MAX_SEQ, digest, self.n_tasks - 1, far, MAX_TENTHS / 10,
                          MAX_TENTHS / 10, heard)
+        if kind == Kind.KEY:
+            return Key(top, MAX_SEQ, heard)
         return Abort(top, MAX_SEQ, MAX_SEQ, heard, top - 1 if top else None)
 
     def max_size(self, kind: Kind) -> int:
@@ -502,4 +594,5 @@ _PARSE: dict[Kind, Callable[..., Message]] = {
     Kind.RELEASE: lambda c, *a: c._holding(Release, *a),
     Kind.ABORT: Codec._abort,
     Kind.FOUND: Codec._found,
+    Kind.KEY: Codec._key,
 }

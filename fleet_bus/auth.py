@@ -18,6 +18,11 @@ and clock records and controls the link; vehicle X alone speaks on ``fleet/<kind
 relay alone delivers (``fleet/rx``), reports link fates and serves link stats. A receiver
 refuses an envelope whose signer is not allowed on its key, and counts every refusal by reason.
 
+Queries are signed too (`seal_query`, `open_query`): the envelope rides as the query's
+attachment, under the signing key ``fleet/query/<signer>`` (anyone of the ring, for itself
+only) over the key asked and a nonce, so a queryable knows who asks and can ration each
+asker (`fleet_bus.query_limits`).
+
 The private keys never travel on the bus: the launcher writes a run's credentials
 (`fleet_bus.credentials`) and hands each process its own key file.
 """
@@ -46,6 +51,7 @@ REPLAY_WINDOW = 4096  # counters this far below a signer's highest are still acc
 OPERATOR, VEHICLE, RELAY = "operator", "vehicle", "relay"
 ROLES = (OPERATOR, VEHICLE, RELAY)
 OPERATOR_ID, RELAY_ID = "operator", "relay"
+QUERY_KIND = "query"  # the signing key of a query: fleet/query/<signer> (never on the bus)
 
 # Why an envelope was refused (the counters every receiver keeps).
 REFUSALS = ("malformed", "unknown_signer", "not_allowed", "bad_signature", "replay", "invalid")
@@ -71,6 +77,8 @@ def allowed(key: str, signer: str, role: str) -> bool:
         kind = keys.kind_of(key)
     except ValueError:
         return False
+    if kind == QUERY_KIND:  # every member signs its own queries, and only its own
+        return keys.vid_of(key) == signer
     need = _KIND_ROLE.get(kind)
     if need is None or need != role:
         return False
@@ -232,6 +240,48 @@ class BusAuth:
             return self.verifier.open(key, envelope)[1]
         except Refused:
             return None
+
+
+def query_key(signer: str) -> str:
+    """The key a query by ``signer`` is signed under (a signing domain, not a bus key)."""
+    return f"{keys.PREFIX}/{QUERY_KIND}/{signer}"
+
+
+def _query_payload(key: str, nonce: str) -> bytes:
+    return key.encode() + b"?" + nonce.encode()
+
+
+def signer_of(envelope: bytes) -> str | None:
+    """The signer an envelope names, unchecked (to choose whose allowance to look at before
+    paying for its signature); None for anything that is not an envelope."""
+    if len(envelope) < MIN_ENVELOPE or not envelope.startswith(MAGIC):
+        return None
+    n = envelope[len(MAGIC)]
+    try:
+        return envelope[len(MAGIC) + 1:len(MAGIC) + 1 + n].decode() or None
+    except UnicodeDecodeError:
+        return None
+
+
+def seal_query(auth: BusAuth | None, key: str, nonce: str) -> bytes | None:
+    """The attachment of a signed query of ``key`` (``nonce`` in its parameters), or None for
+    a process that holds no signing key (its queries go unsigned)."""
+    if auth is None or auth.signer is None:
+        return None
+    return auth.signer.seal(query_key(auth.signer.id), _query_payload(key, nonce))
+
+
+def open_query(auth: BusAuth, key: str, nonce: str, attachment: bytes) -> str:
+    """Who signed this query of ``key``; raises `Refused` (counted) if no one did."""
+    signer = signer_of(attachment)
+    if signer is None:
+        auth.verifier.refuse("malformed")
+        raise Refused("malformed", "query attachment")
+    who, payload = auth.open(query_key(signer), attachment)
+    if payload != _query_payload(key, nonce):
+        auth.verifier.refuse("invalid")
+        raise Refused("invalid", "query signed for another key or nonce")
+    return who
 
 
 def seal(auth: BusAuth | None, key: str, payload: bytes) -> bytes:

@@ -148,10 +148,20 @@ def write_reports(report: dict[str, Any], path: Path, events: Sequence[Event],
     from cotsfleet.reporting import write_report_bundle
     from cotsfleet.reporting.markdown import warnings
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(report, indent=2), encoding="utf-8")
-    bundle = write_report_bundle(report, path.parent, list(events), scenario)
-    print(format_report(report))
+    print(format_report(report))  # first: the terminal keeps it whatever the disk does
     for line in warnings(report):
         print(f"warning: {line}")
+    try:  # a full disk: report.json first (the whole record), the figures after
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(report, indent=2), encoding="utf-8")
+    except OSError as exc:
+        print(f"report: {path} could not be written ({exc}); the summary above is what was "
+              "saved", file=sys.stderr)
+        return
+    try:
+        bundle = write_report_bundle(report, path.parent, list(events), scenario)
+    except OSError as exc:
+        print(f"report: {path}; report.md and its figures could not be written ({exc})",
+              file=sys.stderr)
+        return
     print(f"report: {path} and {bundle[0]}")

@@ -38,8 +38,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--credentials", type=Path, metavar="DIR",
                    help="credentials made beforehand with `cotsfleet credentials DIR` "
                    "(default: fresh ones in the run dir)")
-    p.add_argument("--startup-timeout", type=float, default=90.0, metavar="S",
-                   help="wall seconds to wait for every agent to be ready (default 90)")
+    p.add_argument("--startup-timeout", type=float, metavar="S",
+                   help="wall seconds to wait for every agent to be ready (default: by fleet "
+                   "size, 90 s up to 6 vehicles, 146 s for 12, 406 s for 24)")
     p.add_argument("--hold-viewer", action=argparse.BooleanOptionalAction,
                    help="keep the web dashboard up after the mission until Ctrl-C "
                    "(default: yes for --viewer web in an interactive terminal)")
@@ -116,8 +117,10 @@ def run(args: argparse.Namespace) -> int:
 
 def run_warnings(report: dict) -> list[str]:
     """What an operator must not miss in a finished run: false alarms (a vehicle declared
-    lost that was alive: its spots were taken, maybe twice) and a clock that had to slow
-    down (the machine could not keep up with the warp asked for)."""
+    lost that was alive: its spots were taken, maybe twice), a clock that had to slow
+    down (the machine could not keep up with the warp asked for), hosts whose wall clock
+    stepped, holds that ran out, processes that died and what was done, and an event log
+    a full disk cut short."""
     out = []
     false = report.get("fleet", {}).get("false_alarms", 0)
     if false:
@@ -131,6 +134,20 @@ def run_warnings(report: dict) -> list[str]:
         out.append(f"the machine could not keep up with warp {clock['warp']:g}: the clock "
                    f"slowed to {slowest:g}{back} (effective {clock['effective_warp']}); "
                    f"worst lag {clock['max_lag_s']} s")
+    for step_host, steps in (clock.get("wall_steps") or {}).items():
+        out.append(f"the wall clock of {step_host}'s host stepped {steps} time(s); mission "
+                   "time runs on the monotonic clock and did not move")
+    if clock.get("holds_expired"):
+        out.append(f"planning holds ran out of their allowance: {clock['holds_expired']} "
+                   f"(busy flags refused meanwhile: {clock.get('holds_refused', {})})")
+    done = {"restart": "started again", "vehicle": "its vehicle was lost to the fleet",
+            "report": "not started again", "end": "the mission ended"}
+    for c in report.get("crashes") or ():
+        out.append(f"t={c['t_s']:g} s: {c['why']} ({done.get(c['action'], c['action'])})")
+    saved = report.get("saved") or {}
+    if saved.get("events_error"):
+        out.append(f"events.jsonl holds {saved['events']} of {saved['events_total']} events: "
+                   f"{saved['events_error']}")
     if clock.get("slots_late"):
         out.append(f"{clock['slots_late']} frame(s) left a host after their TDMA slot; they "
                    "were dated at the slot and the relay placed them there")

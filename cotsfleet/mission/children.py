@@ -7,11 +7,17 @@ kept for the error a mission ends with. Each knows the launcher's pid
 (``COTSFLEET_PARENT_PID``) and ends by itself if the launcher dies (`fleet_bus.process`);
 every process group ever started is listed in ``pids.json`` for whoever must clean up after
 a crash. A child is stopped gently (SIGTERM), then firmly (SIGKILL) after a grace period; one
-that ends without being told to is reported once (`ended_untold`).
+that ends without being told to is reported once (`ended_untold`), with its last lines, and
+can be started again as it was (`restart`).
+
+A full disk stops none of this: a log that can no longer be written is given up (its lines
+are still kept here, and the pipe is still read, so the child never blocks on it), and so is
+``pids.json``; `why` recognises a child that died of the full disk.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import signal
@@ -21,7 +27,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable, Mapping, Sequence
 
 from cotsfleet.mission.runner import MissionStopped
 
@@ -41,6 +47,11 @@ class Child:
     lines: list[str] = field(default_factory=list)
     expected_exit: bool = False  # we stopped or killed it
     pump: threading.Thread | None = None  # copies its output to the log
+    argv: tuple[str, ...] = ()  # how it was started (`Children.restart`)
+    ready_prefix: str | None = None
+    echo: bool = False
+    env: Mapping[str, str] = field(default_factory=dict)
+    log_error: str = ""  # why its log could not be written (a full disk), if it could not
 
     def tail(self, n: int = 5) -> str:
         """Its last ``n`` lines of output (all of them, once it has ended: the pump is given
@@ -48,6 +59,14 @@ class Child:
         if self.pump is not None and self.popen.poll() is not None:
             self.pump.join(DRAIN_S)
         return " | ".join(self.lines[-n:])
+
+    def why(self) -> str:
+        """How it ended, with its last lines; a full disk is named as such."""
+        code = self.popen.returncode
+        tail = self.tail()
+        full = "No space left on device" in tail or f"Errno {errno.ENOSPC}" in tail
+        cause = " (its disk is full)" if full else ""
+        return f"{self.name} exited with {code}{cause}: {tail}"
 
     def signal_group(self, sig: int) -> None:
         """``sig`` to the child's process group, if it still exists."""
@@ -68,21 +87,34 @@ class Children:
         self._pids: dict[str, list[int]] = {}
 
     def spawn(self, name: str, argv: Sequence[str], ready_prefix: str | None = None,
-              echo: bool = False) -> Child:
+              echo: bool = False, env: Mapping[str, str] | None = None) -> Child:
         """Start ``python argv`` as ``name``; its ``ready`` is set when it prints a line
-        starting with ``ready_prefix``; ``echo`` also passes its output to the user."""
-        log = open(self.run_dir / f"{name}.log", "ab")
+        starting with ``ready_prefix``; ``echo`` also passes its output to the user; ``env``
+        is added to its environment (fault injection: e.g. a wall clock that steps)."""
+        log_error = ""
+        try:
+            log = open(self.run_dir / f"{name}.log", "ab")
+        except OSError as exc:  # a full disk: the child runs all the same
+            log, log_error = None, str(exc)
         popen = subprocess.Popen(
             [sys.executable, *argv], stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, start_new_session=True,
-            env={**os.environ, "PYTHONUNBUFFERED": "1", "COTSFLEET_PARENT_PID": str(os.getpid())})
-        child = Child(name, popen)
+            env={**os.environ, **(env or {}), "PYTHONUNBUFFERED": "1",
+                 "COTSFLEET_PARENT_PID": str(os.getpid())})
+        child = Child(name, popen, argv=tuple(argv), ready_prefix=ready_prefix, echo=echo,
+                      env=dict(env or {}), log_error=log_error)
 
         def pump() -> None:  # copy output to the log, watch for the ready line
+            nonlocal log
             assert popen.stdout is not None
             for raw in popen.stdout:
-                log.write(raw)
-                log.flush()
+                if log is not None:
+                    try:
+                        log.write(raw)
+                        log.flush()
+                    except OSError as exc:  # keep reading the pipe: the child must not block
+                        child.log_error = str(exc)
+                        log = _close_quietly(log)
                 line = raw.decode(errors="replace").rstrip()
                 child.lines.append(line)
                 del child.lines[:-LOG_LINES]
@@ -90,14 +122,22 @@ class Children:
                     self.out(line)
                 if ready_prefix and line.startswith(ready_prefix):
                     child.ready.set()
-            log.close()
+            _close_quietly(log)
 
         child.pump = threading.Thread(target=pump, name=f"pump-{name}", daemon=True)
         child.pump.start()
         self.by_name[name] = child
         self._pids.setdefault(name, []).append(popen.pid)
-        (self.run_dir / "pids.json").write_text(json.dumps(self._pids), encoding="utf-8")
+        try:
+            (self.run_dir / "pids.json").write_text(json.dumps(self._pids), encoding="utf-8")
+        except OSError:  # a full disk: the pids are still in `by_name` for our own cleanup
+            pass
         return child
+
+    def restart(self, child: Child, argv: Sequence[str] | None = None) -> Child:
+        """``child`` started again as it was (or with ``argv``), under the same name."""
+        return self.spawn(child.name, child.argv if argv is None else argv, child.ready_prefix,
+                          child.echo, child.env)
 
     def wait_ready(self, child: Child) -> None:
         """Until ``child`` printed its ready line; `ChildExited` or `TimeoutError` if not."""
@@ -139,3 +179,12 @@ class Children:
                 c.expected_exit = True
                 return c
         return None
+
+
+def _close_quietly(log: object) -> None:
+    """Close a log file whose last flush may fail (a full disk); returns None."""
+    try:
+        log.close()  # type: ignore[attr-defined]
+    except (OSError, AttributeError):
+        pass
+    return None

@@ -1,20 +1,29 @@
 """The operator's hand on the shared clock of a multi-process mission.
 
-The launcher owns the mission clock (`fleet_bus.clock.WarpClock`) and serves it as a signed
-record on ``fleet/clock``; every process follows the newest record. Two rules change its
-pace, both from `cotsfleet.mission.pacing` (pure), applied here:
+The launcher owns the mission clock (`fleet_bus.clock.MissionClock` on its own monotonic
+clock: the fleet's reference) and serves it as a signed record on ``fleet/clock``, timing
+each answer so that every process can measure its offset from the reference
+(`fleet_bus.mission.ClockSync`); every process follows the newest record. Two rules change
+its pace, both from `cotsfleet.mission.pacing` (pure), applied here:
 
 - **Pace** (`pace`): a vehicle whose host stays behind the clock (`LagWatch`) slows it to
   the warp that host can keep (`slower_warp`), at most once per `SLOW_HOLD_WALL_S` (the
   statuses must show the new pace first) and never below `MIN_WARP`; after a calm spell it
   speeds up again, a step at a time, towards the requested warp (`faster_warp`).
 - **Holds** (`busy`): while any agent runs its planner (`fleet/busy/<id>`), the clock runs
-  at `HOLD_WARP` and gets its warp back after (`Holds`); pacing waits while a hold stands,
-  since an agent's lateness while it plans is not the machine's pace.
+  at `HOLD_WARP` and gets its warp back after (`Holds`: rationed per vehicle, whatever its
+  flag says); pacing waits while a hold stands, since an agent's lateness while it plans is
+  not the machine's pace.
+
+It also names the hosts whose wall clock stepped (the operator's own, `WallWatch`, and each
+vehicle's, from the ``clock_wall_steps`` counter of its statuses): a line in the log and the
+report's ``clock.wall_steps``; mission time never reads a wall clock, so that is all a step
+does.
 
 The main loop paces and the bus callbacks hold, on different threads: both change the clock
-under one lock. Wall time is injected (``wall``, for the hold and pace timers), as is what
-puts a new record on the bus (``publish``), so the rules run in tests without a bus.
+under one lock. The monotonic clock is injected (``wall``: the reference, and the hold and
+pace timers) and so is the wall clock (``unix``: dates only), as is what puts a new record
+on the bus (``publish``), so the rules run in tests without a bus.
 """
 
 from __future__ import annotations
@@ -24,12 +33,14 @@ import time
 from typing import Any, Callable, Iterable
 
 from cotsfleet.mission.pacing import HOLD_WARP, Holds, LagWatch, faster_warp, slower_warp
-from fleet_bus.clock import WarpClock
-from fleet_bus.mission import ClockRecord
+from fleet_bus.clock import MissionClock, WallWatch
+from fleet_bus.mission import ClockRecord, answer_clock
 from fleet_bus.telemetry import Status
 
 SLOW_HOLD_WALL_S = 2.0  # wall seconds between two changes of pace
 MIN_WARP = 1.0
+START_DELAY_S = 1.0  # mission time 0 this long after the clock is first served
+WALL_STEPS = "clock_wall_steps"  # the agents' status counter of their host's wall-clock steps
 
 
 class ClockControl:
@@ -42,26 +53,38 @@ class ClockControl:
                  unix: Callable[[], float] = time.time) -> None:
         self.requested = requested_warp
         self._publish, self._out, self._wall, self._unix = publish, out, wall, unix
-        self.clock: WarpClock | None = None
+        self.clock: MissionClock | None = None
         self.record = b""  # the current clock record (unsigned payload), served on fleet/clock
-        self._epoch0 = 0.0  # unix time of mission time 0 (for the effective warp)
+        self._epoch0 = 0.0  # reference time of mission time 0 (for the effective warp)
+        self._unix_gap = 0.0  # wall - monotonic when the clock started: the records' dates
+        self.watch = WallWatch(wall, unix)  # the operator's own wall clock
+        self.wall_steps: dict[str, int] = {}  # host (vehicle id, "operator") -> steps seen
         self.slowdowns: list[dict[str, float]] = []
         self.speedups: list[dict[str, float]] = []  # back up after a calm spell
         self.lag_watch = LagWatch(bound_s)
         self.holds = Holds()
         self._held_warp: float | None = None  # the warp to give back after the hold
         self._next_change_wall = 0.0
+        self._expired_seen = 0
         self._lock = threading.Lock()
 
-    def start(self, epoch_unix: float) -> WarpClock:
-        """The mission clock: mission time 0 at ``epoch_unix``, at the requested warp (held at
-        once if an agent already plans)."""
+    def start(self, delay_s: float = START_DELAY_S) -> MissionClock:
+        """The mission clock: mission time 0 ``delay_s`` from now, at the requested warp
+        (held at once if an agent already plans)."""
         with self._lock:
-            self.record = ClockRecord(epoch_unix, self.requested).encode()
-            self._epoch0 = epoch_unix
-            self.clock = WarpClock(epoch_unix, self.requested, wall=self._unix)
+            self._unix_gap = self._unix() - self._wall()
+            self._epoch0 = self._wall() + delay_s
+            self.clock = MissionClock(self._epoch0, self.requested, mono=self._wall,
+                                      wall=self._unix, epoch_unix=self._epoch0 + self._unix_gap)
+            self.record = self._record()
             self._apply_hold()
             return self.clock
+
+    def answer(self, parameters: str) -> bytes:
+        """The answer to a query of ``fleet/clock`` (unsigned payload): the newest record,
+        timed on the reference clock for the asker's offset (`ClockSync`)."""
+        received = self._wall()
+        return answer_clock(self.record, parameters, received, self._wall)
 
     @property
     def held(self) -> bool:
@@ -75,6 +98,9 @@ class ClockControl:
         with self._lock:  # a hold's end restarts the watch (`busy`, another thread)
             for s in statuses:
                 self.lag_watch.see(s.id, s.t_s, s.lag_s)
+                self._see_steps(s.id, s.counters.get(WALL_STEPS, 0))
+            if self.watch.check() is not None:
+                self._see_steps("operator", self.watch.steps, self.watch.last_step_s)
             self._apply_hold()  # holds expire
             if self._held_warp is None:
                 self._pace_step()
@@ -92,12 +118,25 @@ class ClockControl:
         clock = self.clock
         if clock is None:
             return {"warp": self.requested}
-        wall = self._unix() - self._epoch0
+        wall = self._wall() - self._epoch0
         return {"warp": self.requested, "final_warp": round(clock.warp, 2),
                 "effective_warp": round(clock.now() / wall, 2) if wall > 0 else None,
                 "slowdowns": self.slowdowns, "speedups": self.speedups,
                 "max_lag_s": round(self.lag_watch.max_lag_s, 2),
-                "holds": self.holds.count, "held_wall_s": round(self.holds.held_wall_s, 2)}
+                "holds": self.holds.count, "held_wall_s": round(self.holds.held_wall_s, 2),
+                "holds_expired": dict(self.holds.expired),
+                "holds_refused": dict(self.holds.refused),
+                "wall_steps": dict(self.wall_steps)}
+
+    def _see_steps(self, host: str, steps: int, step_s: float | None = None) -> None:
+        """A host's count of wall-clock steps; a new one is named in the log."""
+        if not isinstance(steps, int) or steps <= self.wall_steps.get(host, 0):
+            return
+        self.wall_steps[host] = steps
+        size = f" by {step_s:+.1f} s" if step_s is not None else ""
+        when = f"t={self.clock.now():.0f} s: " if self.clock is not None else ""
+        self._out(f"{when}the wall clock of {host}'s host stepped{size} ({steps} step(s) so "
+                  "far); mission time runs on the monotonic clock and is unaffected")
 
     def _pace_step(self) -> None:
         clock = self.clock
@@ -128,6 +167,11 @@ class ClockControl:
         if clock is None:
             return
         self.holds.refresh(self._wall())
+        expired = sum(self.holds.expired.values())
+        if expired > self._expired_seen:
+            self._expired_seen = expired
+            self._out(f"t={clock.now():.0f} s: a planning hold ran out of its allowance "
+                      f"(expired so far: {dict(self.holds.expired)}); the clock goes on")
         if self.holds.held and self._held_warp is None:
             self._held_warp = clock.warp
             if clock.warp > HOLD_WARP:
@@ -143,6 +187,12 @@ class ClockControl:
         time (`WarpClock.at_warp`), followed here and put on the bus for every process."""
         assert self.clock is not None
         epoch, warp, seq = self.clock.at_warp(warp)
-        self.clock.follow(epoch, warp, seq)
-        self.record = ClockRecord(epoch, warp, seq).encode()
+        self.clock.follow(epoch, warp, seq, epoch + self._unix_gap)
+        self.record = self._record()
         self._publish(self.record)
+
+    def _record(self) -> bytes:
+        clock = self.clock
+        assert clock is not None
+        return ClockRecord(clock.epoch_unix, clock.warp, clock.seq, clock.epoch_ref,
+                           self.holds.holders).encode()

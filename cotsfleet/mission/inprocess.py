@@ -37,6 +37,7 @@ from fleet_agent.plans import Live, Planner
 from fleet_agent.routing import fit_route
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition
+from fleet_bus.modem_port import WATER_SPEC
 from fleet_bus.telemetry import Event, Status, Truth
 from hfc_core.model.problem import Problem
 from reef_sim.navigation import NavigationParams
@@ -65,14 +66,28 @@ class Seat:
         return None if self.driver is None else self.driver.agent
 
 
-class _SeatTransport:
-    """A seat's radio and telemetry: frames into the network, telemetry into the ledger."""
+class _SeatModem:
+    """A seat's modem on the emulated water: its frames into the in-process network (the
+    deliveries come back through `InProcessBackend._deliver`)."""
+
+    spec = WATER_SPEC
 
     def __init__(self, backend: "InProcessBackend", seat: Seat) -> None:
         self.backend, self.seat = backend, seat
 
-    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
-        self.backend.net.send(self.seat.vid, frame, kind, sent_s)
+    def transmit(self, frames: Sequence[bytes], kind: str, sent_s: float | None = None) -> None:
+        for frame in frames:
+            self.backend.net.send(self.seat.vid, frame, kind, sent_s)
+
+    def close(self) -> None:
+        pass  # the seat stays in the water: a restarted agent takes it again
+
+
+class _SeatTelemetry:
+    """A seat's telemetry: truths place it in the channel, the rest goes to the ledger."""
+
+    def __init__(self, backend: "InProcessBackend", seat: Seat) -> None:
+        self.backend, self.seat = backend, seat
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
         if topic == "truth":  # where the vehicle is, for the channel: as the relay learns it
@@ -198,7 +213,8 @@ class InProcessBackend:
         vehicle = sim_vehicle(self.problem, index, seed=self.seed, reef=self.reef, t_s=now,
                               pos=agent.own.pos, odometer_m=agent.own.distance_m,
                               navigation=self.navigation)
-        seat.driver = AgentDriver(agent, vehicle, _SeatTransport(self, seat), journal,
+        seat.driver = AgentDriver(agent, vehicle, _SeatModem(self, seat),
+                                  _SeatTelemetry(self, seat), journal,
                                   truth=vehicle.true_pose,
                                   truth_period_s=self.config.truth_period_s,
                                   tap=None if self.tap is None else

@@ -91,7 +91,8 @@ class LagWatch:
 
 
 HOLD_WARP = 2.0  # the shared clock's pace while an agent plans (mission s per wall s)
-HOLD_EXPIRE_WALL_S = 10.0  # a hold not released this long after it began is dropped
+HOLD_LIMIT_WALL_S = 10.0  # a vehicle's hold allowance: no hold lasts longer
+HOLD_REFILL_SHARE = 0.25  # the allowance refills by this many seconds per second not held
 
 
 @dataclass
@@ -100,20 +101,39 @@ class Holds:
     time of the start. While any is, the operator runs the shared clock at `HOLD_WARP`:
     a planner burst then costs almost no mission time, as in the in-process simulation, and
     a vehicle is never silent for a whole suspicion window because its host was computing.
-    A hold older than ``expire_wall_s`` is dropped (a process that died mid-plan, or an end
-    lost on the bus), so a hold can slow the mission but never stop it."""
 
-    expire_wall_s: float = HOLD_EXPIRE_WALL_S
-    _since: dict[str, float] = field(default_factory=dict)
+    A hold is rationed per vehicle, whatever its ``busy`` flag says: each vehicle has an
+    allowance of ``limit_wall_s`` hold-seconds, spent while it holds and refilled at
+    ``refill_share`` per second while it does not (a token bucket of seconds). A hold that
+    spends it expires (counted in ``expired``: a process that died mid-plan, an end lost on
+    the bus, an insider's ``busy`` repeated every few seconds), and the vehicle cools down
+    until its allowance is full again (40 s): a ``busy`` meanwhile is refused (``refused``).
+    Renewing a standing hold does not extend it. So a hold can slow the mission but never
+    stop it, and one vehicle can hold the clock for at most a fifth of the wall time in the
+    long run (``share / (1 + share)``); a planner's bursts, a fraction of a second each, never
+    come near."""
+
+    limit_wall_s: float = HOLD_LIMIT_WALL_S
+    refill_share: float = HOLD_REFILL_SHARE
+    _since: dict[str, float] = field(default_factory=dict)  # holding now, since
+    _allowance: dict[str, tuple[float, float]] = field(default_factory=dict)  # (s left, as of)
+    _cooling: set[str] = field(default_factory=set)
     count: int = 0  # holds begun
     held_wall_s: float = 0.0  # wall time with at least one hold
+    expired: dict[str, int] = field(default_factory=dict)  # holds that spent the allowance
+    refused: dict[str, int] = field(default_factory=dict)  # busy flags refused (cooling down)
     _held_from: float | None = None
 
     def update(self, vid: str, busy: bool, wall_s: float) -> None:
+        left = self._settle(vid, wall_s)
         if busy:
-            if vid not in self._since:
+            if vid in self._since:
+                pass  # a standing hold is not renewed: it ends when its allowance does
+            elif vid in self._cooling or left <= 0.0:
+                self.refused[vid] = self.refused.get(vid, 0) + 1
+            else:
+                self._since[vid] = wall_s
                 self.count += 1
-            self._since[vid] = wall_s
         else:
             self._since.pop(vid, None)
         self.refresh(wall_s)
@@ -123,13 +143,35 @@ class Holds:
         """Any hold standing (as of the last `update` or `refresh`)."""
         return bool(self._since)
 
+    @property
+    def holders(self) -> tuple[str, ...]:
+        return tuple(sorted(self._since))
+
     def refresh(self, wall_s: float) -> None:
-        """Drop the holds expired at ``wall_s`` and count the wall time held up to it."""
-        for vid, t in list(self._since.items()):
-            if wall_s - t > self.expire_wall_s:
+        """End the holds whose allowance ran out by ``wall_s``; count the wall time held."""
+        for vid in list(self._since):
+            if self._settle(vid, wall_s) <= 0.0:
                 del self._since[vid]
+                self._cooling.add(vid)
+                self.expired[vid] = self.expired.get(vid, 0) + 1
+        for vid in list(self._cooling):
+            self._settle(vid, wall_s)
         if self.held and self._held_from is None:
             self._held_from = wall_s
         elif not self.held and self._held_from is not None:
             self.held_wall_s += wall_s - self._held_from
             self._held_from = None
+
+    def _settle(self, vid: str, wall_s: float) -> float:
+        """``vid``'s allowance as of ``wall_s`` (spent while it holds, refilled while not);
+        a cool-down ends when the allowance is full again."""
+        left, at = self._allowance.get(vid, (self.limit_wall_s, wall_s))
+        dt = max(0.0, wall_s - at)
+        if vid in self._since:
+            left = max(0.0, left - dt)
+        else:
+            left = min(self.limit_wall_s, left + self.refill_share * dt)
+            if left >= self.limit_wall_s:
+                self._cooling.discard(vid)
+        self._allowance[vid] = (left, max(at, wall_s))
+        return left

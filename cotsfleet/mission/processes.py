@@ -12,8 +12,15 @@ from the bus, checked); this module wires them to the bus and to the runner.
 
 Lifecycle: every child dies with its parent (`fleet_bus.process.die_with_parent`:
 ``PR_SET_PDEATHSIG`` on Linux, and a watch on the parent's pid everywhere), so whatever ends
-the launcher, SIGKILL included, ends the children within seconds. A child that exits on its
-own ends the mission (`ChildExited`), and the report says which and why.
+the launcher, SIGKILL included, ends the children within seconds. A mission outlives its
+parts: a child that exits on its own is named with its last lines (a full disk recognised)
+and handled by what it is (`CRASH_POLICY`): the relay and the ground station are started
+again (at most `MAX_RESTARTS` times each; the station then is only reported), an agent's
+vehicle is lost to the fleet (the others take over its work, as after a kill), and only the
+router, which carries everything, ends the mission (`ChildExited`). The report lists every
+crash (``crashes``). A full disk costs what it must and no more: a reserve the size of the
+report (`DiskReserve`) is kept in the run dir and given back before the event log and the
+report are written.
 
 Credentials (`fleet_bus.credentials`, `docs/security.md`): each run gets fresh ones under
 ``RUN_DIR/credentials`` (or ``credentials``, made beforehand with ``cotsfleet credentials``):
@@ -40,7 +47,7 @@ import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterator, Sequence
+from typing import Any, Callable, Iterator, Mapping, Sequence
 
 import zenoh
 
@@ -48,14 +55,15 @@ from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
 from cotsfleet.mission.children import Child, ChildExited, Children
 from cotsfleet.mission.clock_control import ClockControl
+from cotsfleet.mission.disk import DiskReserve, cut_to_whole_lines
 from cotsfleet.mission.intake import Intake
 from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.transport import choose_transport
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_agent.radio import LATE_SHARE
 from fleet_bus import keys
-from fleet_bus.auth import BusAuth
-from fleet_bus.clock import WarpClock
+from fleet_bus.auth import BusAuth, seal_query
+from fleet_bus.clock import MissionClock
 from fleet_bus.commands import ABORT, STOP, encode_command
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition, decode_stats
@@ -63,12 +71,29 @@ from fleet_bus.mission import Mission
 from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID, load_auth,
                                    load_ring, new_run_id, write_run_credentials)
 from fleet_bus.process import RELAY_READY, ROUTER_READY
+from fleet_bus.query_limits import QueryGate, gate_queryable
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
 from fleet_agent.beliefs import find_ids
 from hfc_core.model.problem import Problem
 
 POLL_WALL_S = 0.05
 ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
+MAX_RESTARTS = 3  # times the relay or the ground station is started again after a crash
+# What a crash of each child costs the mission: "restart" (then, once the restarts are
+# spent, "report" for a passive process, else "end"), "vehicle" (lost to the fleet), "end".
+CRASH_POLICY = {"router": "end", "relay": "restart", "ground_station": "restart"}
+PASSIVE = ("ground_station",)  # nothing depends on it: reported once it cannot be restarted
+# Start-up (launch to the clock's start) measured on the 2-core machine, paper preset:
+# 4.2 s (3 vehicles), 9.4 s (6), 38.8 s (12), 165.5 s (24): about 0.29 s x vehicles²
+# (every agent plans the same initial plan, a bigger one for a bigger fleet, all on two
+# cores). The default allows twice that, plus a minute, and never less than 90 s.
+STARTUP_BASE_S, STARTUP_PER_VEHICLE2_S, STARTUP_MIN_S = 60.0, 0.6, 90.0
+
+
+def startup_timeout_for(vehicles: int) -> float:
+    """The default wall seconds to wait for ``vehicles`` agents to be ready
+    (`benchmarks/startup_scale.py`): 90 s up to 6 vehicles, 146 s for 12, 406 s for 24."""
+    return max(STARTUP_MIN_S, STARTUP_BASE_S + STARTUP_PER_VEHICLE2_S * vehicles ** 2)
 
 
 @contextmanager
@@ -102,7 +127,11 @@ class ProcessOptions:
     hold_viewer: bool = False
     listen: str | None = None  # router endpoint (default: a free loopback port)
     remote: tuple[str, ...] = ()  # vehicles whose agents run elsewhere (not started here)
-    startup_timeout_s: float = 90.0
+    startup_timeout_s: float | None = None  # None: `startup_timeout_for` the fleet
+    # Extra environment for one child by name (fault injection, e.g. a wall clock that steps
+    # in that process only: tests/integration/test_clock_steps.py).
+    child_env: Mapping[str, Mapping[str, str]] = field(default_factory=dict)
+    disk_reserve_bytes: int = 4 << 20  # kept free in the run dir for the report (full disk)
     credentials: Path | None = None  # made beforehand (`cotsfleet credentials`); else fresh
     tls: bool = False  # TLS on loopback too (off loopback, or with TLS credentials, it always is)
 
@@ -145,7 +174,13 @@ class ProcessBackend:
         self.transport = choose_transport(opts.listen, opts.tls, opts.credentials)
         self.run_dir = opts.run_dir or Path(os.environ.get("TMPDIR", "/tmp")) / \
             "cotsfleet-runs" / self.run_id
-        self.procs = Children(self.run_dir, out, opts.startup_timeout_s)
+        self.startup_timeout_s = opts.startup_timeout_s or startup_timeout_for(
+            len(self.ids) - len(opts.remote))
+        self.procs = Children(self.run_dir, out, self.startup_timeout_s)
+        self.crashes: list[dict[str, Any]] = []  # every child that ended untold, and what then
+        self.reserve = DiskReserve(self.run_dir / DiskReserve.NAME, opts.disk_reserve_bytes)
+        self.saved: dict[str, Any] = {}  # what the end could write (`_write_events`)
+        self._relay_back: float | None = None  # a restarted relay not ready yet: since
         self.applied: list[Fault] = []
         self.dead: set[str] = set()
         self.endpoint = ""
@@ -172,6 +207,7 @@ class ProcessBackend:
         finds = find_ids(problem, opts.agent_config) if "truth" in scenario else range(0)
         self.intake = Intake(problem, self.ids, self.run_id, finds, self.pacer.busy,
                              self.intruder.overhear)
+        self.queries = QueryGate(None)  # who asks the operator what (`start`: with the key)
 
     # -- the runner's interface --------------------------------------------------------------
 
@@ -184,6 +220,9 @@ class ProcessBackend:
     def start(self, faults: Sequence[Fault]) -> None:
         opts = self.opts
         self.run_dir.mkdir(parents=True, exist_ok=True)
+        if not self.reserve.take():
+            self.out(f"warning: could not set {opts.disk_reserve_bytes} bytes aside in "
+                     f"{self.run_dir} ({self.reserve.error}): a full disk may cost the report")
         config = opts.agent_config
         if not config.fleet_key_hex:  # a fresh fleet key per run; never on the bus
             config = config.with_key(secrets.token_bytes(16))
@@ -196,6 +235,7 @@ class ProcessBackend:
             write_run_credentials(creds, self.ids, self.run_id, tls=self.transport.tls,
                                   hosts=self.transport.hosts)
         auth = self.auth = self.intake.auth = load_auth(creds / OPERATOR_ID, OPERATOR_ID)
+        self.queries = QueryGate(auth)
         listen = self._start_router(creds)
         session = self._session = zenoh.open(client_config([self.endpoint],
                                                            credentials=creds / OPERATOR_ID))
@@ -207,29 +247,30 @@ class ProcessBackend:
             session.declare_subscriber(keys.ALIVE_ALL, self.intake.alive),
             session.declare_subscriber(keys.BUSY_ALL, self.intake.busy)]
         mission = Mission(self.scenario, self.seed, self.run_id).encode()
-        self._closers.append(session.declare_queryable(
-            keys.MISSION, lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission))))
+        self._closers.append(session.declare_queryable(keys.MISSION, gate_queryable(
+            self.queries, keys.MISSION,
+            lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission)))))
         relay = self.procs.spawn(
             "relay", ["-m", "comms_sim", "--connect", self.endpoint, "--credentials",
                       str(creds / RELAY_ID), "--mission-from-bus",
-                      "--mission-timeout", str(2 * opts.startup_timeout_s)]
-            + (["--loss", str(opts.loss)] if opts.loss else []), RELAY_READY)
+                      "--mission-timeout", str(2 * self.startup_timeout_s)]
+            + (["--loss", str(opts.loss)] if opts.loss else []), RELAY_READY,
+            env=opts.child_env.get("relay"))
         if opts.viewer != "none" or opts.rrd is not None:
-            gs = ["-m", "ground_station", "--connect", self.endpoint, "--viewer", opts.viewer,
-                  "--web-port", str(opts.web_port), "--credentials", str(creds / STATION_ID)]
-            self.procs.spawn("ground_station",
-                             gs + (["--rrd", str(opts.rrd)] if opts.rrd else []), echo=True)
+            self.procs.spawn("ground_station", self._station_argv(0), echo=True,
+                             env=opts.child_env.get("ground_station"))
         for vid in self.ids:
             if vid in opts.remote:
                 self.out(f"waiting for {vid} elsewhere: python -m fleet_agent --id {vid} "
                          f"--config AGENT.toml --credentials {creds / vid} "
                          f"--connect <a router linked to {listen}>")
             else:
-                self.procs.spawn(vid, self._agent_argv(vid))
+                self.procs.spawn(vid, self._agent_argv(vid), env=opts.child_env.get(vid))
         self._wait_agents()
-        self.pacer.start(time.time() + 1.0)
-        self._closers.append(session.declare_queryable(  # always the newest record
-            keys.CLOCK, lambda q: q.reply(keys.CLOCK, auth.seal(keys.CLOCK, self.pacer.record))))
+        self.pacer.start()
+        self._closers.append(session.declare_queryable(  # the newest record, timed
+            keys.CLOCK, gate_queryable(self.queries, keys.CLOCK, lambda q: q.reply(
+                keys.CLOCK, auth.seal(keys.CLOCK, self.pacer.answer(str(q.parameters)))))))
         self.procs.wait_ready(relay)
         for f in sorted(faults, key=lambda f: f.t_s):
             steps = int(f.value) if f.kind in ATTACKS else 1
@@ -250,7 +291,7 @@ class ProcessBackend:
             self.endpoint = local_endpoint(listen)
             router = self.procs.spawn("router", ["-m", "comms_sim.router", "--listen", listen,
                                                  "--credentials", str(creds / ROUTER_ID)],
-                                      ROUTER_READY)
+                                      ROUTER_READY, env=self.opts.child_env.get("router"))
             try:
                 self.procs.wait_ready(router)
                 return listen
@@ -293,7 +334,7 @@ class ProcessBackend:
             self._session.put(keys.CLOCK, self.auth.seal(keys.CLOCK, record))
 
     @property
-    def clock(self) -> WarpClock | None:
+    def clock(self) -> MissionClock | None:
         """The shared mission clock (`ClockControl`), once every agent is ready."""
         return self.pacer.clock
 
@@ -319,8 +360,12 @@ class ProcessBackend:
         if self.clock is None:
             return report
         statuses = self.intake.statuses().values()
+        relay_clock = self._relay_extra.get("clock") or {}
+        if relay_clock.get("wall_steps"):
+            report["wall_steps"] = {**report["wall_steps"], "relay": relay_clock["wall_steps"]}
         return {**report, "slots_late": sum(s.counters.get("slots_late", 0) for s in statuses),
-                "max_frame_late_s": self._relay_extra.get("max_late_s")}
+                "max_frame_late_s": self._relay_extra.get("max_late_s"),
+                "relay_sync": relay_clock}
 
     def extra(self) -> dict[str, Any]:
         return {"run_id": self.run_id, "run_dir": str(self.run_dir), "warp": self.opts.warp,
@@ -329,7 +374,10 @@ class ProcessBackend:
                 "exit_codes": {n: c.popen.returncode for n, c in self.children.items()},
                 "exited": {n: c.tail() for n, c in self.children.items()
                            if c.popen.returncode not in (None, 0) and not c.expected_exit},
-                "security": self._security()}
+                "security": self._security(), "crashes": list(self.crashes),
+                "saved": dict(self.saved),
+                "queries": {"operator": self.queries.counts(),
+                            "relay": self._relay_extra.get("queries", {})}}
 
     def _security(self) -> dict[str, Any]:
         """What each part of the fleet refused, by reason: the operator (telemetry, ready
@@ -400,27 +448,72 @@ class ProcessBackend:
     def _agent_argv(self, vid: str) -> list[str]:
         return ["-m", "fleet_agent", "--id", vid, "--config", str(self.run_dir / "agent.toml"),
                 "--connect", self.endpoint, "--journal", str(self.run_dir / f"{vid}.journal"),
-                "--credentials", str(self.creds / vid)]
+                "--credentials", str(self.creds / vid),
+                "--mission-timeout", str(2 * self.startup_timeout_s)]
+
+    def _station_argv(self, incarnation: int) -> list[str]:
+        """The ground station's command line; a restarted one records to a file of its own
+        (``mission.1.rrd``, ...): the recording of its predecessor is kept."""
+        opts = self.opts
+        gs = ["-m", "ground_station", "--connect", self.endpoint, "--viewer", opts.viewer,
+              "--web-port", str(opts.web_port), "--credentials", str(self.creds / STATION_ID)]
+        if opts.rrd is None:
+            return gs
+        rrd = opts.rrd if not incarnation else opts.rrd.with_suffix(
+            f".{incarnation}{opts.rrd.suffix}")
+        return gs + ["--rrd", str(rrd)]
 
     def _wait_agents(self) -> None:
-        deadline = time.monotonic() + self.opts.startup_timeout_s
+        deadline = time.monotonic() + self.startup_timeout_s
         while True:
             missing = self.intake.missing()
             if not missing:
                 return
+            if any(vid in self.dead for vid in missing):  # died while it planned
+                raise ChildExited(self.crashes[-1]["why"])
             self._watch_children()
             if time.monotonic() > deadline:
-                raise TimeoutError(f"agents not ready within {self.opts.startup_timeout_s:g} s:"
-                                   f" {missing}")
+                raise TimeoutError(f"agents not ready within {self.startup_timeout_s:g} s "
+                                   f"(--startup-timeout): {missing}")
             time.sleep(POLL_WALL_S)
 
     def _watch_children(self) -> None:
-        """A child that ended without being told to ends the mission."""
+        """A child that ended without being told to: restarted, reported or the end of the
+        mission, as `CRASH_POLICY` says; named with its last lines either way."""
+        relay = self.children.get("relay")
+        if self._relay_back is not None and relay is not None and relay.ready.is_set():
+            self._relay_back = None  # the relay is back on the clock: the hold ends
+            self.pacer.busy("relay", False)
         c = self.procs.ended_untold()
-        if c is not None:
+        if c is None:
+            return
+        why = c.why()
+        policy = "vehicle" if c.name in self.ids else CRASH_POLICY.get(c.name, "end")
+        restarts = sum(1 for x in self.crashes if x["name"] == c.name)
+        if policy == "restart" and restarts >= MAX_RESTARTS:
+            policy = "report" if c.name in PASSIVE else "end"
+        now = round(self.now(), 1)
+        self.crashes.append({"name": c.name, "t_s": now, "code": c.popen.returncode,
+                             "why": why, "action": policy})
+        if policy == "end":
             if c.name in self.ids:
                 self.dead.add(c.name)
-            raise ChildExited(f"{c.name} exited with {c.popen.returncode}: {c.tail()}")
+            raise ChildExited(why)
+        if policy == "vehicle":
+            self.dead.add(c.name)
+            self.pacer.busy(c.name, False)  # a hold of the dead process ends with it
+            self.out(f"t={now:6.0f} s  {why}; {c.name} is lost to the fleet, the others go on")
+        elif policy == "restart":
+            argv = self._station_argv(restarts + 1) if c.name == "ground_station" else None
+            self.procs.restart(c, argv)
+            if c.name == "relay":  # no frame crosses the water until it is back: hold the
+                self._relay_back = now  # clock (rationed like any hold), so that silence
+                self.pacer.busy("relay", True)  # does not look like death to the fleet
+            self.out(f"t={now:6.0f} s  {why}; started again ({restarts + 1} of "
+                     f"{MAX_RESTARTS})")
+        else:
+            self.out(f"t={now:6.0f} s  {why}; not started again ({MAX_RESTARTS} restarts "
+                     "spent), the mission goes on without it")
 
     # -- faults ------------------------------------------------------------------------------
 
@@ -496,7 +589,9 @@ class ProcessBackend:
 
     def _fetch_link_stats(self) -> LinkCounts | None:
         assert self._session is not None and self.auth is not None
-        for reply in self._session.get(keys.LINK_STATS, timeout=3.0):
+        nonce = secrets.token_hex(8)
+        for reply in self._session.get(f"{keys.LINK_STATS}?n={nonce}", timeout=3.0,
+                                       attachment=seal_query(self.auth, keys.LINK_STATS, nonce)):
             if reply.ok is None:
                 continue
             try:
@@ -508,11 +603,24 @@ class ProcessBackend:
         return None
 
     def _write_events(self) -> None:
+        """The whole event log, for whoever wants to dig deeper, after giving back the disk
+        reserve: as many whole events as fit (a full disk), and ``saved`` says how many."""
         with self.intake.lock:
             events = list(self.ledger.events)
-        with open(self.run_dir / "events.jsonl", "w", encoding="utf-8") as fh:
-            for e in events:  # the whole event log, for whoever wants to dig deeper
-                fh.write(json.dumps(e.to_dict()) + "\n")
+        self.reserve.give_back()
+        self.saved = {"events": 0, "events_total": len(events)}
+        path = self.run_dir / "events.jsonl"
+        try:
+            with open(path, "w", encoding="utf-8") as fh:
+                for e in events:
+                    fh.write(json.dumps(e.to_dict()) + "\n")
+                    fh.flush()
+                    self.saved["events"] += 1
+        except OSError as exc:  # keep what was written whole: a cut last line is dropped
+            self.saved["events_error"] = str(exc)
+            cut_to_whole_lines(path)
+            self.out(f"events.jsonl: {exc}; {self.saved['events']} of {len(events)} events "
+                     "saved")
 
     def _progress(self) -> None:
         if not self.opts.progress_every_s or time.monotonic() < self._next_progress:

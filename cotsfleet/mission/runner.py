@@ -31,8 +31,9 @@ def horizon_of(problem: Problem) -> float:
 
 
 class MissionStopped(RuntimeError):
-    """The mission could not go on (e.g. one of its processes died on its own); the report
-    is still written, with this message as its ``failure``."""
+    """The mission could not go on (e.g. the router died); the report is still written, with
+    this message as its ``failure``. So it is when the fleet is not ready in time, or the
+    launcher's own disk fails it: whatever ends a mission, it ends with a report."""
 
 
 class Backend(Protocol):
@@ -93,6 +94,10 @@ def run_mission(problem: Problem, backend: Backend, faults: Sequence[Fault], *, 
         backend.interrupted = True
     except MissionStopped as exc:
         failure = str(exc)
+    except TimeoutError as exc:  # e.g. agents not ready in time: still a report
+        failure = str(exc)
+    except OSError as exc:  # e.g. a full disk under the launcher itself
+        failure = f"{exc} (the launcher)"
     finally:
         backend.close()
     end = max(0.0, min(backend.now(), horizon))

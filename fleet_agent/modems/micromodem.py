@@ -62,6 +62,20 @@ class _Cycle:
     t_s: float = 0.0
 
 
+def micromodem_spec(rate: int, bit_rate_bps: float | None = None,
+                    acknowledged: bool = False) -> ModemSpec:
+    """What a Micro-Modem at ``rate`` carries (`fleet_bus.nmea.RATES`); ValueError for an
+    unknown rate, or one with no published bit rate and none given."""
+    if rate not in RATES:
+        raise ValueError(f"unknown Micro-Modem rate {rate}; known: {sorted(RATES)}")
+    spec_rate = RATES[rate]
+    bps = bit_rate_bps if bit_rate_bps is not None else spec_rate.bit_rate_bps
+    if bps is None:
+        raise ValueError(f"rate {rate} has no published bit rate: give bit_rate_bps")
+    return ModemSpec(f"micromodem-rate{rate}", spec_rate.frame_bytes, float(bps),
+                     spec_rate.frames, half_duplex=True, acknowledged=acknowledged)
+
+
 class MicroModem:
     """A `fleet_bus.modem_port.ModemPort` on a Micro-Modem (see the module docstring).
 
@@ -75,19 +89,11 @@ class MicroModem:
                  baud: int = DEFAULT_BAUD, bit_rate_bps: float | None = None,
                  reply_timeout_s: float = REPLY_TIMEOUT_S, start: bool = True) -> None:
         self._kind, self._where, self._port = parse_link(link)
-        if rate not in RATES:
-            raise ValueError(f"unknown Micro-Modem rate {rate}; known: {sorted(RATES)}")
-        spec_rate = RATES[rate]
-        bps = bit_rate_bps if bit_rate_bps is not None else spec_rate.bit_rate_bps
-        if bps is None:
-            raise ValueError(f"rate {rate} has no published bit rate: give bit_rate_bps")
         if address is not None and not 1 <= address <= nmea.MAX_ADDRESS:
             raise ValueError(f"address must be 1-{nmea.MAX_ADDRESS}, got {address}")
         if not 0 <= dest <= nmea.MAX_ADDRESS:
             raise ValueError(f"dest must be 0-{nmea.MAX_ADDRESS}, got {dest}")
-        self.spec = ModemSpec(f"micromodem-rate{rate}", spec_rate.frame_bytes, float(bps),
-                              spec_rate.frames, half_duplex=True,
-                              acknowledged=ack and dest != BROADCAST)
+        self.spec = micromodem_spec(rate, bit_rate_bps, ack and dest != BROADCAST)
         self.rate = rate
         self.address = address
         self.dest = dest

@@ -65,3 +65,31 @@ def test_a_child_that_dies_before_it_is_ready_says_why(procs: Children) -> None:
                         ready_prefix="ready")
     with pytest.raises(ChildExited, match="router exited with 3: no port"):
         procs.wait_ready(child)
+
+
+def test_a_child_whose_log_cannot_be_written_runs_on_and_is_named(procs: Children,
+                                                                  tmp_path: Path) -> None:
+    """A full disk, as the child's log sees it: /dev/full fails every write with ENOSPC. The
+    pipe is still read (the child never blocks on it), its lines are still kept, and its
+    own end on the full disk is named as such."""
+    (tmp_path / "auv1.log").symlink_to("/dev/full")
+    script = ("import sys\nfor i in range(20000): print('x' * 100)\n"
+              "print('OSError: [Errno 28] No space left on device: journal', flush=True)\n"
+              "sys.exit(1)")
+    child = procs.spawn("auv1", ["-c", script])
+    child.popen.wait(30)
+    assert procs.ended_untold() is child
+    assert "No space left" in child.log_error
+    assert child.why().startswith("auv1 exited with 1 (its disk is full): ")
+
+
+def test_a_child_is_restarted_as_it_was(procs: Children, tmp_path: Path) -> None:
+    first = procs.spawn("relay", ["-c", "import os; print('ready', os.environ['X'])"],
+                        ready_prefix="ready", env={"X": "one"})
+    first.popen.wait(30)
+    again = procs.restart(procs.ended_untold())
+    procs.wait_ready(again)
+    assert again is procs.by_name["relay"] and again.popen.pid != first.popen.pid
+    again.popen.wait(30)
+    assert again.tail() == "ready one"
+    assert len(json.loads((tmp_path / "pids.json").read_text())["relay"]) == 2

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 
 from cotsfleet.mission.clock_control import SLOW_HOLD_WALL_S, ClockControl
-from cotsfleet.mission.pacing import HOLD_EXPIRE_WALL_S, HOLD_WARP, SUSTAINED_STATUSES
-from fleet_bus.mission import ClockRecord
+from cotsfleet.mission.pacing import HOLD_LIMIT_WALL_S, HOLD_WARP, SUSTAINED_STATUSES
+from fleet_bus.mission import ClockAnswer, ClockRecord
 from fleet_bus.telemetry import Status
 
 WARP, BOUND_S = 60.0, 1.25
@@ -25,7 +25,7 @@ def control() -> tuple[ClockControl, Wall, list[ClockRecord]]:
     wall, sent = Wall(), []
     c = ClockControl(WARP, BOUND_S, lambda b: sent.append(ClockRecord.decode(b)),
                      out=lambda line: None, wall=wall, unix=wall)
-    c.start(wall.t)
+    c.start(0.0)
     return c, wall, sent
 
 
@@ -72,6 +72,46 @@ def test_a_host_that_stays_behind_slows_the_clock_but_not_during_a_hold():
 def test_a_hold_never_released_expires_and_the_warp_comes_back():
     c, wall, sent = control()
     c.busy("auv1", True)
-    wall.t += HOLD_EXPIRE_WALL_S + 0.1
+    wall.t += HOLD_LIMIT_WALL_S + 0.1
     c.pace([])
     assert not c.held and c.clock.warp == WARP
+
+
+def test_the_answer_is_the_newest_record_timed_on_the_reference():
+    c, wall, sent = control()
+    c.busy("auv1", True)
+    answer = ClockAnswer.decode(c.answer("n=q1"))
+    assert answer.record == sent[-1] and answer.record.held_by == ("auv1",)
+    assert answer.nonce == "q1" and answer.ref_received == answer.ref_answered == wall.t
+    assert answer.record.epoch_ref is not None
+
+
+def test_a_host_whose_wall_clock_stepped_is_named_once_per_step():
+    lines: list[str] = []
+    mono, gap = Wall(), [1.7e9]
+    c = ClockControl(WARP, BOUND_S, lambda b: None, out=lines.append, wall=mono,
+                     unix=lambda: mono.t + gap[0])
+    c.start(0.0)
+    stepped = status("auv2", 5.0, 0.0)
+    stepped.counters["clock_wall_steps"] = 1
+    c.pace([status("auv1", 5.0, 0.0), stepped])
+    c.pace([stepped])  # the same count again: already named
+    gap[0] += 2.0  # the operator's own wall clock steps
+    mono.t += 1.0
+    before = c.clock.now()
+    c.pace([])
+    assert c.clock.now() == pytest.approx(before)  # mission time unmoved
+    assert c.report()["wall_steps"] == {"auv2": 1, "operator": 1}
+    assert len(lines) == 2 and "auv2's host stepped" in lines[0] and "+2.0 s" in lines[1]
+
+
+def test_an_insiders_renewed_hold_expires_and_is_reported():
+    c, wall, sent = control()
+    for _ in range(11):  # busy=1 every 5 s for 55 s
+        c.busy("auv3", True)
+        wall.t += 5.0
+        c.pace([])
+    report = c.report()  # held 10 s, refused for 40 s (8 flags), held again from 50 s
+    assert report["holds"] == 2 and report["holds_expired"] == {"auv3": 1}
+    assert report["holds_refused"] == {"auv3": 8} and c.held
+    assert report["held_wall_s"] == pytest.approx(10.0)

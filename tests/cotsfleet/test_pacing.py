@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from cotsfleet.mission.pacing import (HOLD_EXPIRE_WALL_S, MAX_FACTOR, MIN_FACTOR, Holds,
-                                      LagWatch, faster_warp, slower_warp)
+from cotsfleet.mission.pacing import (HOLD_LIMIT_WALL_S, HOLD_REFILL_SHARE, MAX_FACTOR,
+                                      MIN_FACTOR, Holds, LagWatch, faster_warp, slower_warp)
 
 
 def feed(watch: LagWatch, vid: str, lags: list[float], t0: float = 0.0) -> None:
@@ -107,10 +107,10 @@ def test_a_hold_never_released_expires():
     """A process that died mid-plan (or whose end was lost) slows the mission, never stops it."""
     h = Holds()
     h.update("auv1", True, 0.0)
-    assert held_at(h, HOLD_EXPIRE_WALL_S - 0.1)
-    assert not held_at(h, HOLD_EXPIRE_WALL_S + 0.1)
-    assert h.held_wall_s == pytest.approx(HOLD_EXPIRE_WALL_S + 0.1)
-    h.update("auv1", False, HOLD_EXPIRE_WALL_S + 1.0)  # a late end changes nothing
+    assert held_at(h, HOLD_LIMIT_WALL_S - 0.1)
+    assert not held_at(h, HOLD_LIMIT_WALL_S + 0.1)
+    assert h.held_wall_s == pytest.approx(HOLD_LIMIT_WALL_S + 0.1)
+    h.update("auv1", False, HOLD_LIMIT_WALL_S + 1.0)  # a late end changes nothing
     assert not h.held and h.count == 1
 
 
@@ -119,3 +119,47 @@ def test_a_repeated_start_is_one_hold():
     h.update("auv1", True, 0.0)
     h.update("auv1", True, 0.5)
     assert h.count == 1 and held_at(h, 0.5)
+
+
+def test_an_insider_renewing_its_busy_flag_gets_no_longer_hold():
+    """Today's attack: ``busy=1`` every 5 s. A standing hold is not renewed: it ends after
+    the limit, counted, and the same vehicle is refused while it cools down."""
+    h = Holds()
+    cooled = HOLD_LIMIT_WALL_S + HOLD_LIMIT_WALL_S / HOLD_REFILL_SHARE  # 50 s
+    for t in range(0, int(cooled), 5):
+        h.update("auv2", True, float(t))
+    # held from 0 to the limit; then refused at 15, 20, ... 45 while cooling down
+    assert h.count == 1 and h.expired == {"auv2": 1} and not h.held
+    assert h.refused == {"auv2": 7}
+    assert h.held_wall_s == pytest.approx(HOLD_LIMIT_WALL_S)
+    h.update("auv2", True, cooled + 0.1)  # a full allowance again: a new hold
+    assert h.held and h.count == 2
+
+
+def test_a_toggling_insider_holds_the_clock_a_fifth_of_the_time_at_most():
+    h = Holds()
+    held, t, dt = 0.0, 0.0, 0.1
+    while t < 600.0:  # busy for a second, free for a tick, again and again
+        h.update("auv3", (t % 1.1) < 1.0, t)
+        held += dt if h.held else 0.0
+        t = round(t + dt, 6)
+    share = HOLD_REFILL_SHARE / (1 + HOLD_REFILL_SHARE)
+    assert held / 600.0 <= share + HOLD_LIMIT_WALL_S / 600.0 + 0.02
+
+
+def test_a_planner_bursts_never_run_out_of_allowance():
+    """An honest agent's replans: a few hundred milliseconds now and then."""
+    h = Holds()
+    for i in range(200):
+        h.update("auv1", True, i * 3.0)
+        h.update("auv1", False, i * 3.0 + 0.4)
+    assert h.count == 200 and not h.expired and not h.refused
+
+
+def test_a_dead_planner_does_not_hold_others_up():
+    h = Holds()
+    h.update("auv1", True, 0.0)
+    h.update("auv2", True, 1.0)
+    h.update("auv2", False, 1.5)
+    assert held_at(h, 5.0) and not held_at(h, HOLD_LIMIT_WALL_S + 0.1)
+    assert h.expired == {"auv1": 1} and h.holders == ()

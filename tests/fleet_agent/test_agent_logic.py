@@ -22,6 +22,7 @@ from cotsfleet.mission.inprocess import InProcessBackend
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
 from fleet_agent.driver import AgentDriver
+from fleet_bus.modem_port import WATER_SPEC
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Frame, Publish, Record, Send, Tick
 from fleet_agent.journal import MemoryJournal
@@ -64,7 +65,7 @@ class World:
         return agent
 
     def sent(self, vid: str) -> list[bytes]:
-        return [o.frame for o in self.outputs[vid] if isinstance(o, Send)]
+        return [f for o in self.outputs[vid] if isinstance(o, Send) for f in o.frames]
 
 
 def comparable(outputs: list) -> list:
@@ -72,7 +73,7 @@ def comparable(outputs: list) -> list:
     keep = []
     for o in outputs:
         if isinstance(o, Send):
-            keep.append(("send", o.frame))
+            keep.append(("send", o.frames))
         elif isinstance(o, Publish) and o.topic in ("event", "truth"):
             keep.append((o.topic, o.payload))
     return keep
@@ -101,9 +102,8 @@ def test_hostile_frames_are_counted_and_change_nothing() -> None:
     assert attacked.agent("auv1").status().route == base.agent("auv1").status().route
     c = attacked.agent("auv1").counters
     assert c.get("drop_mac", 0) >= 120  # forged frames (and garbage that got that far)
-    # A replay injected before the genuine frame reached auv1 is taken as the genuine one,
-    # and the genuine frame then counts as the replay: either way, one of the two is refused.
-    assert c.get("drop_replay", 0) == len(replays)
+    # A replay comes after its cycle's key was out (`fleet_bus.tesla`): it proves nothing.
+    assert c.get("drop_replay", 0) + c.get("drop_late_key", 0) == len(replays)
     assert c.get("drop_self", 0) == len(own)
     refused = sum(n for k, n in c.items() if k.startswith("drop_"))
     assert refused == len(hostile) + len(replays) + len(own)
@@ -125,11 +125,12 @@ def test_restart_from_the_journal_forgets_nothing() -> None:
     out = []
     for f in old:
         out += reborn.step(Frame(f, 1401.0))
-    assert reborn.counters.get("drop_replay", 0) == len(old)
+    c = reborn.counters  # refused as replays, or as heard after their keys were out
+    assert c.get("drop_replay", 0) + c.get("drop_late_key", 0) == len(old)
     # and its own sequence numbers go on increasing
     while not any(isinstance(o, Send) for o in out):
         out += reborn.step(Tick(reborn.next_wakeup()))
-    frame = next(o.frame for o in out if isinstance(o, Send))
+    frame = next(o.frames[0] for o in out if isinstance(o, Send))
     assert fleet().codec.decode(frame).seq > before.radio.last_seq
     events = [o.payload.kind for o in out if isinstance(o, Publish) and o.topic == "event"]
     assert "restart" in events
@@ -143,10 +144,11 @@ def test_abort_announces_then_keeps_watch_and_goes_home() -> None:
     sent = [fleet().codec.decode(f) for f in world.sent("auv3")[n_before:]]
     kinds = [type(m).__name__ for m in sent]
     assert kinds[:CONFIG.abort_repeats] == ["Abort"] * CONFIG.abort_repeats
-    # then only poses saying "aborted", one every `watch_every_cycles` slots: keeping watch
+    # then only poses saying "aborted", one every `watch_every_cycles` slots: keeping watch,
+    # and after each the key it could not disclose (`fleet_bus.tesla`)
     watch = sent[CONFIG.abort_repeats + 1:]
-    assert watch and all(type(m).__name__ == "Pose" and m.state in ("aborted", "home")
-                         for m in watch)
+    assert watch and all((type(m).__name__ == "Pose" and m.state in ("aborted", "home"))
+                         or type(m).__name__ == "Key" for m in watch)
     slots = (4000.0 - 600.0) / (3 * CONFIG.slot_s)
     assert len(watch) <= slots / CONFIG.watch_every_cycles + 2
     assert world.agent("auv3").own.done and world.agent("auv3").quiet
@@ -190,13 +192,18 @@ def test_without_a_watcher_the_last_working_vehicle_only_suspects() -> None:
 
 
 class Recorder:
-    """A driver's transport that keeps what went out, in order."""
+    """A driver's modem and telemetry that keep what went out, in order."""
+
+    spec = WATER_SPEC
 
     def __init__(self) -> None:
         self.sent: list[str] = []
 
-    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
+    def transmit(self, frames: tuple[bytes, ...], kind: str, sent_s: float | None = None) -> None:
         self.sent.append("frame")
+
+    def close(self) -> None:
+        pass
 
     def publish(self, topic: str, payload: object) -> None:
         self.sent.append(topic)
@@ -206,7 +213,7 @@ def test_the_simulated_vehicles_truth_goes_out_before_the_first_frame() -> None:
     a = Agent(fleet(), 0, CONFIG, 0.0, MemoryJournal().records)
     vehicle = SimVehicle(problem(), 0)
     out = Recorder()
-    driver = AgentDriver(a, vehicle, out, MemoryJournal(), truth=vehicle.true_pose)
+    driver = AgentDriver(a, vehicle, out, out, MemoryJournal(), truth=vehicle.true_pose)
     while "frame" not in out.sent:
         driver.tick(driver.next_wakeup())
     assert "truth" in out.sent and out.sent.index("truth") < out.sent.index("frame")

@@ -1,13 +1,15 @@
 """A peer that claims a spot we hold by an earlier claim, or one we know is cleared, missed
 our claim or our clear and is on its way: we answer at once (`Agent._contest`), not at the
-next refresh. The case that made a duplicate: a find's claim waited behind older claims and
+next refresh (`policies.hearing`). The case that made a duplicate: a find's claim waited behind older claims and
 releases for two minutes while a peer, which had missed it, flew there."""
 
 from __future__ import annotations
 
 from fleet_agent.agent import Agent
 from fleet_agent.io_types import Outputs
-from fleet_agent.wire import Claim, ClearedSegment, Release
+from fleet_agent.outbox import Holding, Owed
+from fleet_agent.policies import hearing
+from fleet_agent.wire import Claim, ClearedSegment
 from test_agent_logic import World
 
 
@@ -24,49 +26,57 @@ def claimed_by_auv1() -> tuple[World, Agent, int]:
     agent = world.agent("auv1")
     spot = free_spot(agent)
     agent.know.holdings.apply(agent.know.index, 250, [spot], True)  # our claim, made at 250
-    agent.radio.holdings.clear()
-    agent.radio.queue_holding(False, 200, [1, 2])  # older business ahead of it
-    agent.radio.queue_holding(True, 250, [spot])
+    outbox = agent.radio.outbox
+    outbox.holdings.clear()
+    outbox.owe(Owed.CLAIM, Holding(False, 200, (1, 2)))  # older business ahead of it
+    outbox.owe(Owed.CLAIM, Holding(True, 250, (spot,)))
     return world, agent, spot
 
 
 def hear(agent: Agent, msg: Claim) -> None:
-    agent._on_holding(msg, 300.0, Outputs(agent.id, agent.know.tids))
+    intents = hearing.content(agent.know, agent.config, msg, 300.0, agent.active)
+    agent._apply(intents, 300.0, Outputs(agent.id, agent.know.tids))
+
+
+def kinds(agent: Agent) -> list[bool]:
+    """Claim (True) or release (False), for each holding owed, in order."""
+    return [e.holding.claim for e in agent.radio.outbox.holdings]
 
 
 def test_a_later_claim_on_our_spot_puts_our_claim_first() -> None:
     _, agent, spot = claimed_by_auv1()
     hear(agent, Claim(1, 301, 280, (spot,)))  # auv2 claims it at 280: it missed ours
-    first = agent.radio.holdings[0]
-    assert (first.cls, first.t_s, first.tasks) == (Claim, 250, (spot,))
-    assert [e.cls for e in agent.radio.holdings] == [Claim, Release]  # moved, not copied
+    first = agent.radio.outbox.holdings[0].holding
+    assert first == Holding(True, 250, (spot,))
+    assert kinds(agent) == [True, False]  # moved, not copied
     assert agent.know.holder(spot) == agent.know.index  # the earlier claim still holds it
 
 
 def test_our_claim_is_owed_again_once_its_sends_are_done() -> None:
     _, agent, spot = claimed_by_auv1()
-    agent.radio.holdings.clear()
+    agent.radio.outbox.holdings.clear()
     hear(agent, Claim(1, 301, 280, (spot,)))
-    first = agent.radio.holdings[0]
-    assert (first.tasks, first.repeats) == ((spot,), agent.config.claim_repeats)
+    first = agent.radio.outbox.holdings[0]
+    assert (first.holding.tasks, first.left) == ((spot,), agent.config.claim_repeats)
 
 
 def test_an_earlier_claim_wins_and_is_not_answered() -> None:
     _, agent, spot = claimed_by_auv1()
     hear(agent, Claim(1, 301, 240, (spot,)))  # auv2 claimed first: the spot is its own
     assert agent.know.holder(spot) == 1
-    assert [e.cls for e in agent.radio.holdings] == [Release, Claim]  # order untouched
+    assert kinds(agent) == [False, True]  # order untouched
 
 
 def test_a_claim_on_a_spot_we_cleared_gets_that_segment_of_the_cleared_set() -> None:
     _, agent, spot = claimed_by_auv1()
     agent.know.cleared.add(spot)
     hear(agent, Claim(1, 301, 280, (spot,)))
-    assert list(agent.radio.segments_owed) == [agent.know.cleared.segment_of(spot)]
-    agent.radio.since_pose = 0  # not the heartbeat's turn
-    msg = agent.radio.choose(301.0, agent.own, agent.know)
+    outbox = agent.radio.outbox
+    assert list(outbox.segments) == [agent.know.cleared.segment_of(spot)]
+    outbox.since_pose = 0  # not the heartbeat's turn
+    msg = agent.radio.message(301.0, agent.know)
     assert isinstance(msg, ClearedSegment) and msg.segment == agent.know.cleared.segment_of(spot)
-    assert not agent.radio.segments_owed
+    assert not outbox.segments
 
 
 def test_a_new_claim_takes_the_next_slot_even_when_a_pose_is_due() -> None:
@@ -74,26 +84,27 @@ def test_a_new_claim_takes_the_next_slot_even_when_a_pose_is_due() -> None:
     heard (`Knowledge.settled_s`), which counts on each claim leaving in the next slot."""
     _, agent, spot = claimed_by_auv1()
     radio = agent.radio
-    radio.since_pose = agent.config.pose_every_cycles  # the heartbeat is due
-    msg = radio.choose(301.0, agent.own, agent.know)
+    radio.outbox.since_pose = agent.config.pose_every_cycles  # the heartbeat is due
+    msg = radio.message(301.0, agent.know)
     assert isinstance(msg, Claim) and (msg.t_s, msg.tasks) == (250, (spot,))
-    assert type(radio.choose(302.0, agent.own, agent.know)).__name__ == "Pose"
+    assert type(radio.message(302.0, agent.know)).__name__ == "Pose"
 
 
 def test_standing_claims_sent_again_do_not_jump_the_queue() -> None:
     _, agent, spot = claimed_by_auv1()
     radio = agent.radio
-    radio.holdings.clear()
-    radio.queue_holding(True, 250, [spot], fresh=False)  # a refresh of a standing claim
-    radio.since_pose = agent.config.pose_every_cycles
-    assert type(radio.choose(301.0, agent.own, agent.know)).__name__ == "Pose"
+    radio.outbox.holdings.clear()
+    radio.outbox.since_pose = agent.config.pose_every_cycles
+    radio.outbox._queue(Holding(True, 250, (spot,)), fresh=False)  # a standing claim again
+    assert type(radio.message(301.0, agent.know)).__name__ == "Pose"
 
 
-def test_a_late_claim_settles_a_cycle_and_a_slot_after_it_and_the_initial_plan_at_once() -> None:
+def test_a_late_claim_settles_two_cycles_and_a_slot_after_it_and_the_initial_plan_at_once() -> None:
     world, agent, spot = claimed_by_auv1()
     know, cfg = agent.know, agent.config
     cycle = cfg.slot_s * agent.problem.n_vehicles
-    assert know.settled_s(spot) == 250 + cfg.claim_settle_cycles * cycle + cfg.slot_s + 1.0
+    # a cycle more for the claim to be proven its claimer's (`fleet_bus.tesla`)
+    assert know.settled_s(spot) == 250 + (cfg.claim_settle_cycles + 1) * cycle + cfg.slot_s + 1.0
     own = agent.own.route[0] if agent.own.route else next(
         t for t in range(know.holdings.n_tasks) if know.holder(t) == know.index)
     assert know.settled_s(own) == 0.0

@@ -17,12 +17,14 @@ from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Frame, Tick
 from fleet_agent.journal import MemoryJournal
+from fleet_agent.outbox import Holding, Owed
 from fleet_agent.helms.sim import camera_figures
 from fleet_agent.wire import Codec, Digest, Found
 from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
 from reef_sim.scenarios.field import GeneratorParams
 from reef_sim.truth import reef_from_doc
+from fleet_bus.modem_port import WATER_SPEC
 from fleet_bus.vehicle_port import GoTo, Sighted
 from reef_sim.vehicle import SimVehicle
 
@@ -131,14 +133,20 @@ class Mate:
     """An agent driving its simulated vehicle, as in a mission; the frames it sends are kept
     for `exchange` to carry."""
 
+    spec = WATER_SPEC
+
     def __init__(self, fleet: Fleet, index: int) -> None:
         self.agent = Agent(fleet, index, CONFIG)
         self.outbox: list[bytes] = []
-        self.driver = AgentDriver(self.agent, SimVehicle(fleet.problem, index), self,
+        self.driver = AgentDriver(self.agent, SimVehicle(fleet.problem, index), self, self,
                                   MemoryJournal())
 
-    def send(self, frame: bytes, kind: str, sent_s: float | None = None) -> None:
-        self.outbox.append(frame)
+    def transmit(self, frames: tuple[bytes, ...], kind: str, sent_s: float | None = None
+                 ) -> None:
+        self.outbox.extend(frames)
+
+    def close(self) -> None:
+        pass
 
     def publish(self, topic: str, payload: object) -> None:
         pass
@@ -258,15 +266,15 @@ def test_a_new_claim_goes_out_first_and_its_repeats_before_the_find_repeats(flee
     for k in range(2):
         slot = b.own_slot()
         assert b.add_find(slot, off_map(fleet, k), 50.0, 60.0, 100.0)
-        radio.queue_find(slot)
+        radio.outbox.owe(Owed.FIND, slot)
         slots.append(slot)
-    radio.holdings.clear()
-    radio.queue_holding(True, 120, [slots[0]])
-    radio._last_found_refresh_slot = radio.slot_no  # the finds' anti-entropy is not due
+    radio.outbox.holdings.clear()
+    radio.outbox.owe(Owed.CLAIM, Holding(True, 120, (slots[0],)))
+    radio.outbox._last_found_slot = radio.slot_no  # the finds' anti-entropy is not due
     sent = []
     for i in range(2 * CONFIG.find_repeats + CONFIG.claim_repeats):
-        radio.since_pose = 0  # not the heartbeat's turn
-        msg = radio.choose(130.0 + i, agent.own, agent.know)
+        radio.outbox.since_pose = 0  # not the heartbeat's turn
+        msg = radio.message(130.0 + i, agent.know)
         sent.append(("claim", msg.tasks) if isinstance(msg, Claim) else ("found", msg.slot))
     claims = [("claim", (slots[0],))] * CONFIG.claim_repeats
     repeats = [("found", s) for s in slots for _ in range(CONFIG.find_repeats - 1)]

@@ -85,8 +85,8 @@ def test_silent_kill_is_detected_in_time_and_work_is_taken_over(seed: int) -> No
     sim, result = run(seed, 0.0, (kill,))
     delays = result.report["fleet"]["detection_delay_s"]["auv2"]
     assert set(delays) == {"auv1", "auv3"}
-    for vid, delay in delays.items():
-        assert delay is not None and delay <= 5 * CYCLE_S, (vid, delay)
+    for vid, delay in delays.items():  # docs/wire.md: 4 cycles, a confirmer, its proof
+        assert delay is not None and delay <= 6 * CYCLE_S, (vid, delay)
     oracle = result.report["oracle"]
     assert oracle["ratio"] >= 0.85, oracle
     assert result.report["fleet"]["duplicate_treatments"] == 0
@@ -96,9 +96,10 @@ def test_silent_kill_is_detected_in_time_and_work_is_taken_over(seed: int) -> No
 @pytest.mark.parametrize("seed", SEEDS[:3])
 def test_silent_kill_under_thirty_percent_loss(seed: int) -> None:
     _, result = run(seed, 0.3, (Fault("kill", 1200.0, "auv2"),))
-    # a silence needs a second observer's frame to be confirmed: under loss, one more cycle
+    # a silence needs a second observer's frame to be confirmed, and the key that proves it:
+    # under loss either can be lost once more
     for vid, delay in result.report["fleet"]["detection_delay_s"]["auv2"].items():
-        assert delay is not None and delay <= 6 * CYCLE_S, (vid, delay)
+        assert delay is not None and delay <= 8 * CYCLE_S, (vid, delay)
     assert result.report["oracle"]["ratio"] >= 0.85
 
 
@@ -107,7 +108,8 @@ def test_announced_abort_is_known_at_once_and_taken_over(seed: int) -> None:
     _, result = run(seed, 0.0, (Fault("abort", 1200.0, "auv2"),))
     f = result.report["fleet"]
     for delay in f["detection_delay_s"]["auv2"].values():
-        assert delay is not None and delay <= CYCLE_S  # the next slot of the aborting AUV
+        # the aborting AUV's next slot, and its next frame that proves it (`tesla`)
+        assert delay is not None and delay <= 2 * CYCLE_S
     assert f["spots_taken_over"] > 0
     assert f["duplicate_treatments"] == 0
     auv2 = next(v for v in result.report["vehicles"] if v["id"] == "auv2")

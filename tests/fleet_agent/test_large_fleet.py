@@ -12,7 +12,7 @@ from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import simulate
 from fleet_agent.config import AgentConfig
 from fleet_agent.cleared import ClearedSet
-from fleet_agent.radio import Radio, Slots
+from fleet_agent.outbox import Outbox, Slot
 from fleet_agent.wire import MAX_FRAME_BYTES, NO_HEARD
 from fleet_bus.tdma import TdmaSchedule
 from hfc_core.model.check import check_routes
@@ -39,22 +39,24 @@ def test_24_vehicles_with_a_kill_treat_nothing_twice_and_detect_the_dead() -> No
             routes[e.id] += e.tasks
     assert check_routes(problem, routes) == []
     assert fleet["spots_cleared"] >= 0.8 * problem.n_tasks
-    # Every survivor declared auv7 lost, no later than lost_after_cycles cycles after the
-    # kill (its last frame was sent before it): the bound docs/wire.md states.
-    bound_s = config.lost_after_cycles * TdmaSchedule(24, config.slot_s).cycle_s
+    # Every survivor declared auv7 lost within the bound docs/wire.md states: its silence of
+    # lost_after_cycles, a confirmer's next slot, and the cycle that proves that frame its
+    # sender's (`tesla`).
+    bound_s = (config.lost_after_cycles + 2) * TdmaSchedule(24, config.slot_s).cycle_s
     delays = fleet["detection_delay_s"]["auv7"]
     assert len(delays) == 23 and all(d is not None for d in delays.values())
     assert max(delays.values()) <= bound_s + 1.0
 
 
 def test_cleared_pushes_rotate_over_every_segment() -> None:
-    """With more than 320 spots the cleared set has several segments; unprompted pushes must
+    """With more than 256 spots the cleared set has several segments; unprompted pushes must
     visit all of them although poses take every other slot (a rotation by slot number over
     two segments pushed the same one forever, so a clear in the other was never repaired)."""
-    radio = Radio(Slots(0, 24, 2.5), AgentConfig(), max_ids=41, now=0.0)
+    outbox = Outbox(AgentConfig(), max_ids=41)
     know = SimpleNamespace(cleared=ClearedSet(600), treated=[], index=0)
     pushed = []
     for k in range(6):
-        radio.slot_no = 2 * k + 1  # a pose in every other slot, as pose_every_cycles = 2
-        pushed.append(radio._cleared(60.0 * k, know, NO_HEARD).segment)
-    assert set(pushed) == {0, 1}
+        # a pose in every other slot, as pose_every_cycles = 2
+        slot = Slot(60.0 * k, 0, NO_HEARD, know, lambda: 1, 2 * k + 1)  # type: ignore[arg-type]
+        pushed.append(outbox._cleared(slot).segment)
+    assert set(pushed) == set(range(know.cleared.n_segments))  # every one of them

@@ -1,12 +1,15 @@
-"""The warp clock: slowed down mid-mission without a jump, and followed by every process."""
+"""The mission clock: on the monotonic clock, deaf to wall-clock steps, corrections slewed in;
+the NTP-like time exchange; slowed down mid-mission without a jump, followed by every
+process. Injected monotonic and wall clocks throughout: deterministic."""
 
 from __future__ import annotations
 
+import msgpack
 import pytest
 
 from cotsfleet.commands.run import run_warnings
-from fleet_bus.clock import WarpClock
-from fleet_bus.mission import ClockRecord
+from fleet_bus.clock import MissionClock, OffsetFilter, WallWatch, WarpClock, time_sample
+from fleet_bus.mission import ClockAnswer, ClockRecord, answer_clock
 from fleet_bus.telemetry import decode_busy, encode_busy
 
 
@@ -73,3 +76,144 @@ def test_the_busy_flag_is_one_byte_and_nothing_else():
     for bad in (b"", b"\x02", b"\x01\x00", b"busy"):
         with pytest.raises(ValueError):
             decode_busy(bad)
+
+
+# -- the mission clock on the monotonic clock ------------------------------------------------
+
+class Steps:
+    """A wall clock that steps: ``mono + gap``, the gap changed by the test."""
+
+    def __init__(self, mono: Wall, gap: float = 1.7e9) -> None:
+        self.mono, self.gap = mono, gap
+
+    def __call__(self) -> float:
+        return self.mono.t + self.gap
+
+
+def test_a_wall_clock_step_changes_no_mission_time_and_is_counted() -> None:
+    """The issue's case: +2 s then -2 s of one host's wall clock at warp 60. The wall-clock
+    form moves mission time by 120 s each way; the monotonic one does not move at all."""
+    mono = Wall(100.0)
+    wall = Steps(mono)
+    stepped = MissionClock(100.0, 60.0, mono=mono, wall=wall)
+    steady = MissionClock(100.0, 60.0, mono=mono)
+    old = WarpClock(wall(), 60.0, wall)
+    watch = WallWatch(mono, wall)
+    seen = []
+    for step in (0.0, 2.0, 0.0, -2.0, 0.0):
+        wall.gap += step
+        mono.t += 1.0
+        seen.append((stepped.now(), steady.now(), old.now()))
+        assert watch.check() == (step or None)
+    assert [s for s, _, _ in seen] == [s for _, s, _ in seen] == [60.0, 120.0, 180.0, 240.0, 300.0]
+    assert [round(o) for _, _, o in seen] == [60, 240, 300, 240, 300]  # the old clock jumps
+    assert watch.steps == 2 and watch.stepped_s == 0.0 and watch.last_step_s == -2.0
+
+
+def test_ntp_slewing_of_the_wall_clock_is_not_a_step() -> None:
+    mono = Wall(0.0)
+    wall = Steps(mono)
+    watch = WallWatch(mono, wall)
+    for _ in range(3600):  # an hour of 500 ppm slewing, looked at every second
+        mono.t += 1.0
+        wall.gap += 0.0005
+        assert watch.check() is None
+    assert watch.steps == 0
+
+
+def test_an_offset_measured_after_the_start_is_slewed_in_never_stepped_back() -> None:
+    mono = Wall(10.0)
+    clock = MissionClock(11.0, 60.0, mono=mono, max_slew=0.5)
+    clock.steer(0.25)  # before the start: applied at once
+    assert clock.now() == pytest.approx(-45.0) and clock.correction_s == 0.0
+    mono.t += 1.0
+    assert clock.now() == pytest.approx(15.0)
+    clock.steer(-1.75)  # the reference is 2 s behind what we thought: 120 mission s
+    assert clock.now() == pytest.approx(15.0) and clock.correction_s == pytest.approx(120.0)
+    last = clock.now()
+    for _ in range(50):  # at half the pace until the correction is gone (4 s)
+        mono.t += 0.1
+        now = clock.now()
+        assert now > last and now - last >= 0.1 * 60.0 * 0.5 - 1e-9
+        last = now
+    assert clock.correction_s == 0.0
+    assert clock.now() == pytest.approx((mono.t - 1.75 - 11.0) * 60.0)
+
+
+def test_a_record_that_came_late_is_slewed_in() -> None:
+    """A process that missed a hold (warp 60 -> 2) for a second: it is 58 mission s ahead;
+    it does not step back, it runs slower until it is on the operator's time."""
+    mono = Wall(0.0)
+    operator = MissionClock(0.0, 60.0, mono=mono)
+    late = MissionClock(0.0, 60.0, mono=mono)
+    mono.t = 10.0
+    record = operator.at_warp(2.0)
+    operator.follow(*record)
+    mono.t = 11.0
+    assert late.now() - operator.now() == pytest.approx(58.0)
+    before = late.now()
+    assert late.follow(*record)
+    assert late.now() == pytest.approx(before)
+    ahead = []  # 58 s to slew at half of warp 2: 58 s
+    for _ in range(130):
+        mono.t += 0.5
+        ahead.append(late.now() - operator.now())
+    assert all(b <= a for a, b in zip(ahead, ahead[1:])) and ahead[-1] == 0.0
+    assert not late.follow(*record)  # the same record again changes nothing
+
+
+def test_mission_time_of_an_arrival_and_dates() -> None:
+    mono = Wall(50.0)
+    clock = MissionClock(50.0, 10.0, mono=mono, wall=Steps(mono, 1000.0))
+    stamp = clock.stamp()
+    mono.t += 2.0
+    assert clock.sim_of(stamp) == pytest.approx(0.0) and clock.now() == pytest.approx(20.0)
+    assert clock.wall_of(30.0) == pytest.approx(1000.0 + 53.0)
+    assert clock.wall_delay(30.0) == pytest.approx(3.0) and clock.wall_delay(-1.0) == 0.0
+    assert clock.epoch_unix == pytest.approx(1050.0)
+    with pytest.raises(ValueError):
+        clock.steer(float("nan"))
+
+
+def test_the_time_exchange_is_ntp_and_the_least_delay_wins() -> None:
+    # the reference is 5 s ahead; the query takes 10 ms, the answer 30 ms, 1 ms held
+    s = time_sample(100.000, 105.010, 105.011, 100.041)
+    assert s.delay_s == pytest.approx(0.040) and s.offset_s == pytest.approx(4.990)
+    f = OffsetFilter(window=3)
+    f.add(s)
+    f.add(time_sample(101.0, 106.002, 106.003, 101.005))  # 4 ms round trip
+    assert f.best().offset_s == pytest.approx(5.0)
+    f.add(time_sample(102.0, float("nan"), 107.0, 102.1))  # garbage is not a sample
+    assert len(f) == 2
+    for i in range(3):  # the window moves on: the good sample is forgotten
+        f.add(time_sample(110.0 + i, 115.05 + i, 115.05 + i, 110.1 + i))
+    assert len(f) == 3 and f.best().delay_s == pytest.approx(0.1)
+
+
+def test_a_clock_answer_carries_the_record_and_the_exchange_times() -> None:
+    record = ClockRecord(1.7e9, 60.0, 4, epoch_ref=123.5, held_by=("auv2",))
+    assert ClockRecord.decode(record.encode()) == record
+    answer = answer_clock(record.encode(), "n=abc123", 200.0, lambda: 200.001)
+    got = ClockAnswer.decode(answer)
+    assert got.record == record and got.nonce == "abc123"
+    assert (got.ref_received, got.ref_answered) == (200.0, 200.001)
+    assert answer_clock(record.encode(), "", 200.0, lambda: 200.001) == record.encode()
+    legacy = ClockRecord(1000.0, 60.0)  # no reference epoch: read on this host's wall clock
+    assert legacy.timing(mono=lambda: 10.0, wall=lambda: 990.0) == (20.0, 60.0, 0)
+    for bad in ({"epoch_unix": 1.0, "warp": 1.0, "held_by": "auv1"},
+                {"epoch_unix": 1.0, "warp": 1.0, "epoch_ref": float("inf")},
+                {"epoch_unix": 1.0, "warp": 1.0, "nonce": "x", "ref_received": "now"}):
+        with pytest.raises(ValueError):
+            ClockAnswer.decode(msgpack.packb(bad))
+
+
+def test_the_launcher_names_stepped_hosts_expired_holds_and_crashes() -> None:
+    report = {"clock": {"warp": 60.0, "wall_steps": {"auv2": 2},
+                        "holds_expired": {"auv3": 1}, "holds_refused": {"auv3": 8}},
+              "crashes": [{"name": "ground_station", "t_s": 600.0, "action": "restart",
+                           "why": "ground_station exited with -9: "}],
+              "saved": {"events": 3, "events_total": 9, "events_error": "[Errno 28]"}}
+    lines = run_warnings(report)
+    assert "auv2's host stepped 2 time(s)" in lines[0] and "{'auv3': 1}" in lines[1]
+    assert lines[2] == "t=600 s: ground_station exited with -9:  (started again)"
+    assert "3 of 9 events" in lines[3] and len(lines) == 4

@@ -1,5 +1,5 @@
 """No process outlives its mission: SIGTERM, SIGINT, SIGHUP or SIGKILL of `cotsfleet run`
-ends every child within 10 s; a child that crashes ends the mission cleanly with a report
+ends every child within 10 s; a router that crashes ends the mission cleanly with a report
 that names it; a busy router port is a one-line error (exit 2); the router listens on
 loopback unless told otherwise. Real `cotsfleet run` processes on loopback."""
 
@@ -94,19 +94,22 @@ def test_every_child_ends_with_the_launcher(scenario: Path, tmp_path: Path, sig:
         launcher.cleanup()
 
 
-def test_a_crashing_child_ends_the_mission_with_a_report_naming_it(scenario: Path,
-                                                                   tmp_path: Path) -> None:
+def test_a_crashing_router_ends_the_mission_with_a_report_naming_it(scenario: Path,
+                                                                    tmp_path: Path) -> None:
+    """The router carries everything: its crash ends the mission (the relay, the ground
+    station and the agents are survived: tests/integration/test_crashes.py)."""
     launcher = Launcher(scenario, tmp_path / "run")
     try:
         launcher.wait_running()
-        os.killpg(launcher.pids["relay"][0], signal.SIGKILL)  # the relay dies on its own
+        os.killpg(launcher.pids["router"][0], signal.SIGKILL)  # the router dies on its own
         out, _ = launcher.proc.communicate(timeout=90)
         assert launcher.proc.returncode == 1, out[-2000:]
-        assert "the mission ended early: relay exited with -9" in out
+        assert "the mission ended early: router exited with -9" in out
         assert "Traceback" not in out
         report = json.loads((launcher.run_dir / "report.json").read_text())
-        assert report["failure"].startswith("relay exited with -9")
-        assert report["exit_codes"]["relay"] == -9
+        assert report["failure"].startswith("router exited with -9")
+        assert report["exit_codes"]["router"] == -9
+        assert report["crashes"][0]["name"] == "router"
         assert launcher.wait_children_gone(GONE_WITHIN_S) <= GONE_WITHIN_S
         assert launcher.leftovers() == []
     finally:

@@ -1,4 +1,4 @@
-"""Takeover and the online cooperation operator: what to ask the replanner, and how.
+"""What the takeover and the cooperation policies ask the replanner, and how.
 
 Pure functions over what an agent knows. Both end in `hfc_core.replan` (through `Planner`,
 iteration budgets only, a seed shared where the fleet should agree):

@@ -1,0 +1,67 @@
+"""The paper's cooperation operator (Algorithm 3), online: spare battery on free spots.
+
+Every ``coop_period_s`` (at once when `intents.SeekWork` asked), a vehicle with spare
+battery asks the replanner for its route with free spots inserted and claims those it gets.
+On a map that is a prior, a find is worth what it holds and a predicted spot only what it is
+expected to: its finder weighs a free find against the route's predicted spots even without
+spare battery, and may give up a spot of its own for it (the replanner's call). On an exact
+map a cooperation never costs the vehicle a spot of its own (`route.keeping_own`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from fleet_agent.config import AgentConfig
+from fleet_agent.intents import Count, Hold, Intent, Steer
+from fleet_agent.knowledge import Knowledge
+from fleet_agent.policies.replans import cooperation_route, detour_fits, live_self
+from fleet_agent.policies.route import keeping_own
+
+
+@dataclass
+class CoopClock:
+    """When the operator next runs, and whether it was asked to run at once."""
+
+    next_s: float
+    soon: bool = False
+
+    def due(self, now: float, period_s: float) -> bool:
+        """Is it time (or was it asked)? If so, the next regular run is a period away."""
+        if now < self.next_s and not self.soon:
+            return False
+        self.soon, self.next_s = False, now + period_s
+        return True
+
+
+def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
+    """The free spots this vehicle takes, and its route with them."""
+    beliefs = know.beliefs
+    if not beliefs.exact and not config.discovery:
+        return []  # --no-discovery: the time empty spots free is not reallocated
+    free = know.free_spots(now)
+    if not free:
+        return []
+    own = know.own
+    # A find may be worth more than a predicted spot on the route (worth only what it is
+    # expected to hold): its finder weighs it even when no detour fits the slack, or a
+    # vehicle whose plan fills its battery would pass an aggregation it has just seen. Only
+    # the finder: every vehicle that hears of a find is told to look when it has settled, and
+    # claims made in the same cycle race; under loss the loser may never hear it lost
+    # (duplicates in benchmarks/dynamic.py at 30 % loss when all looked).
+    finds = any(t >= beliefs.n and beliefs.finder(t) == know.index for t in free)
+    slack = own.slack_s(config.battery_reserve_s)
+    if not finds and (slack < config.coop_min_slack_s or not detour_fits(own, free, slack)):
+        return []
+    mine = cooperation_route(know.planner, live_self(own), know.unavailable(now),
+                             know.held_map(), seed=know.fleet.seed * 1000 + 100 + know.index)
+    out: list[Intent] = [Count("replans")]
+    gained = [t for t in mine if t in free]
+    if not gained:
+        return out
+    out.append(Hold(tuple(gained), True))
+    if not beliefs.exact:  # a spot of ours is worth what it is expected to hold
+        return out + [Steer(tuple(mine), "cooperation")]
+    held = [t for t in own.route if t not in know.cleared]
+    planned = keeping_own(own, config.battery_reserve_s, mine, held, ())
+    return out + [Steer(tuple(planned), "cooperation", frozenset(held))]

@@ -1,0 +1,171 @@
+"""What a frame from a peer changes, and what to answer.
+
+A frame whose fleet MAC checked is evidence of life at once (`alive`): its sender, and the
+peers its heard codes say it heard, may be revived; forged, such evidence only keeps a silent
+vehicle in the fleet longer, never takes its work (silence is not death). Everything else
+waits until the frame is proven its sender's (`fleet_bus.tesla`: a cycle later): the heard
+codes that confirm a suspect's silence (`confirmed`: a takeover), then the content
+(`content`): a pose (where the peer is, and whether its cleared set
+may lack something of ours), a segment of the cleared set (merged: a grow-only set), a claim
+or a release (the one conflict rule of `fleet_agent.negotiation`; a claim on a spot we hold
+by an earlier claim, or know cleared, is answered at once), a find (`policies.discovery`),
+or news of an abort.
+"""
+
+from __future__ import annotations
+
+from fleet_agent import membership as mb
+from fleet_agent.config import AgentConfig
+from fleet_agent.intents import Count, Intent, LastWords, Note, Owe, SeekWork, Tell
+from fleet_agent.knowledge import Knowledge, PeerPose
+from fleet_agent.outbox import AbortNews, Holding, Owed
+from fleet_agent.policies import discovery
+from fleet_agent.policies.takeover import takeover
+from fleet_agent.records import Clear, Hold, PeerState
+from fleet_agent.wire import Abort, Claim, ClearedSegment, Found, Message, Pose, Release
+
+
+def alive(know: Knowledge, msg: Message, now: float) -> list[Intent]:
+    """What the frame says of who is alive: its sender and the peers it heard (revivals)."""
+    v, members = msg.sender, know.members
+    revived = [v] if members.heard(v, float(msg.seq), now) else []
+    revived += members.take_heard(v, msg.heard, float(msg.seq), now)
+    out: list[Intent] = []
+    for u in revived:
+        # Its claims live again: the overlap is settled now (spots taken from it leave the
+        # route), and whatever of ours a takeover released is looked at again at once.
+        know.touch()
+        out += [SeekWork(), Tell(now, "revived", peer=know.vid(u)),
+                Note(PeerState(u, mb.ALIVE, now))]
+    return out
+
+
+def confirmed(know: Knowledge, config: AgentConfig, msg: Message, now: float,
+              active: bool) -> list[Intent]:
+    """The silences the (proven) frame's heard codes confirm: those peers are lost."""
+    out: list[Intent] = []
+    for u in know.members.confirm(msg.sender, msg.heard, float(msg.seq), now):
+        out += lost(know, config, u, now, active)
+    return out
+
+
+def content(know: Knowledge, config: AgentConfig, msg: Message, now: float,
+            active: bool) -> list[Intent]:
+    """What the frame's message changes, and what to answer."""
+    if isinstance(msg, Pose):
+        return _pose(know, config, msg, now, active)
+    if isinstance(msg, ClearedSegment):
+        out: list[Intent] = []
+        new = know.merge_segment(msg.segment, msg.bits)
+        if new:
+            out.append(Note(Clear(now, tuple(new), own=False)))
+            out += discovery.fold_aliases(know, now)
+        if know.cleared.missing_from(msg.segment, msg.bits):
+            out.append(Owe(Owed.LACKS, msg.sender))
+        return out
+    if isinstance(msg, (Claim, Release)):
+        return _holding(know, msg, now)
+    if isinstance(msg, Found):
+        return discovery.on_found(know, msg, now)
+    if isinstance(msg, Abort) and msg.who != know.index:
+        news, out = gone(know, config, msg.who, mb.ABORTED, now, active, msg.t_s)
+        return out + ([Count("abort_relayed_in")] if news and msg.who != msg.sender else [])
+    return []
+
+
+def lost(know: Knowledge, config: AgentConfig, v: int, now: float,
+         active: bool) -> list[Intent]:
+    """Another vehicle confirmed ``v``'s silence: its work is taken over."""
+    know.touch()
+    out: list[Intent] = [Note(PeerState(v, mb.LOST, now)), LastWords(v),
+                         Tell(now, "lost", peer=know.vid(v), detail="silent")]
+    if active:
+        out += takeover(know, config, v, now, doubt=know.members.doubt(now))
+    return out
+
+
+def gone(know: Knowledge, config: AgentConfig, v: int, status: str, now: float,
+         active: bool, t_event: int | None = None) -> tuple[bool, list[Intent]]:
+    """An announced abort or arrival home; whether it was news, and what follows."""
+    before = know.members.status(v)
+    if not know.members.mark(v, status, now):
+        return False, []
+    know.touch()
+    out: list[Intent] = [Note(PeerState(v, status, now))]
+    if status == mb.ABORTED:
+        out += [LastWords(v), Tell(now, "lost", peer=know.vid(v), detail="aborted")]
+        if active:
+            # Pass the news on once: a peer that missed every announcement learns it from us
+            # instead of waiting for the silence to be noticed.
+            out.append(Owe(Owed.ABORT, AbortNews(v, int(now) if t_event is None else t_event)))
+            if before in mb.WORKING:
+                out += takeover(know, config, v, now)
+    return True, out
+
+
+def last_words(know: Knowledge, v: int, msgs: list[Message], now: float) -> list[Intent]:
+    """A gone peer's unproven last frames: its own spots it says are cleared (a lie there
+    costs only its own work; a duplicate of its last treatments costs everyone)."""
+    own = {t for t in range(know.problem.n_tasks) if know.holdings.claim_time(t, v) is not None
+           or t in know.fleet.base_routes[v]}
+    out: list[Intent] = []
+    for msg in msgs:
+        if isinstance(msg, ClearedSegment):
+            lo = msg.segment * know.cleared.segment_bits
+            bits = int.from_bytes(msg.bits, "little")
+            said = [lo + i for i in range(bits.bit_length()) if bits >> i & 1]
+            new = know.clear(t for t in said if t in own and t < know.problem.n_tasks)
+            if new:
+                out += [Count("last_words"), Note(Clear(now, tuple(new), own=False))]
+    return out
+
+
+def _pose(know: Knowledge, config: AgentConfig, msg: Pose, now: float,
+          active: bool) -> list[Intent]:
+    v = msg.sender
+    know.peer_pose[v] = PeerPose(msg.pos, float(msg.seq), msg.state)
+    know.peer_digest[v] = msg.digest
+    mine = know.cleared.digest()
+    # Push only if the peer may lack something we have: equal sizes with different hashes,
+    # or a smaller set (sizes are mod 128; a larger set will push to us instead).
+    behind = (mine.count - msg.digest.count) % 128
+    working = msg.state not in ("home", "aborted")  # a watcher needs no cleared set
+    out: list[Intent] = []
+    if working and msg.digest != mine and (behind == 0 or behind < 64):
+        out.append(Owe(Owed.LACKS, v))
+    if msg.state == "home":
+        out += gone(know, config, v, mb.HOME, now, active)[1]
+    elif msg.state == "aborted":
+        out += gone(know, config, v, mb.ABORTED, now, active)[1]
+    return out
+
+
+def _holding(know: Knowledge, msg: Claim | Release, now: float) -> list[Intent]:
+    is_claim, own = isinstance(msg, Claim), know.own
+    mine_before = set(own.route)
+    changed = know.hold(msg.sender, msg.t_s, msg.tasks, is_claim)
+    out = _contest(know, msg.tasks) if is_claim else []
+    if changed:
+        out.append(Note(Hold(msg.sender, msg.t_s, tuple(changed), is_claim)))
+        lost_spots = [t for t in changed if t in mine_before and know.holder(t) != know.index
+                      and t != own.injecting]
+        if lost_spots:
+            out += [Tell(now, "claim_lost", tuple(lost_spots), peer=know.vid(msg.sender)),
+                    SeekWork()]
+    return out
+
+
+def _contest(know: Knowledge, tasks: tuple[int, ...]) -> list[Intent]:
+    """A peer claims spots it cannot have: answer at once, not at the next refresh. A claim
+    on a spot we hold by an earlier claim means the peer missed ours (we re-send it); on a
+    spot we know is cleared, that it missed the clear (we push that segment). Unanswered, it
+    would fly there and treat the spot again (a claim race under loss)."""
+    by_time: dict[int, list[int]] = {}
+    for t in tasks:
+        since = know.holdings.claim_time(t, know.index)
+        if since and t not in know.cleared and know.holder(t) == know.index:
+            by_time.setdefault(since, []).append(t)
+    out: list[Intent] = [Owe(Owed.ANSWER, Holding(True, c, tuple(group)))
+                         for c, group in sorted(by_time.items())]
+    done = {know.cleared.segment_of(t) for t in tasks if t in know.cleared}
+    return out + [Owe(Owed.SEGMENT, s) for s in sorted(done)]

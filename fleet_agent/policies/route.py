@@ -1,0 +1,50 @@
+"""The route kept true to what the vehicle knows, and what a replan may change of it.
+
+- `sync`: only spots this vehicle holds and nobody cleared (the spot being injected stays),
+  held spots missing from it folded in where they cost least; the agent fits it to the
+  battery and releases what it will not treat (`intents.Steer`);
+- `keeping_own`: a replanner's route that never costs the vehicle one of its own spots.
+"""
+
+from __future__ import annotations
+
+from typing import Collection
+
+from fleet_agent.intents import Intent, Steer
+from fleet_agent.knowledge import Knowledge
+from fleet_agent.motion import OwnVehicle
+from fleet_agent.policies.replans import after_own
+from fleet_agent.routing import cheapest_insertion, fit_route
+
+
+def sync(know: Knowledge) -> list[Intent]:
+    """Keep the route to spots this vehicle holds and nobody cleared; fold in held spots
+    missing from it."""
+    own = know.own
+    injecting, alias = own.injecting, know.beliefs.alias
+    route = [t for t in own.route if t not in know.cleared
+             and (t == injecting or (know.holder(t) == know.index and t not in alias))]
+    orphans = [t for t in know.held_by(know.index) if t not in route and t not in know.cleared]
+    for t in orphans:
+        route = cheapest_insertion(own, route, t)
+    return [Steer(tuple(route), "sync")]
+
+
+def keeping_own(own: OwnVehicle, reserve_s: float, planned: list[int], held: list[int],
+                late: Collection[int]) -> list[int]:
+    """``planned`` (a replanner's route) with the spots in ``late`` moved to its end
+    (`replans.after_own`), unless that would cost this vehicle one of the spots it already
+    holds (``held``, its route now, which fits): then its route as it is, the new spots
+    inserted where they cost least, ``late`` ones at the end. The replanner works on rounded
+    states and may leave a spot of ours out or order ours longer; a takeover or a cooperation
+    must never make a vehicle collect less than its own route would."""
+    cand = after_own(planned, late)
+    cand += [t for t in held if t not in cand]
+    fitted = fit_route(own, cand, reserve_s, held)
+    if set(held) <= set(fitted):
+        return cand
+    route = list(held)
+    for t in planned:
+        if t not in held and t not in late:
+            route = cheapest_insertion(own, route, t)
+    return route + [t for t in planned if t in late and t not in held]

@@ -1,0 +1,54 @@
+"""A peer declared gone: replan the survivors over the spots it freed; take this vehicle's share.
+
+Safe under false suspicion: the taken spots the peer would reach within ``takeover_wait_s`` go
+to the end of the route (`replans.after_own`), so they are reached as late as the route
+allows, which leaves the presumed-lost vehicle the most time to be heard again; when it is,
+its claims (the initial plan's, at time 0, or older than ours) win and the taken spots leave
+the route at once (`route.sync`). Its own spots are never dropped to make room for taken ones
+while the silence may be a false alarm.
+"""
+
+from __future__ import annotations
+
+from fleet_agent.config import AgentConfig
+from fleet_agent.intents import Count, Hold, Intent, Steer, Tell
+from fleet_agent.knowledge import Knowledge
+from fleet_agent.policies.replans import (after_own, live_peer, live_self, peer_etas,
+                                          takeover_share)
+from fleet_agent.policies.route import keeping_own
+
+
+def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
+             doubt: float = 0.0) -> list[Intent]:
+    """This vehicle's share of ``gone``'s spots, and its route with them.
+
+    ``doubt``: the chance ``gone`` is in fact alive (0 for an announced abort). Above
+    ``takeover_doubt`` the takeover is the safe one: spots this vehicle holds are kept
+    whatever the replanner says. At or below it the replanner's route is taken (a vehicle
+    may give up one of its own spots for a richer one of the dead peer's, as a centralized
+    replan would). Either way the taken spots the peer would itself reach within
+    ``takeover_wait_s`` go last: a vehicle cut off by a partition looks dead to the others
+    exactly as a dead one does, and its next spots are where a duplicate would happen."""
+    free = know.free_spots(now)
+    if not free:
+        return []
+    own = know.own
+    peers = [live_peer(know.problem, v, know.peer_pose.get(v), know.peer_route(v), now)
+             for v in know.active_peers()]
+    # The same seed on every survivor: equal views give equal answers.
+    mine = takeover_share(know.planner, live_self(own), peers, know.unavailable(now),
+                          know.held_map(), seed=know.fleet.seed * 1000 + gone)
+    gained = [t for t in mine if t in free]
+    etas = peer_etas(know.problem, gone, know.peer_pose.get(gone), know.freed_route(gone))
+    horizon = now + config.takeover_wait_s
+    soon = [t for t in gained if etas.get(t, horizon) < horizon]
+    out: list[Intent] = [Count("replans")]
+    if gained:
+        out += [Hold(tuple(gained), True),
+                Tell(now, "takeover", tuple(gained), peer=know.vid(gone))]
+    why = f"takeover of {know.vid(gone)}"
+    if doubt <= config.takeover_doubt:
+        return out + [Steer(tuple(after_own(mine, soon)), why)]
+    held = [t for t in own.route if t not in know.cleared]
+    planned = keeping_own(own, config.battery_reserve_s, mine, held, soon)
+    return out + [Steer(tuple(planned), why, frozenset(held))]
