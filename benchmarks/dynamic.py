@@ -94,7 +94,7 @@ def _fleet(problem, reef, seed: int, config: AgentConfig, loss: float = 0.0,
     books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
              if seat.driver is not None}
     world = world_tally(reef, books)
-    r = result.report
+    r = result.report.to_dict()
     return {"priority": world["priority"], "dups": world["duplicates"],
             "missed": world["missed"], "report_priority": r["fleet"]["priority"],
             "report_dups": r["fleet"]["duplicate_treatments"],

@@ -56,7 +56,7 @@ def rss_mb() -> float:
 def longest_working(problem: Problem, seed: int) -> tuple[str, float]:
     """The vehicle at sea longest in the mission without a fault, and for how long: the
     one whose loss the kill row tests (a plan may leave vehicles idle at the start)."""
-    report = simulate(problem, AgentConfig(), seed=seed).report
+    report = simulate(problem, AgentConfig(), seed=seed).report.to_dict()
     v = max(report["vehicles"], key=lambda v: (v["battery_used_s"], v["id"]))
     return v["id"], float(v["battery_used_s"])
 
@@ -78,7 +78,7 @@ def in_process(workdir: Path, seed: int, quick: bool) -> dict[str, Any]:
     gc.collect()  # the fault-free run's objects go before the measured run starts
     sim = simulate(problem, AgentConfig(), seed=seed, faults=[] if quick else [kill])
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # Linux: KiB
-    f = sim.report["fleet"]
+    f = sim.report.to_dict()["fleet"]
     # Detection by the vehicles still at sea: one already home has stopped listening.
     delays = [d for d in f["detection_delay_s"].get(kill.vid, {}).values() if d is not None]
     plan_json = workdir / "plan24.json"
@@ -94,7 +94,7 @@ def in_process(workdir: Path, seed: int, quick: bool) -> dict[str, Any]:
             "false_alarms": f["false_alarms"], "taken_over": f["spots_taken_over"],
             "detected_by": len(delays), "detect_max_s": max(delays) if delays else None,
             "victim": victim, "victim_mission_s": victim_s,
-            "largest_frame": sim.report["messages"]["largest_frame_bytes"],
+            "largest_frame": sim.report.to_dict()["messages"]["largest_frame_bytes"],
             "plan_priority": plan["priority_collected"],
             "plan_wall_s": time.perf_counter() - t0,
             "ratio": f["priority"] / plan["priority_collected"],

@@ -24,34 +24,72 @@ the vehicle's slot. The parts, one idea each:
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from fleet_agent import records as rec
 from fleet_agent.beliefs import Beliefs
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
-from fleet_agent.intents import (Count, Hold, Intent, LastWords, Note, Owe, SeekWork, Steer,
-                                 Tell)
-from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, Publish,
-                                  Record, Send, Tick)
+from fleet_agent.intents import (
+    Count,
+    Hold,
+    Intent,
+    LastWords,
+    Note,
+    Owe,
+    SeekWork,
+    Steer,
+    Tell,
+)
+from fleet_agent.io_types import (
+    Command,
+    Frame,
+    Helm,
+    Input,
+    Output,
+    Outputs,
+    Publish,
+    Record,
+    Send,
+    Tick,
+)
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import discovery, hearing
 from fleet_agent.policies.cooperate import CoopClock, cooperate
 from fleet_agent.policies.route import sync
+from fleet_agent.provenance import Provenance
 from fleet_agent.radio import Radio, Slots
 from fleet_agent.restore import Snapshot, fold
 from fleet_agent.routing import fit_route
-from fleet_agent.provenance import Provenance
 from fleet_agent.wire import Message, radio_kind
 from fleet_bus.telemetry import Status
-from fleet_bus.vehicle_port import (Arrived, Injected, Looked, NavFix, Refused, Sighted,
-                                    VehicleReport)
+from fleet_bus.vehicle_port import (
+    Arrived,
+    Injected,
+    Looked,
+    NavFix,
+    Refused,
+    Sighted,
+    VehicleReport,
+)
 from hfc_core.model.problem import Problem
 
-__all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Input", "Send", "Publish", "Record",
-           "Helm", "Output"]
+__all__ = [
+    "Agent",
+    "Command",
+    "Fleet",
+    "Frame",
+    "Helm",
+    "Input",
+    "Output",
+    "Publish",
+    "Record",
+    "Send",
+    "Tick",
+]
 
 
 class Agent:
@@ -394,6 +432,7 @@ class Agent:
             claims=know.tids(sorted(know.standing_claims())),
             counters={**self.counters, "largest_frame": self.largest_frame},
             lag_s=self._take_lag(),
+            suspects={know.vid(u): n for u, n in sorted(know.suspicion.items())},
         )
 
     def _take_lag(self) -> float:

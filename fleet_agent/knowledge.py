@@ -11,8 +11,9 @@ present: on an exact map (no hidden reef) every predicted spot is known and noth
 
 from __future__ import annotations
 
+from collections import Counter
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable
 
 from fleet_agent import membership as mb
 from fleet_agent.beliefs import Beliefs
@@ -25,6 +26,7 @@ from fleet_agent.negotiation import Holdings
 from fleet_agent.plans import Planner
 from fleet_agent.replay import ReplayWindow
 from fleet_agent.wire import Digest
+from fleet_agent.witness import Track, Witness
 from hfc_core.model.problem import Problem
 
 Point3 = tuple[float, float, float]
@@ -55,6 +57,11 @@ class Knowledge:
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
         self.peer_digest: dict[int, Digest] = {}
+        # What waits for a second peer's word, each peer's recent track, and how often each
+        # peer said what could not be (`policies.plausible`).
+        self.witness = Witness()
+        self.tracks: dict[int, Track] = {}
+        self.suspicion: Counter[int] = Counter()
         # Bumped by every change a decision may depend on: the route is checked against the
         # knowledge again whenever it moved (`policies.route.sync`).
         self.version = 0

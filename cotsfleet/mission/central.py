@@ -516,5 +516,5 @@ def run_central(problem: Problem, reef: Reef, *, seed: int,
     world = world_tally(reef, {s.vid: s.port.treatments for s in central.seats})
     report = build_report(problem, central.ledger, None, [], mode="central", seed=seed,
                           end_s=end, reef=reef,
-                          extra={"world": world, "central": dict(central.counters)})
+                          extra={"world": world, "central": dict(central.counters)}).to_dict()
     return CentralResult(report, time.perf_counter() - wall, central)

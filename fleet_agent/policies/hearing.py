@@ -15,11 +15,12 @@ or news of an abort.
 from __future__ import annotations
 
 from fleet_agent import membership as mb
+from fleet_agent import witness
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Intent, LastWords, Note, Owe, SeekWork, Tell
 from fleet_agent.knowledge import Knowledge, PeerPose
 from fleet_agent.outbox import AbortNews, Holding, Owed
-from fleet_agent.policies import discovery
+from fleet_agent.policies import discovery, plausible
 from fleet_agent.policies.takeover import takeover
 from fleet_agent.records import Clear, Hold, PeerState
 from fleet_agent.wire import Abort, Claim, ClearedSegment, Found, Message, Pose, Release
@@ -55,22 +56,50 @@ def content(know: Knowledge, config: AgentConfig, msg: Message, now: float,
     if isinstance(msg, Pose):
         return _pose(know, config, msg, now, active)
     if isinstance(msg, ClearedSegment):
-        out: list[Intent] = []
-        new = know.merge_segment(msg.segment, msg.bits)
-        if new:
-            out.append(Note(Clear(now, tuple(new), own=False)))
-            out += discovery.fold_aliases(know, now)
-        if know.cleared.missing_from(msg.segment, msg.bits):
-            out.append(Owe(Owed.LACKS, msg.sender))
-        return out
+        return _cleared(know, msg, now)
     if isinstance(msg, (Claim, Release)):
         return _holding(know, msg, now)
     if isinstance(msg, Found):
-        return discovery.on_found(know, msg, now)
+        verdict = plausible.find(know, msg.sender, msg.slot, msg.pos, msg.priority,
+                                 msg.service_s, now)
+        if verdict == plausible.REFUSE:
+            return _suspect(know, msg.sender, "find")
+        return discovery.on_found(know, msg, now) if verdict == plausible.TAKE else \
+            [Count("find_waiting")]
     if isinstance(msg, Abort) and msg.who != know.index:
+        if not plausible.abort_news(know, msg.sender, msg.who):
+            return [Count("abort_waiting")]  # one peer's word about another: wait for two
         news, out = gone(know, config, msg.who, mb.ABORTED, now, active, msg.t_s)
         return out + ([Count("abort_relayed_in")] if news and msg.who != msg.sender else [])
     return []
+
+
+def _suspect(know: Knowledge, v: int, what: str, n: int = 1) -> list[Intent]:
+    """``v`` said ``n`` thing(s) of kind ``what`` that could not be: refused, and counted
+    against it (the report's suspects)."""
+    know.suspicion[v] += n
+    return [Count(f"implausible_{what}", n)]
+
+
+def _cleared(know: Knowledge, msg: ClearedSegment, now: float) -> list[Intent]:
+    """A segment of a peer's cleared set: what it is news of and plausible is taken (a
+    grow-only set), the rest waits for a second word; a peer that lacks some of ours is owed
+    a push."""
+    lo = msg.segment * know.cleared.segment_bits
+    bits = int.from_bytes(msg.bits, "little")
+    news = [lo + i for i in range(bits.bit_length()) if bits >> i & 1
+            and lo + i < know.problem.n_tasks and lo + i not in know.cleared]
+    out: list[Intent] = []
+    take, waiting = plausible.cleared(know, msg.sender, news)
+    new = know.clear(take)
+    if new:
+        out.append(Note(Clear(now, tuple(new), own=False)))
+        out += discovery.fold_aliases(know, now)
+    if waiting:
+        out.append(Count("cleared_waiting", waiting))
+    if know.cleared.missing_from(msg.segment, msg.bits):
+        out.append(Owe(Owed.LACKS, msg.sender))
+    return out
 
 
 def lost(know: Knowledge, config: AgentConfig, v: int, now: float,
@@ -125,6 +154,8 @@ def _pose(know: Knowledge, config: AgentConfig, msg: Pose, now: float,
     v = msg.sender
     know.peer_pose[v] = PeerPose(msg.pos, float(msg.seq), msg.state)
     know.peer_digest[v] = msg.digest
+    start = know.problem.vehicles[v].start
+    witness.extend(know.tracks.setdefault(v, witness.new_track(start)), float(msg.seq), msg.pos)
     mine = know.cleared.digest()
     # Push only if the peer may lack something we have: equal sizes with different hashes,
     # or a smaller set (sizes are mod 128; a larger set will push to us instead).
@@ -133,7 +164,9 @@ def _pose(know: Knowledge, config: AgentConfig, msg: Pose, now: float,
     out: list[Intent] = []
     if working and msg.digest != mine and (behind == 0 or behind < 64):
         out.append(Owe(Owed.LACKS, v))
-    if msg.state == "home":
+    if msg.state == "home" and not plausible.home(know, v, msg.pos):
+        out += _suspect(know, v, "home")
+    elif msg.state == "home":
         out += gone(know, config, v, mb.HOME, now, active)[1]
     elif msg.state == "aborted":
         out += gone(know, config, v, mb.ABORTED, now, active)[1]
@@ -143,8 +176,11 @@ def _pose(know: Knowledge, config: AgentConfig, msg: Pose, now: float,
 def _holding(know: Knowledge, msg: Claim | Release, now: float) -> list[Intent]:
     is_claim, own = isinstance(msg, Claim), know.own
     mine_before = set(own.route)
-    changed = know.hold(msg.sender, msg.t_s, msg.tasks, is_claim)
+    tasks = plausible.claims(know, msg.sender, msg.tasks) if is_claim else msg.tasks
+    changed = know.hold(msg.sender, msg.t_s, tasks, is_claim)
     out = _contest(know, msg.tasks) if is_claim else []
+    if len(tasks) < len(msg.tasks):
+        out += _suspect(know, msg.sender, "claim", len(msg.tasks) - len(tasks))
     if changed:
         out.append(Note(Hold(msg.sender, msg.t_s, tuple(changed), is_claim)))
         lost_spots = [t for t in changed if t in mine_before and know.holder(t) != know.index

@@ -48,5 +48,5 @@ def test_with_drift_the_vehicles_report_their_estimate_and_the_world_books_the_t
         assert 0 < err < 6 * fix.sigma_m
     # every injection is in the world's book, with the truth spot it really treated (if any)
     injected = sum(len(v.treatments) for v in vehicles)
-    assert injected >= result.report["fleet"]["treatments"] > 0
+    assert injected >= result.report.fleet.treatments > 0
     assert any(t.spot is not None for v in vehicles for t in v.treatments)

@@ -28,22 +28,22 @@ def test_24_vehicles_with_a_kill_treat_nothing_twice_and_detect_the_dead() -> No
     problem = problem_from_dict(doc)
     config = AgentConfig()
     result = simulate(problem, config, seed=3, faults=[Fault("kill", KILL_S, "auv7")])
-    fleet = result.report["fleet"]
-    assert fleet["duplicate_treatments"] == 0
-    assert fleet["vehicles_home"] == 23
-    assert fleet["false_alarms"] == 0
-    assert result.report["messages"]["largest_frame_bytes"] <= MAX_FRAME_BYTES
+    fleet = result.report.fleet
+    assert fleet.duplicate_treatments == 0
+    assert fleet.vehicles_home == 23
+    assert fleet.false_alarms == 0
+    assert result.report.messages.largest_frame_bytes <= MAX_FRAME_BYTES
     routes = {v.id: [] for v in problem.vehicles}
     for e in result.events:
         if e.kind == "cleared":
             routes[e.id] += e.tasks
     assert check_routes(problem, routes) == []
-    assert fleet["spots_cleared"] >= 0.8 * problem.n_tasks
+    assert fleet.spots_cleared >= 0.8 * problem.n_tasks
     # Every survivor declared auv7 lost within the bound docs/wire.md states: its silence of
     # lost_after_cycles, a confirmer's next slot, and the cycle that proves that frame its
     # sender's (`tesla`).
     bound_s = (config.lost_after_cycles + 2) * TdmaSchedule(24, config.slot_s).cycle_s
-    delays = fleet["detection_delay_s"]["auv7"]
+    delays = fleet.detection_delay_s["auv7"]
     assert len(delays) == 23 and all(d is not None for d in delays.values())
     assert max(delays.values()) <= bound_s + 1.0
 

@@ -77,7 +77,7 @@ def mission(tmp_path_factory):
                               out=lambda line: None)
     result: dict = {}
     thread = threading.Thread(target=lambda: result.update(report=run_mission(
-        problem, launcher, faults, seed=3, step_s=25.0).report), daemon=True)
+        problem, launcher, faults, seed=3, step_s=25.0).report.to_dict()), daemon=True)
     thread.start()
     stop, sent = threading.Event(), {}
     try:
