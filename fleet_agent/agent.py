@@ -58,6 +58,7 @@ from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import discovery, hearing
+from fleet_agent.policies import reports as reports_policy
 from fleet_agent.policies.cooperate import CoopClock, cooperate
 from fleet_agent.policies.route import sync
 from fleet_agent.provenance import Provenance
@@ -67,12 +68,6 @@ from fleet_agent.routing import fit_route
 from fleet_agent.wire import Message, radio_kind
 from fleet_bus.telemetry import Status
 from fleet_bus.vehicle_port import (
-    Arrived,
-    Injected,
-    Looked,
-    NavFix,
-    Refused,
-    Sighted,
     VehicleReport,
 )
 from hfc_core.model.problem import Problem
@@ -110,6 +105,7 @@ class Agent:
         self.own = OwnVehicle(p, index, fleet.paths, Conduct(
             self._settled_s, beliefs.unknown, 0.0 if dyn is None else dyn.camera.inspect_s,
             config.battery_reserve_s), now)
+        self.own.frame.enabled = dyn is not None and config.map_relative_nav
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
         chains = fleet.chains
@@ -148,7 +144,8 @@ class Agent:
         now = max(float(inp.now), self.t)
         out, self._boot = self._boot, self._outputs()
         for r in reports:
-            self._apply(self._from_vehicle(r), now, out)
+            self._apply(reports_policy.take(self.know, self.config, self.fleet.codec, r,
+                                            self.active), now, out)
         if self.own.wake(now):
             self.know.touch()
         if isinstance(inp, Frame):
@@ -156,6 +153,8 @@ class Agent:
         elif isinstance(inp, Command):
             self._on_command(inp.name, now, out)
         self._settle(now)
+        if self.config.discovery:  # never treat a spot twice (`policies.discovery`)
+            self._apply(discovery.fold_treated(self.know, now), now, out)
         self.know.rebind()
         for v in self.know.members.check(now):  # silence makes a suspect, nothing more
             out.event(now, "suspect", peer=self.know.vid(v))
@@ -261,38 +260,6 @@ class Agent:
 
     # -- the vehicle -----------------------------------------------------------------------
 
-    def _from_vehicle(self, r: VehicleReport) -> list[Intent]:
-        """A vehicle report: fixes move the model, arrivals and ends of work change what it
-        does, sightings and looks go to `policies.discovery`."""
-        own, know = self.own, self.know
-        if isinstance(r, NavFix):
-            own.fix(r)
-        elif isinstance(r, Arrived):
-            home = own.arrived(r.target, r.t_s)
-            if home is not None:
-                know.touch()
-                # An aborted vehicle already said goodbye; others announce their arrival.
-                return ([] if own.aborted else [Owe(Owed.HOME)]) + [
-                    Note(rec.Home(home.t_s)), Tell(home.t_s, "replan", detail="home")]
-        elif isinstance(r, Injected):
-            done = own.injected(r.task, r.t_s)
-            if done is None:
-                return [Count("injection_stale")]
-            know.treat(done.task, done.t_s)
-            return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True)),
-                    Tell(done.t_s, "cleared", (done.task,),
-                         detail=discovery.where(know, done.task))]
-        elif isinstance(r, Looked):
-            return discovery.on_looked(know, self.config, r)
-        elif isinstance(r, Sighted):
-            if not self.active:
-                return [Count("sensed_ignored")]
-            return discovery.on_sighted(know, self.config, self.fleet.codec, r, r.t_s)
-        elif isinstance(r, Refused):
-            return [Count("helm_refused"),
-                    Tell(r.t_s, "refused", detail=f"{r.command}: {r.reason}")]
-        return []
-
     def _helm(self, out: Outputs) -> None:
         """Tell the vehicle what to do when that changed (an arrival, the end of work, a new
         head of the route, an abort)."""
@@ -381,7 +348,7 @@ class Agent:
         know.cleared.update(snap.cleared)
         know.treated = list(snap.treated)
         for f in snap.finds:
-            know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s)
+            know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s, f.sigma_m)
         for h in snap.holds:
             know.holdings.apply(h.v, h.t_s, list(h.tasks), h.claim)
         for p in snap.finals:

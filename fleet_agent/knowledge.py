@@ -62,6 +62,10 @@ class Knowledge:
         self.witness = Witness()
         self.tracks: dict[int, Track] = {}
         self.suspicion: Counter[int] = Counter()
+        # Spots this vehicle judged treated by someone (`policies.discovery.fold_treated`),
+        # and what the cleared set and the finds were when it last judged.
+        self.folded: set[int] = set()
+        self.fold_key: tuple[int, int, int] = (-1, -1, -1)
         # Bumped by every change a decision may depend on: the route is checked against the
         # knowledge again whenever it moved (`policies.route.sync`).
         self.version = 0

@@ -19,12 +19,21 @@ route the agent checks against the battery is timed as the planner and the check
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Callable, Sequence
 
-from fleet_bus.vehicle_port import (HOME_TARGET, Abort, GoTo, HelmCommand, NavFix, ReturnHome,
-                                    StationKeep, Work)
+from fleet_agent.landmarks import MapFrame
+from fleet_bus.vehicle_port import (
+    HOME_TARGET,
+    Abort,
+    GoTo,
+    HelmCommand,
+    NavFix,
+    ReturnHome,
+    StationKeep,
+    Work,
+)
 from hfc_core.model.feasibility import fits, room_s
 from hfc_core.model.paths import PathFn, as_point3
 from hfc_core.model.problem import Problem
@@ -99,6 +108,9 @@ class OwnVehicle:
         self.t_s = float(t_s)
         self.pos: Point3 = spec.start
         self.sigma_m = 0.0
+        # The vehicle's frame against the map's (`landmarks`): positions here are the map's,
+        # the waypoints commanded the vehicle's. Off on an exact map (nothing to sight).
+        self.frame = MapFrame(enabled=False)
         self.yaw_deg = 0.0
         self.pitch_deg = 0.0
         self.distance_m = 0.0
@@ -142,22 +154,26 @@ class OwnVehicle:
         act = self.activity
         if act is Activity.HOME:
             return None
+        out = self.frame.to_vehicle
         if act is Activity.RETURNING:
-            waypoints = tuple(self.paths(self.pos, self.rendezvous)[1])
+            waypoints = tuple(out(w) for w in self.paths(self.pos, self.rendezvous)[1])
             return Abort(waypoints) if self.aborted else ReturnHome(waypoints)
         task = self.route[0]
         if act is Activity.TRANSIT:
             goal = self._target_pos(task)
-            ahead = tuple(self._target_pos(t) for t in self.route[1:])
-            return GoTo(task, tuple(self.paths(self.pos, goal)[1]), ahead)
+            ahead = tuple(out(self._target_pos(t)) for t in self.route[1:])
+            return GoTo(task, tuple(out(w) for w in self.paths(self.pos, goal)[1]), ahead)
         work = {Activity.WAITING: Work.WAIT, Activity.LOOKING: Work.LOOK,
                 Activity.INJECTING: Work.INJECT}[act]
         assert self.busy_until_s is not None
         return StationKeep(work, task, max(0.0, self.busy_until_s - self.t_s))
 
-    def command_key(self) -> tuple[Activity, int | None, bool]:
-        """What changes the command: the activity and the spot it is about."""
-        return self.activity, (self.route[0] if self.route else None), self.aborted
+    def command_key(self) -> tuple[Activity, int | None, bool, tuple[float, float] | None]:
+        """What changes the command: the activity and the spot it is about, and while it
+        flies, the offset of its frame from the map's (a landmark moved the goal)."""
+        moving = self.activity in (Activity.TRANSIT, Activity.RETURNING)
+        return self.activity, (self.route[0] if self.route else None), self.aborted, \
+            (self.frame.key() if moving else None)
 
     def rebind(self, problem: Problem) -> None:
         """Beliefs changed: time routes on the new working problem (finds move slots)."""
@@ -166,13 +182,17 @@ class OwnVehicle:
     # -- what the vehicle reports ------------------------------------------------------------
 
     def fix(self, nav: NavFix) -> None:
-        """A navigation fix: where the vehicle believes it is."""
+        """A navigation fix: where the vehicle believes it is (in the map's frame)."""
+        self.frame.nav(nav.sigma_m)
+        pos = self.frame.to_map(as_point3(nav.pos)) if self.frame.enabled else \
+            as_point3(nav.pos)
         if nav.odometer_m is not None:
             self.distance_m = float(nav.odometer_m)
         elif nav.t_s >= self.t_s:
-            self.distance_m += math.dist(self.pos, nav.pos)
-        self.pos = as_point3(nav.pos)
-        self.sigma_m, self.yaw_deg, self.pitch_deg = nav.sigma_m, nav.yaw_deg, nav.pitch_deg
+            self.distance_m += math.dist(self.pos, pos)
+        self.pos = pos
+        self.sigma_m = self.frame.sigma_m if self.frame.enabled else nav.sigma_m
+        self.yaw_deg, self.pitch_deg = nav.yaw_deg, nav.pitch_deg
         self.t_s = max(self.t_s, float(nav.t_s))
 
     def at_time(self, t_s: float) -> None:

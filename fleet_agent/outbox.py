@@ -415,7 +415,8 @@ class Outbox:
     def _found(self, s: Slot, slot: int) -> Found:
         b = s.know.beliefs
         f = b.finds[slot]
-        return Found(s.me, s.seq(), b.digest(), slot, f.pos, f.priority, f.service_s, s.heard)
+        return Found(s.me, s.seq(), b.digest(), slot, f.pos, f.priority, f.service_s, s.heard,
+                     f.sigma_m)
 
 
 # The ladders (module docstring), as tables of rules.

@@ -61,7 +61,7 @@ def content(know: Knowledge, config: AgentConfig, msg: Message, now: float,
         return _holding(know, msg, now)
     if isinstance(msg, Found):
         verdict = plausible.find(know, msg.sender, msg.slot, msg.pos, msg.priority,
-                                 msg.service_s, now)
+                                 msg.service_s, now, msg.sigma_m)
         if verdict == plausible.REFUSE:
             return _suspect(know, msg.sender, "find")
         return discovery.on_found(know, msg, now) if verdict == plausible.TAKE else \

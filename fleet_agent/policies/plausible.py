@@ -40,6 +40,8 @@ from hfc_core.model.problem import Problem
 
 HOME_RADIUS_M = 50.0  # "home" said farther than this from its rendezvous is a lie
 FIND_MARGIN_M = 15.0  # beyond the camera's reach: navigation and quantisation
+FIND_SIGMAS = 3.0  # and its finder's navigation uncertainty, this many sigmas of it ...
+FIND_SIGMA_CAP_M = 60.0  # ... at most (a liar's sigma loosens the check no further)
 TRACK_SPEED_FACTOR = 1.2  # how much farther than cruise speed a peer may have gone between poses
 CLAIM_SLACK = 1.1  # a claim's lower bound against the battery: currents, clock offsets
 HELD_SLACK = 2.0  # all a vehicle holds, while its releases are on their way (measured: 1.54)
@@ -107,7 +109,7 @@ TAKE, WAIT, REFUSE = "take", "wait", "refuse"
 
 
 def find(know: Knowledge, sender: int, slot: int, pos: Iterable[float], priority: float,
-         service_s: float, now: float) -> str:
+         service_s: float, now: float, sigma_m: float = 0.0) -> str:
     """A find as ``sender`` tells it: `REFUSE` beyond the scenario's figures or, told by its
     finder, away from its track; `WAIT` relayed by another until its finder or a second peer
     tells it too; else `TAKE`. Before any pose of the finder, its start places it."""
@@ -126,7 +128,10 @@ def find(know: Knowledge, sender: int, slot: int, pos: Iterable[float], priority
             return TAKE  # its finder cannot tell it any more: one word is all there will be
         return TAKE if Witness.second(know.witness.finds, slot, sender) else WAIT
     track = know.tracks.get(sender) or new_track(sc.vehicles[sender].start)
-    reach = (b.camera.detect_radius_m if b.camera is not None else 0.0) + FIND_MARGIN_M
+    # Its find and its track are both in its own navigation frame, but a landmark may have
+    # moved that frame between its last pose and the find (`fleet_agent.landmarks`).
+    reach = (b.camera.detect_radius_m if b.camera is not None else 0.0) + FIND_MARGIN_M + \
+        min(FIND_SIGMAS * sigma_m, FIND_SIGMA_CAP_M)
     near = near_track(track, tuple(pos), reach, TRACK_SPEED_FACTOR * sc.vehicles[sender].speed_mps,
                       now)
     return TAKE if near else REFUSE

@@ -1,0 +1,53 @@
+"""What the vehicle reports (`fleet_bus.vehicle_port`): fixes move the agent's model of it,
+arrivals and ends of work change what it does, sightings and looks go to `discovery`."""
+
+from __future__ import annotations
+
+from fleet_agent import records as rec
+from fleet_agent.config import AgentConfig
+from fleet_agent.intents import Count, Intent, Note, Owe, Tell
+from fleet_agent.knowledge import Knowledge
+from fleet_agent.outbox import Owed
+from fleet_agent.policies import discovery
+from fleet_agent.wire import Codec
+from fleet_bus.vehicle_port import (
+    Arrived,
+    Injected,
+    Looked,
+    NavFix,
+    Refused,
+    Sighted,
+    VehicleReport,
+)
+
+
+def take(know: Knowledge, config: AgentConfig, codec: Codec, r: VehicleReport,
+         active: bool) -> list[Intent]:
+    """One vehicle report; ``active``: the vehicle is still working (neither home nor
+    aborted)."""
+    own = know.own
+    if isinstance(r, NavFix):
+        own.fix(r)
+    elif isinstance(r, Arrived):
+        home = own.arrived(r.target, r.t_s)
+        if home is not None:
+            know.touch()
+            # An aborted vehicle already said goodbye; others announce their arrival.
+            return ([] if own.aborted else [Owe(Owed.HOME)]) + [
+                Note(rec.Home(home.t_s)), Tell(home.t_s, "replan", detail="home")]
+    elif isinstance(r, Injected):
+        done = own.injected(r.task, r.t_s)
+        if done is None:
+            return [Count("injection_stale")]
+        know.treat(done.task, done.t_s)
+        return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True)),
+                Tell(done.t_s, "cleared", (done.task,), detail=discovery.where(know, done.task))]
+    elif isinstance(r, Looked):
+        return discovery.on_looked(know, config, r)
+    elif isinstance(r, Sighted):
+        if not active:
+            return [Count("sensed_ignored")]
+        return discovery.on_sighted(know, config, codec, r, r.t_s)
+    elif isinstance(r, Refused):
+        return [Count("helm_refused"), Tell(r.t_s, "refused", detail=f"{r.command}: {r.reason}")]
+    return []
