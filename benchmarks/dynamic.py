@@ -15,7 +15,9 @@ Ways of working each reef, all scored by the world's own book of what was really
 (`reef_sim.score.world_tally`: the priority of the distinct truth spots the vehicles' injections
 reached, duplicates, injections of bare seabed):
 
-- ``fleet``: `cotsfleet sim` (in-process, default agent settings, exact navigation);
+- ``fleet``: `cotsfleet sim` (in-process, exact navigation), the agent told what the
+  benchmark knows of the generator (`config_of`): its map is exact (`EXACT_MAP`'s figures)
+  and its search belief is the setting's (`belief_of`);
 - ``central``: the centralized online baseline (`cotsfleet.mission.central`: the same vehicles
   and camera, perfect instant communication; the association rule for a map that is exact,
   `fleet_agent.association.EXACT_MAP`, as the generator's are; with ``--central-search`` also
@@ -88,6 +90,19 @@ def belief_of(params: DynamicParams) -> BeliefParams:
         service_range_s=params.service_range_s or (60.0, 90.0))
 
 
+def config_of(params: DynamicParams, search: bool = False) -> AgentConfig:
+    """The agent's configuration for a generated reef: its map is exact (`EXACT_MAP`), and
+    with ``search`` its belief is the setting's generator (`belief_of`)."""
+    config = AgentConfig(map_sigma_m=EXACT_MAP.map_sigma_m,
+                         aggregation_extent_m=EXACT_MAP.extent_m)
+    if not search:
+        return config
+    b = belief_of(params)
+    return replace(config, search_per_spot=b.per_spot, search_ring_min_m=b.ring_min_m or 0.0,
+                   search_ring_max_m=b.ring_max_m or 0.0, search_spread_m=b.spread_m,
+                   search_empty_weight=b.empty_weight)
+
+
 def _fleet(problem, reef, seed: int, config: AgentConfig, loss: float = 0.0,
            navigation: NavigationParams | None = None) -> dict[str, Any]:
     result = simulate(problem, config, seed=seed, loss=loss, reef=reef, navigation=navigation)
@@ -99,6 +114,9 @@ def _fleet(problem, reef, seed: int, config: AgentConfig, loss: float = 0.0,
             "missed": world["missed"], "report_priority": r["fleet"]["priority"],
             "report_dups": r["fleet"]["duplicate_treatments"],
             "found": r["dynamic"]["spots_discovered"], "unmapped": world["unmapped_treated"],
+            "searches": sum(v.get("counters", {}).get("searches", 0) for v in r["vehicles"]),
+            "judged": sum(v.get("counters", {}).get("spots_judged_treated", 0)
+                          for v in r["vehicles"]),
             "wall_s": round(result.wall_s, 1)}
 
 
@@ -110,7 +128,7 @@ def one(setting: str, seed: int, clairvoyant_s: float, search: bool = False) -> 
     problem = problem_from_dict(doc)
     reef = reef_from_doc(doc, problem)
     assert reef is not None
-    config = AgentConfig()
+    config = config_of(params, search=True)
     out: dict[str, Any] = {"setting": setting, "seed": seed, "truth": reef.total_priority(),
                            "unmapped_total": len(reef.unmapped())}
     out["fleet"] = _fleet(problem, reef, seed, config)
@@ -205,7 +223,8 @@ def main(runs: int, greens: int, jobs: int, settings: list[str], quick: bool,
                   f"{_ratio(r['fleet']['priority'], r['clairvoyant']):.3f}",
                   f"{_ratio(r['fleet']['priority'], r['central']['priority']):.3f}",
                   f"{r['fleet']['unmapped']}/{r['central']['unmapped']}/{r['unmapped_total']}",
-                  r["central"]["searches"], r["drift"]["missed"], _dups_by_way(r)]
+                  f"{r['fleet']['searches']}/{r['central']['searches']}", r["drift"]["missed"],
+                  _dups_by_way(r)]
                  for r in mine]
         print(f"{setting}:", json.dumps(figures), flush=True)
         sections.append(
@@ -214,7 +233,7 @@ def main(runs: int, greens: int, jobs: int, settings: list[str], quick: bool,
             + markdown_table(["seed", "truth", "clairvoyant", "central", "fleet",
                               "no-discovery", "loss 30 %", "drift 1 %", "fleet/clairv.",
                               "fleet/central", "unmapped treated fleet/central/all",
-                              "central searches", "drift bare injections",
+                              "searches fleet/central", "drift bare injections",
                               "duplicates fleet/no-disc./loss/drift/central"],
                              table))
     if green_rows:

@@ -57,7 +57,7 @@ from fleet_agent.io_types import (
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
-from fleet_agent.policies import discovery, hearing
+from fleet_agent.policies import discovery, hearing, searching
 from fleet_agent.policies import reports as reports_policy
 from fleet_agent.policies.cooperate import CoopClock, cooperate
 from fleet_agent.policies.route import sync
@@ -107,6 +107,7 @@ class Agent:
             config.battery_reserve_s), now)
         self.own.frame.enabled = dyn is not None and config.map_relative_nav
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)
+        self.know.search = searching.belief_of(self.know, config)
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
         chains = fleet.chains
         assert chains is not None

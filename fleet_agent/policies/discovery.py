@@ -38,6 +38,8 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
         return [Count("inspection_stale")]  # the look was abandoned meanwhile
     if r.present:
         know.beliefs.learn(r.task, True, r.priority, r.service_s)
+    if know.search is not None and r.task < know.beliefs.n:
+        know.search.learn(r.task, r.present)
     ev = own.looked(r.task, r.service_s if r.present else None, r.t_s)
     if ev is None:
         return []
@@ -83,6 +85,8 @@ def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted
             know.touch()  # the goals moved with the vehicle's frame
         if b.state[spot] == UNKNOWN and spot not in know.cleared:
             b.learn(spot, True, seen.priority, seen.service_s)
+            if know.search is not None:
+                know.search.learn(spot, True)
     return [] if sure else [Count("sightings_ambiguous")]  # a look will tell which
 
 
