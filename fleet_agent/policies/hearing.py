@@ -90,7 +90,7 @@ def _cleared(know: Knowledge, msg: ClearedSegment, now: float) -> list[Intent]:
     news = [lo + i for i in range(bits.bit_length()) if bits >> i & 1
             and lo + i < know.problem.n_tasks and lo + i not in know.cleared]
     out: list[Intent] = []
-    take, waiting = plausible.cleared(know, msg.sender, news)
+    take, waiting = plausible.cleared(know, msg.sender, news, now)
     new = know.clear(take)
     if new:
         out.append(Note(Clear(now, tuple(new), own=False)))

@@ -6,8 +6,9 @@ peer says is weighed against what it could have done, so that one vehicle's lies
 what its own work is worth:
 
 - *cleared spots*: a spot is taken as cleared when its sender held it (the initial plan, or a
-  claim: its own work), when no other working vehicle holds it, or when two different peers
-  say so; otherwise it waits for a second word (`Witness`);
+  claim: its own work), when no other working vehicle holds it, when its sender's track
+  passed it (`been_there`), or when two different peers say so; otherwise it waits for a
+  second word (`Witness`);
 - *claims*: a vehicle may claim no more than it could treat before its battery ends: the
   injection times of what it claims, plus a minimum spanning tree through those spots and its
   last known position at its speed (a lower bound of any route through them), within its
@@ -47,17 +48,35 @@ CLAIM_SLACK = 1.1  # a claim's lower bound against the battery: currents, clock 
 HELD_SLACK = 2.0  # all a vehicle holds, while its releases are on their way (measured: 1.54)
 
 
-def cleared(know: Knowledge, sender: int, spots: Iterable[int]) -> tuple[list[int], int]:
+def cleared(know: Knowledge, sender: int, spots: Iterable[int],
+            now: float = 0.0) -> tuple[list[int], int]:
     """Of the ``spots`` ``sender`` says are cleared (news to us), those to take now, and how
     many wait for a second word."""
     take, waiting = [], 0
     for t in spots:
         own = know.holdings.claim_time(t, sender) is not None  # the initial plan's, or claimed
-        if own or know.holder(t) is None or Witness.second(know.witness.cleared, t, sender):
+        if own or know.holder(t) is None or been_there(know, sender, t, now) or \
+                Witness.second(know.witness.cleared, t, sender):
             take.append(t)
         else:
             waiting += 1
     return take, waiting
+
+
+def been_there(know: Knowledge, sender: int, task: int, now: float) -> bool:
+    """Could ``sender`` have been at spot ``task`` (its track passed within the camera's
+    reach, the margin and the spot's uncertainty)? A vehicle that claimed a spot we also
+    hold (two claims crossed under loss) and treated it says so; waiting for a second word
+    there would treat it twice."""
+    track = know.tracks.get(sender)
+    if track is None:
+        return False
+    b = know.beliefs
+    sigma = b.finds[task].sigma_m if task in b.finds else 0.0
+    reach = (b.camera.detect_radius_m if b.camera is not None else 0.0) + FIND_MARGIN_M + \
+        min(FIND_SIGMAS * sigma, FIND_SIGMA_CAP_M)
+    speed = TRACK_SPEED_FACTOR * know.problem.vehicles[sender].speed_mps
+    return near_track(track, tuple(know.problem.xyz[task]), reach, speed, now)
 
 
 def claims(know: Knowledge, sender: int, tasks: Iterable[int]) -> list[int]:
