@@ -33,7 +33,7 @@ def test_a_zero_error_section_flies_the_mission_exact_navigation_flies(small):
     zero = NavigationParams(drift_pct=0.0, walk_m_per_sqrt_km=0.0, start_sigma_m=0.0,
                             camera_sigma_m=0.0)
     assert simulate(problem, CONFIG, seed=3, reef=reef, navigation=zero).report == exact
-    assert exact["dynamic"]["treated"]
+    assert exact.dynamic is not None and exact.dynamic.treated
 
 
 def test_with_drift_the_vehicles_report_their_estimate_and_the_world_books_the_truth(small):
