@@ -253,8 +253,10 @@ def main(runs: int, greens: int, jobs: int, settings: list[str], quick: bool,
                               "bare injections, 1 % drift"], g_table))
     wall = time.perf_counter() - t0
     body = (f"{runs} scenario(s) per setting (mission seed = scenario seed), in-process "
-            f"simulation, default agent settings. Scored by the world's book of what the "
-            f"injections really reached (`reef_sim.score.world_tally`). Clairvoyant: `best`, "
+            f"simulation; the agent told the generator's map is exact and given the "
+            f"setting's search belief (`config_of`), Green Island at default settings. "
+            f"Scored by the world's book of what the injections really reached "
+            f"(`reef_sim.score.world_tally`). Clairvoyant: `best`, "
             f"{clair_s:g} s, on the truth as if every spot were known at t = 0. Central: "
             f"`cotsfleet.mission.central` (association `EXACT_MAP`"
             f"{', orbits by the setting' + chr(39) + 's belief' if search else ', no search'}). "
