@@ -18,6 +18,7 @@ from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.formats.top import parse_top
 from hfc_core.model.errors import ScenarioError
 from hfc_core.model.problem import Problem
+from reef_sim.navigation import navigation_from_doc
 from reef_sim.truth import reef_from_doc
 
 if TYPE_CHECKING:
@@ -77,6 +78,7 @@ def read_scenario(path: str | Path) -> tuple[Problem, dict | None]:
     try:
         problem = problem_from_dict(doc)
         reef_from_doc(doc, problem)  # the hidden reef (simulation only): refuse a bad one here
+        navigation_from_doc(doc)  # and the simulated vehicles' navigation error
         return problem, doc
     except ScenarioError as exc:
         raise ScenarioError(f"{path}: {exc}") from None

@@ -38,7 +38,8 @@ from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, 
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
-from fleet_agent.policies import discovery, hearing
+from fleet_agent.policies import discovery, hearing, searching
+from fleet_agent.policies import reports as reports_policy
 from fleet_agent.policies.cooperate import CoopClock, cooperate
 from fleet_agent.policies.navigation import Navigation
 from fleet_agent.policies.rejoin import Rejoin
@@ -51,8 +52,7 @@ from fleet_agent.routing import fit_route
 from fleet_agent.wire import Message, radio_kind
 from fleet_bus.orders import is_topside_frame
 from fleet_bus.telemetry import Status
-from fleet_bus.vehicle_port import (Arrived, Injected, Looked, NavFix, Refused, Sighted,
-                                    VehicleReport)
+from fleet_bus.vehicle_port import VehicleReport
 from hfc_core.model.problem import Problem
 
 __all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Input", "Send", "Publish", "Record",
@@ -78,7 +78,9 @@ class Agent:
         self.own = OwnVehicle(p, index, fleet.paths, Conduct(
             self._settled_s, beliefs.unknown, 0.0 if dyn is None else dyn.camera.inspect_s,
             config.battery_reserve_s), now)
+        self.own.frame.enabled = dyn is not None and config.map_relative_nav
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)
+        self.know.search = searching.belief_of(self.know, config)
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
         chains = fleet.chains
         assert chains is not None
@@ -135,7 +137,8 @@ class Agent:
         now = max(float(inp.now), self.t)
         out, self._boot = self._boot, self._outputs()
         for r in reports:
-            self._apply(self._from_vehicle(r), now, out)
+            self._apply(reports_policy.take(self.know, self.config, self.fleet.codec, r,
+                                            self.active), now, out)
         if self.own.wake(now):
             self.know.touch()
         if isinstance(inp, Frame):
@@ -147,6 +150,8 @@ class Agent:
         if self.rejoin.waiting:
             self._apply(self.rejoin.check(self.know, now), now, out)
             self.nav.rejoining = self.rejoin.waiting
+        if self.config.discovery:  # never treat a spot twice (`policies.discovery`)
+            self._apply(discovery.fold_treated(self.know, now), now, out)
         self.know.rebind()
         for v in self.know.members.check(now):  # silence makes a suspect, nothing more
             out.event(now, "suspect", peer=self.know.vid(v))
@@ -252,38 +257,6 @@ class Agent:
                 out.event(now, "replan", detail=s.why)
 
     # -- the vehicle -----------------------------------------------------------------------
-
-    def _from_vehicle(self, r: VehicleReport) -> list[Intent]:
-        """A vehicle report: fixes move the model, arrivals and ends of work change what it
-        does, sightings and looks go to `policies.discovery`."""
-        own, know = self.own, self.know
-        if isinstance(r, NavFix):
-            own.fix(r)
-        elif isinstance(r, Arrived):
-            home = own.arrived(r.target, r.t_s)
-            if home is not None:
-                know.touch()
-                # An aborted vehicle already said goodbye; others announce their arrival.
-                return ([] if own.aborted else [Owe(Owed.HOME)]) + [
-                    Note(rec.Home(home.t_s)), Tell(home.t_s, "replan", detail="home")]
-        elif isinstance(r, Injected):
-            done = own.injected(r.task, r.t_s)
-            if done is None:
-                return [Count("injection_stale")]
-            know.treat(done.task, done.t_s)
-            return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True)),
-                    Tell(done.t_s, "cleared", (done.task,),
-                         detail=discovery.where(know, done.task))]
-        elif isinstance(r, Looked):
-            return discovery.on_looked(know, self.config, r)
-        elif isinstance(r, Sighted):
-            if not self.active:
-                return [Count("sensed_ignored")]
-            return discovery.on_sighted(know, self.config, self.fleet.codec, r, r.t_s)
-        elif isinstance(r, Refused):
-            return [Count("helm_refused"),
-                    Tell(r.t_s, "refused", detail=f"{r.command}: {r.reason}")]
-        return []
 
     def _helm(self, out: Outputs) -> None:
         """Tell the vehicle what to do when that changed (an arrival, the end of work, a new

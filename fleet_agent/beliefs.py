@@ -5,8 +5,12 @@ Each predicted spot is *unknown* until the camera shows it (`fleet_agent.sensor`
 (with its real priority rho and injection time t, eq. 2) or *empty*. Aggregations the map
 missed become *finds*, task indices beyond the scenario's: ``n + finder * find_slots +
 counter``, so two finders never name two finds alike and the fleet's bitmaps (cleared set,
-claims) cover them as they cover predicted spots. Two finds closer than `MERGE_M` are one
-aggregation seen twice: the lower index is the spot, the other an alias nobody plans.
+claims) cover them as they cover predicted spots. Every position is an estimate
+(`fleet_agent.association`): a predicted spot uncertain by the map's error, a find by its
+finder's navigation sigma (it travels with the find). Finds whose estimates pass the gate are
+one aggregation seen twice (`same_aggregation`, grouped as connected components over all the
+finds, so every vehicle folds the same aliases from the same finds whatever their order): the
+lowest index of a group is the spot, the others aliases nobody plans.
 
 The planner works on a *working problem* of fixed size (n predicted + every slot): a predicted
 spot at its expected value (eq. 9's priority term taken in expectation: p * rho, and time
@@ -23,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fleet_agent.association import Estimate, predicted, resolve
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
@@ -31,8 +36,6 @@ from hfc_core.model.problem import Problem, Task
 
 Point3 = tuple[float, float, float]
 UNKNOWN, PRESENT, EMPTY = "unknown", "present", "empty"
-MATCH_M = 5.0  # a sighting this close to a predicted spot is that spot
-MERGE_M = 2.0  # finds this close are one aggregation (the camera's fix, on the wire's grid)
 FIND_MARGIN_M = 1000.0  # the wire's grid reaches this far beyond the map (finds off it)
 
 
@@ -43,14 +46,20 @@ def _slot_hash(slot: int) -> int:
 
 @dataclass(frozen=True)
 class Find:
-    """An aggregation the map missed: its slot, where, rho and t, and when this vehicle
-    learned of it (mission time: a find is planned `settle_s` later)."""
+    """An aggregation the map missed: its slot, where, rho and t, when this vehicle learned
+    of it (mission time: a find is planned `settle_s` later), and how uncertain its finder's
+    navigation made ``pos`` (per axis, 1 sigma, as the wire carries it)."""
 
     slot: int
     pos: Point3
     priority: float
     service_s: float
     learned_s: float
+    sigma_m: float = 0.0
+
+    @property
+    def estimate(self) -> Estimate:
+        return Estimate(self.pos, self.sigma_m)
 
 
 def expected_problem(scenario: Problem, camera: Camera, p_cots: float) -> Problem:
@@ -80,6 +89,7 @@ class Beliefs:
     def __init__(self, scenario: Problem, camera: Camera | None, config: AgentConfig,
                  index: int, seed: int, cycle_s: float, planner: Planner | None = None) -> None:
         self.scenario, self.camera, self.config = scenario, camera, config
+        self.params = config.association
         self.index, self.seed = index, seed
         self.exact = camera is None
         self.n = scenario.n_tasks
@@ -136,19 +146,33 @@ class Beliefs:
         (almost surely) equal sets."""
         return Digest(self._count & 0x7F, self._hash)
 
-    def match(self, pos: Point3) -> tuple[str, int] | None:
-        """What a sighting at ``pos`` is: ("task", t) a predicted spot, ("find", s) a known
-        find, or None (news)."""
-        p = np.asarray(pos, float)
-        if self.n:
-            d = np.linalg.norm(self._pred_xyz - p, axis=1)
-            t = int(np.argmin(d))
-            if d[t] <= MATCH_M:
-                return ("task", t)
-        for s, f in self.finds.items():
-            if math.dist(f.pos, pos) <= MERGE_M:
-                return ("find", self.canonical(s))
-        return None
+    def estimate(self, task: int) -> Estimate:
+        """Where spot ``task`` is, as an estimate: a predicted spot's map position, a find's
+        finder's."""
+        if task < self.n:
+            return predicted(self.scenario.tasks[task].pos, self.params)
+        return self.finds[task].estimate
+
+    def resolve(self, seen: Estimate) -> tuple[tuple[str, int] | None, bool]:
+        """What a sighting ``seen`` is (`association.resolve`): ("task", t) a predicted spot
+        not known empty, ("find", s) a known find (its group's head), or None (news); and
+        whether that is sure (several alike: only a look can tell which)."""
+        cands: list[tuple[tuple[str, int], Estimate]] = [
+            (("task", t), self.estimate(t)) for t in self._near(seen, self.n)
+            if self.state[t] != EMPTY]
+        cands += [(("find", s), f.estimate) for s, f in sorted(self.finds.items())
+                  if s not in self.alias]
+        return resolve(seen, cands, self.params)
+
+    def _near(self, seen: Estimate, n: int) -> list[int]:
+        """Predicted spots that could pass a gate with ``seen`` (a cheap box before the
+        gate itself: the gate's radius is under 5 sigma of the widest estimate)."""
+        if not n:
+            return []
+        p = self.params
+        reach = 5.0 * (seen.sigma_m + p.map_sigma_m + p.extent_m) + 1.0
+        d = np.abs(self._pred_xyz[:, :2] - np.asarray(seen.xy, float)).max(axis=1)
+        return [int(t) for t in np.flatnonzero(d <= reach)]
 
     # -- learning --------------------------------------------------------------------------
 
@@ -182,7 +206,7 @@ class Beliefs:
         return slot
 
     def add_find(self, slot: int, pos: Point3, priority: float, service_s: float,
-                 now: float) -> bool:
+                 now: float, sigma_m: float = 0.0) -> bool:
         """A find (own or heard); True if news. A slot already known with other figures is a
         conflict (counted, the first kept): finds never change once named."""
         if not self.n <= slot < self.size:
@@ -192,17 +216,19 @@ class Beliefs:
             return False
         old = self.finds.get(slot)
         if old is not None:
-            if old.pos != tuple(pos) or old.priority != priority or old.service_s != service_s:
+            if old.pos != tuple(pos) or old.priority != priority or \
+                    old.service_s != service_s or old.sigma_m != sigma_m:
                 self.conflicts += 1
             return False
         finder, counter = divmod(slot - self.n, self.cap)
         if finder == self.index:  # our own slot, heard back (e.g. after a restart)
             self.own_found = max(self.own_found, counter + 1)
         self.finds[slot] = Find(slot, tuple(float(c) for c in pos),  # type: ignore[arg-type]
-                                float(priority), float(service_s), float(now))
+                                float(priority), float(service_s), float(now),
+                                float(sigma_m))
         self._count += 1
         self._hash = (self._hash + _slot_hash(slot)) & 0xFFFF
-        self._merge(slot)
+        self._merge()
         self._changed()
         return True
 
@@ -213,18 +239,29 @@ class Beliefs:
         land = self.scenario.land
         return land is None or not bool(land.inside(np.array([pos], dtype=float))[0])
 
-    def _merge(self, slot: int) -> None:
-        """Group ``slot`` with the finds within `MERGE_M`: the lowest index is the spot."""
-        pos = self.finds[slot].pos
-        group = {s for s, f in self.finds.items() if math.dist(f.pos, pos) <= MERGE_M}
-        group |= {self.alias[s] for s in group if s in self.alias}
-        head = min(group)
-        for s in group:
-            if s != head:
-                self.alias[s] = head
-        for s, h in list(self.alias.items()):  # aliases of a member now point at the head
-            if h in group and h != head:
-                self.alias[s] = head
+    def _merge(self) -> None:
+        """Group the finds that are one aggregation (`same_aggregation`), as connected
+        components over every pair: the lowest index of a group is the spot, the rest its
+        aliases. Order-free: the same finds give the same aliases on every vehicle."""
+        slots = sorted(self.finds)
+        parent = {s: s for s in slots}
+
+        def head(s: int) -> int:
+            while parent[s] != s:
+                parent[s] = parent[parent[s]]
+                s = parent[s]
+            return s
+
+        xy = np.array([self.finds[s].pos[:2] for s in slots], dtype=float).reshape(-1, 2)
+        var = np.array([self.finds[s].sigma_m ** 2 for s in slots], dtype=float)
+        d2 = ((xy[:, None, :] - xy[None, :, :]) ** 2).sum(axis=2)
+        # `same_aggregation` for every pair at once (the gate on the Mahalanobis distance)
+        inside = d2 <= self.params.gate * (var[:, None] + var[None, :] + self.params.extent_var)
+        for i, j in zip(*np.nonzero(np.triu(inside, 1))):
+            ha, hb = head(slots[int(i)]), head(slots[int(j)])
+            if ha != hb:
+                parent[max(ha, hb)] = min(ha, hb)
+        self.alias = {s: head(s) for s in slots if head(s) != s}
 
     def _changed(self) -> None:
         self.version += 1
@@ -303,5 +340,13 @@ def initial_working_problem(scenario: Problem, camera: Camera, config: AgentConf
     return Beliefs(scenario, camera, config, 0, 0, 1.0).problem
 
 
-__all__ = ["Beliefs", "Find", "expected_problem", "initial_working_problem", "UNKNOWN",
-           "PRESENT", "EMPTY", "MATCH_M", "MERGE_M", "FIND_MARGIN_M"]
+__all__ = [
+    "EMPTY",
+    "FIND_MARGIN_M",
+    "PRESENT",
+    "UNKNOWN",
+    "Beliefs",
+    "Find",
+    "expected_problem",
+    "initial_working_problem",
+]

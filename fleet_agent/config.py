@@ -10,11 +10,14 @@ from __future__ import annotations
 
 import math
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import tomli_w
+
+from fleet_agent.association import AssociationParams
 
 
 @dataclass(frozen=True)
@@ -88,6 +91,24 @@ class AgentConfig:
     # The operator's live orders (`policies.orders`): one issued longer ago than this is
     # refused as stale (a recording kept back and played later, a topside far behind).
     ctl_max_age_s: float = 600.0
+    # Matching under uncertainty (`fleet_agent.association`, docs/search.md): how far a
+    # predicted spot may be from its aggregation on the map (per axis, 1 sigma; a property of
+    # the survey: 0.5 for the dynamic generator's exact maps) and an aggregation's radius.
+    map_sigma_m: float = 3.0
+    aggregation_extent_m: float = 5.0
+    # Map-relative navigation: a sighting surely of a predicted spot tells the vehicle its
+    # navigation error (the map is the landmark); goals and reports are corrected by it.
+    map_relative_nav: bool = True
+    # Search (`fleet_agent.search`): the missed aggregations expected per predicted spot
+    # (0: never search), where they lie from their spot (a ring, or a Gaussian spread when
+    # search_ring_max_m is 0), how much less likely around an empty spot, and the orbits a
+    # vehicle may fly at most.
+    search_per_spot: float = 0.0
+    search_ring_min_m: float = 0.0
+    search_ring_max_m: float = 0.0
+    search_spread_m: float = 50.0
+    search_empty_weight: float = 1.0
+    search_margin: float = 1.0  # a search's rate must beat the next spot's by this factor
     # Telemetry and persistence.
     status_period_s: float = 5.0
     truth_period_s: float = 5.0
@@ -117,7 +138,7 @@ class AgentConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
                 raise ValueError(f"agent config: {name} must be in 0..1, got {value!r}")
-        for name in ("discovery", "plan_polish"):
+        for name in ("discovery", "plan_polish", "map_relative_nav"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"agent config: {name} must be true or false, got "
                                  f"{getattr(self, name)!r}")
@@ -126,7 +147,9 @@ class AgentConfig:
                              f"{self.find_slots!r}")
         for name in ("coop_min_slack_s", "battery_reserve_s", "aggregation_radius_m",
                      "find_settle_cycles", "claim_settle_cycles", "takeover_wait_s",
-                     "takeover_doubt"):
+                     "takeover_doubt", "map_sigma_m", "aggregation_extent_m",
+                     "search_per_spot", "search_ring_min_m", "search_ring_max_m",
+                     "search_spread_m", "search_empty_weight", "search_margin"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value >= 0):
                 raise ValueError(f"agent config: {name} must be >= 0, got {value!r}")
@@ -140,13 +163,22 @@ class AgentConfig:
             if len(key) < 16:
                 raise ValueError("agent config: fleet key must be at least 16 bytes")
 
+        if self.search_ring_max_m and not self.search_ring_min_m < self.search_ring_max_m:
+            raise ValueError("agent config: search_ring_min_m must be below search_ring_max_m")
+
+    @property
+    def association(self) -> AssociationParams:
+        """The matching rule's figures (`fleet_agent.association`)."""
+        return AssociationParams(map_sigma_m=self.map_sigma_m,
+                                 extent_m=self.aggregation_extent_m)
+
     @property
     def fleet_key(self) -> bytes:
         if not self.fleet_key_hex:
             raise ValueError("agent config: no fleet key (set fleet_key_hex)")
         return bytes.fromhex(self.fleet_key_hex)
 
-    def with_key(self, key: bytes) -> "AgentConfig":
+    def with_key(self, key: bytes) -> AgentConfig:
         return replace(self, fleet_key_hex=key.hex())
 
 

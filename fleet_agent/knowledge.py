@@ -25,6 +25,7 @@ from fleet_agent.motion import OwnVehicle
 from fleet_agent.negotiation import Holdings
 from fleet_agent.plans import Planner
 from fleet_agent.replay import ReplayWindow
+from fleet_agent.search import SearchBelief
 from fleet_agent.wire import Digest
 from fleet_agent.witness import Track, Witness
 from hfc_core.model.problem import Problem
@@ -62,6 +63,15 @@ class Knowledge:
         self.witness = Witness()
         self.tracks: dict[int, Track] = {}
         self.suspicion: Counter[int] = Counter()
+        # Spots this vehicle judged treated by someone (`policies.discovery.fold_treated`),
+        # and what the cleared set and the finds were when it last judged.
+        self.folded: set[int] = set()
+        self.fold_key: tuple[int, int, int] = (-1, -1, -1)
+        # Where missed aggregations are likely (`fleet_agent.search`; None: no search), the
+        # spots this vehicle has weighed an orbit around, and its track since its last arrival.
+        self.search: SearchBelief | None = None
+        self.searched: set[int] = set()
+        self.leg_track: list[Point3] = []
         # Bumped by every change a decision may depend on: the route is checked against the
         # knowledge again whenever it moved (`policies.route.sync`).
         self.version = 0

@@ -19,10 +19,11 @@ route the agent checks against the battery is timed as the planner and the check
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Callable, Sequence
 
+from fleet_agent.landmarks import MapFrame
 from fleet_bus.states import VehicleState
 from fleet_bus.vehicle_port import (HOME_TARGET, Abort, GoTo, HelmCommand, NavFix, ReturnHome,
                                     StationKeep, Work)
@@ -100,6 +101,9 @@ class OwnVehicle:
         self.t_s = float(t_s)
         self.pos: Point3 = spec.start
         self.sigma_m = 0.0
+        # The vehicle's frame against the map's (`landmarks`): positions here are the map's,
+        # the waypoints commanded the vehicle's. Off on an exact map (nothing to sight).
+        self.frame = MapFrame(enabled=False)
         self.yaw_deg = 0.0
         self.pitch_deg = 0.0
         self.distance_m = 0.0
@@ -108,6 +112,9 @@ class OwnVehicle:
         self.aborted = False
         self.home_at_s: float | None = None
         self.busy_until_s: float | None = None  # when the work at the spot ends
+        # A search flown on the way to the next spot (`policies.searching`): its waypoints,
+        # from and back to where the vehicle is, and how long they take.
+        self.detour: tuple[tuple[Point3, ...], float] | None = None
         self.readings: dict[int, float | None] = {}  # looks' answers: injection time or None
         self._legs: dict[int, float] = {}  # first-leg times from (pos, t_s), memoised
         self._legs_from: tuple[Point3, float] | None = None
@@ -144,22 +151,29 @@ class OwnVehicle:
         act = self.activity
         if act is Activity.HOME:
             return None
+        out = self.frame.to_vehicle
+        search = self.detour[0][1:] if self.detour is not None else ()
         if act is Activity.RETURNING:
-            waypoints = tuple(self.paths(self.pos, self.rendezvous)[1])
+            waypoints = tuple(out(w) for w in (*search, *self.paths(self.pos, self.rendezvous)[1]))
             return Abort(waypoints) if self.aborted else ReturnHome(waypoints)
         task = self.route[0]
         if act is Activity.TRANSIT:
             goal = self._target_pos(task)
-            ahead = tuple(self._target_pos(t) for t in self.route[1:])
-            return GoTo(task, tuple(self.paths(self.pos, goal)[1]), ahead)
+            ahead = tuple(out(self._target_pos(t)) for t in self.route[1:])
+            return GoTo(task, tuple(out(w) for w in (*search, *self.paths(self.pos, goal)[1])),
+                        ahead)
         work = {Activity.WAITING: Work.WAIT, Activity.LOOKING: Work.LOOK,
                 Activity.INJECTING: Work.INJECT}[act]
         assert self.busy_until_s is not None
         return StationKeep(work, task, max(0.0, self.busy_until_s - self.t_s))
 
-    def command_key(self) -> tuple[Activity, int | None, bool]:
-        """What changes the command: the activity and the spot it is about."""
-        return self.activity, (self.route[0] if self.route else None), self.aborted
+    def command_key(self) -> tuple[Activity, int | None, bool, tuple[float, float] | None,
+                                   bool]:
+        """What changes the command: the activity and the spot it is about, and while it
+        flies, the offset of its frame from the map's (a landmark moved the goal)."""
+        moving = self.activity in (Activity.TRANSIT, Activity.RETURNING)
+        return self.activity, (self.route[0] if self.route else None), self.aborted, \
+            (self.frame.key() if moving else None), self.detour is not None
 
     def rebind(self, problem: Problem) -> None:
         """Beliefs changed: time routes on the new working problem (finds move slots)."""
@@ -168,13 +182,17 @@ class OwnVehicle:
     # -- what the vehicle reports ------------------------------------------------------------
 
     def fix(self, nav: NavFix) -> None:
-        """A navigation fix: where the vehicle believes it is."""
+        """A navigation fix: where the vehicle believes it is (in the map's frame)."""
+        self.frame.nav(nav.sigma_m)
+        pos = self.frame.to_map(as_point3(nav.pos)) if self.frame.enabled else \
+            as_point3(nav.pos)
         if nav.odometer_m is not None:
             self.distance_m = float(nav.odometer_m)
         elif nav.t_s >= self.t_s:
-            self.distance_m += math.dist(self.pos, nav.pos)
-        self.pos = as_point3(nav.pos)
-        self.sigma_m, self.yaw_deg, self.pitch_deg = nav.sigma_m, nav.yaw_deg, nav.pitch_deg
+            self.distance_m += math.dist(self.pos, pos)
+        self.pos = pos
+        self.sigma_m = self.frame.sigma_m if self.frame.enabled else nav.sigma_m
+        self.yaw_deg, self.pitch_deg = nav.yaw_deg, nav.pitch_deg
         self.t_s = max(self.t_s, float(nav.t_s))
 
     def at_time(self, t_s: float) -> None:
@@ -184,6 +202,7 @@ class OwnVehicle:
         """The vehicle reached ``target``: home, or the next spot (wait, look or inject);
         an arrival the route has moved on from is ignored."""
         self.at_time(t_s)
+        self.detour = None  # a search on the way is over once the leg is
         if target == HOME_TARGET:
             if self.activity is Activity.RETURNING:
                 self.activity, self.home_at_s, self.route = Activity.HOME, self.t_s, []
@@ -239,6 +258,8 @@ class OwnVehicle:
         if self.done:
             return
         route = [int(t) for t in route]
+        if (route[0] if route else None) != (self.route[0] if self.route else None):
+            self.detour = None  # a new way: the search on the old one is given up
         if self.activity in AT_SPOT and (not route or route[0] != self.route[0]):
             self.activity, self.busy_until_s = Activity.TRANSIT, None
         self.route = [] if self.aborted else route
@@ -262,6 +283,10 @@ class OwnVehicle:
         self.route = [] if aborted else [int(t) for t in route]
         self._moving()
 
+    def set_detour(self, waypoints: tuple[Point3, ...], duration_s: float) -> None:
+        """Fly ``waypoints`` (from here, back here) before the next leg."""
+        self.detour = (tuple(waypoints), float(duration_s))
+
     # -- timing ----------------------------------------------------------------------------
 
     def time_to_finish_s(self, route: Sequence[int] | None = None) -> float:
@@ -272,13 +297,15 @@ class OwnVehicle:
         p, nb = self.problem, self.conduct.not_before
         t, rest = self.t_s, route
         busy = self._busy_until_s(route)
+        if self.detour is not None and busy is None:
+            t += self.detour[1]  # the search flown first
         if busy is not None:
             t, rest = max(t, busy), route[1:]
         elif route:
             t = max(t + self._reach_s(route[0]), nb(route[0])) + float(p.service_s[route[0]])
             rest = route[1:]
         if not route:
-            return self._reach_s(HOME_TARGET)
+            return t - self.t_s + self._reach_s(HOME_TARGET)
         prev = route[0]
         for task in [*rest, HOME_TARGET]:
             t += self._leg_s(prev, task, t)
@@ -337,6 +364,10 @@ class OwnVehicle:
         if p.current is not None and not p.current.steady:
             return self._leg_time_s(p.xyz[a], p.xyz[node], t_s)
         return float(p.travel_s[self.index][a, node])
+
+    def leg_time_s(self, a: Sequence[float], b: Sequence[float]) -> float:
+        """Time from ``a`` to ``b`` leaving now (inf: the current forbids it)."""
+        return self._leg_time_s(a, b, self.t_s)
 
     def _leg_time_s(self, a: Sequence[float], b: Sequence[float], t_s: float) -> float:
         assert self.problem.travel is not None

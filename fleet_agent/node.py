@@ -64,6 +64,7 @@ from fleet_bus.vehicle_port import VehiclePort
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.model.errors import ScenarioError
 from hfc_core.model.problem import Problem
+from reef_sim.navigation import NavigationParams, navigation_from_doc
 from reef_sim.truth import Reef, reef_from_doc
 
 MAX_WAIT_WALL_S = 0.25  # longest sleep between looks at the stop flag
@@ -210,6 +211,7 @@ def build_fleet(mission: Mission, vid: str, config: AgentConfig, modem: ModemCho
     try:
         problem = problem_from_dict(mission.scenario)
         reef = reef_from_doc(mission.scenario, problem)  # the simulated world's reef
+        navigation = navigation_from_doc(mission.scenario)  # and its vehicles' navigation
     except ScenarioError as exc:
         print(f"fleet_agent {vid}: the mission's scenario is not valid: {exc}",
               file=sys.stderr)
@@ -229,7 +231,7 @@ def build_fleet(mission: Mission, vid: str, config: AgentConfig, modem: ModemCho
                         run_id=mission.run_id,  # the wire keys bind the run
                         camera=None if reef is None else camera_figures(reef),
                         modem=modem.spec, chains=chains)
-    return Built(mission, problem, reef, fleet, seed)
+    return Built(mission, problem, reef, fleet, seed, navigation)
 
 
 @dataclass(frozen=True)
@@ -239,6 +241,7 @@ class Built:
     reef: Reef | None
     fleet: Fleet
     chain_seed: bytes | None = None  # this vehicle's key chain (None: from the fleet key)
+    navigation: NavigationParams | None = None  # the simulated vehicle's (None: exact)
 
 
 class WallStepSource(Protocol):
@@ -276,7 +279,8 @@ def drive(built: Built, vid: str, config: AgentConfig, journal: Journal, clock: 
                   journal_damaged=journal.damage is not None)
     if opened is None and helm.name == "sim":
         sim = sim_vehicle(built.problem, index, seed=built.mission.seed, reef=built.reef,
-                          t_s=now, pos=agent.own.pos, odometer_m=agent.own.distance_m)
+                          t_s=now, pos=agent.own.pos, odometer_m=agent.own.distance_m,
+                          navigation=built.navigation)
         opened = (sim, sim.true_pose)
     elif opened is None:
         opened = open_live(helm, built, vid, clock, now)

@@ -23,14 +23,17 @@ The ladder, most urgent first (a working vehicle):
 6. a segment of the cleared set a claimant showed it lacks (it is on its way to a spot we
    know is cleared);
 7. pending claims and releases, oldest first, each ``claim_repeats`` times (spots cleared
-   meanwhile left out);
+   meanwhile left out); then the pushes of the cleared set owed after our own treatment (on
+   the hard reefs of issue 30, with finds made all the time, the finds' anti-entropy below
+   took nearly every slot: one vehicle sent 5 segments in a mission, a peer missed 12 of its
+   treatments, and a find both held was treated twice);
 8. the repeats of new finds' FOUND (``find_repeats`` in all), after the claims: two finds in
    a row once held a claim back for 90 s, time enough for a peer to claim the same find;
 9. the finds' anti-entropy: every known find once for a peer whose digest is unlike ours and
    whose count is not above ours, one soon for a peer with more (so it pushes to us), else one
    known find every ``find_refresh_cycles``;
-10. the cleared set, one segment: after a local clear, when a peer may lack part of it, or
-    every ``cleared_refresh_cycles``;
+10. the cleared set, one segment: when a peer may lack part of it, or every
+    ``cleared_refresh_cycles``;
 11. standing claims again every ``claim_refresh_cycles`` (late joiners, loss);
 12. else the key the last frame (a pose) could not disclose (`fleet_bus.tesla`), else a pose.
 
@@ -335,7 +338,9 @@ class Outbox:
         return self._cleared(s) if len(s.know.cleared) else None
 
     def cleared_pushed(self, s: Slot) -> Message | None:
-        """What an aborting vehicle still owes of its cleared set."""
+        """What this vehicle owes of its cleared set: after its own treatment (before the
+        finds' anti-entropy and repeats: on a reef of many finds their digests rarely agree,
+        and a treatment heard late is a spot treated twice, issue 30), or aborting."""
         if self._cleared_pushes <= 0:
             return None
         self._cleared_pushes -= 1
@@ -415,14 +420,16 @@ class Outbox:
     def _found(self, s: Slot, slot: int) -> Found:
         b = s.know.beliefs
         f = b.finds[slot]
-        return Found(s.me, s.seq(), b.digest(), slot, f.pos, f.priority, f.service_s, s.heard)
+        return Found(s.me, s.seq(), b.digest(), slot, f.pos, f.priority, f.service_s, s.heard,
+                     f.sigma_m)
 
 
 # The ladders (module docstring), as tables of rules.
 LADDER: tuple[Rule, ...] = (
     Outbox.count_slot, Outbox.claim_first, Outbox.abort_news, Outbox.pose_due, Outbox.find_first,
-    Outbox.finds_starved, Outbox.segment_owed, Outbox.claim_repeat, Outbox.find_repeat,
-    Outbox.finds_due, Outbox.cleared_due, Outbox.claims_due, Outbox.key_or_pose,
+    Outbox.finds_starved, Outbox.segment_owed, Outbox.claim_repeat, Outbox.cleared_pushed,
+    Outbox.find_repeat, Outbox.finds_due, Outbox.cleared_due, Outbox.claims_due,
+    Outbox.key_or_pose,
 )
 # The further frames of a transmission that carries several: what is owed, no heartbeat.
 MORE: tuple[Rule, ...] = LADDER[1:-1]

@@ -127,10 +127,11 @@ class FoundSpot:
     priority: float
     service_s: float
     durable: bool = False
+    sigma_m: float = 0.0  # its finder's navigation sigma (`beliefs.Find`)
 
     def doc(self) -> dict[str, Any]:
         return {"k": "find", "t": self.t_s, "s": self.slot, "pos": list(self.pos),
-                "r": self.priority, "d": self.service_s}
+                "r": self.priority, "d": self.service_s, "sig": self.sigma_m}
 
 
 @dataclass(frozen=True)
@@ -179,7 +180,7 @@ def parse(doc: Mapping[str, Any]) -> JournalRecord | None:
             if len(pos) != 3:
                 return None
             return FoundSpot(t, int(doc["s"]), pos, float(doc["r"]),
-                             float(doc["d"]))
+                             float(doc["d"]), sigma_m=float(doc.get("sig", 0.0)))
         if k == "ckpt":
             pos = tuple(float(c) for c in doc["pos"])
             if len(pos) != 3:

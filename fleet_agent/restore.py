@@ -80,7 +80,7 @@ def restore(snap: Snapshot, know: Knowledge, radio: Radio, base_route: Sequence[
     know.cleared.update(snap.cleared)
     know.treated = list(snap.treated)
     for f in snap.finds:
-        know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s)
+        know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s, f.sigma_m)
     for h in snap.holds:
         know.holdings.apply(h.v, h.t_s, list(h.tasks), h.claim)
     for p in snap.finals:

@@ -42,14 +42,15 @@ import hashlib
 import hmac
 import math
 import struct
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Callable, Sequence, Union
+from typing import Union
 
 from fleet_bus.tesla import tag as tesla_tag
 from hfc_core.model.problem import Problem
 
-VERSION = 3
+VERSION = 4  # 4: a find carries its finder's navigation sigma (issue 30)
 FLEET_MAC_BYTES = 4  # 2^-32 per frame an outsider forges, each costing a slot of airtime
 TAG_BYTES = 4  # the sender's own tag (`fleet_bus.tesla`)
 KEY_BYTES = 8  # a disclosed chain key
@@ -124,7 +125,8 @@ class Kind(IntEnum):
     ABORT = 5  # "vehicle s aborted at t": its claims die, its spots are free (s may be the
     # sender, or a vehicle whose abort the sender heard: aborts spread epidemically)
     FOUND = 6  # a COTS aggregation the map missed: its slot, position, priority, injection
-    # time, and the digest of the sender's finds (gossiped until digests agree)
+    # time, its finder's navigation sigma, and the digest of the sender's finds (gossiped
+    # until digests agree)
     KEY = 7  # nothing but the disclosed key: a sender with nothing else to say after a pose
 
 
@@ -232,7 +234,9 @@ class Found:
     """A discovered aggregation (dynamic missions): ``slot`` is its task index (n + finder *
     slots per vehicle + counter, so two finders never name two finds alike), ``pos`` as
     quantised on the wire, priority and injection time in tenths (16 bits each); ``digest``
-    summarises every find the sender knows (`fleet_agent.beliefs`)."""
+    summarises every find the sender knows (`fleet_agent.beliefs`); ``sigma_m``: how
+    uncertain its finder's navigation made ``pos`` (per axis, 1 sigma; half-metres in one
+    byte, 0..127.5 m, saturating: `fleet_agent.association`)."""
 
     sender: int
     seq: int
@@ -242,6 +246,7 @@ class Found:
     priority: float
     service_s: float
     heard: Heard = NO_HEARD
+    sigma_m: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -268,6 +273,16 @@ class Sealed:
     tag: bytes
     disclosed: bytes | None
 MAX_TENTHS = 65535  # a find's priority and injection time travel as tenths in 16 bits
+SIGMA_UNIT_M = 0.5  # a find's sigma travels in half-metres in one byte
+MAX_SIGMA_M = 255 * SIGMA_UNIT_M
+
+
+def sigma_code(sigma_m: float) -> int:
+    """A find's sigma as its byte: rounded up (never claim more certainty than there was),
+    saturating at `MAX_SIGMA_M`."""
+    if not sigma_m > 0:
+        return 0
+    return min(255, math.ceil(sigma_m / SIGMA_UNIT_M - 1e-9))
 
 
 def radio_kind(msg: Message) -> str:
@@ -283,8 +298,8 @@ _BODY = {
     Kind.CLAIM: struct.Struct(">I"),  # claim time; id tail
     Kind.RELEASE: struct.Struct(">I"),  # release time; id tail
     Kind.ABORT: struct.Struct(">IB"),  # abort time, the vehicle that aborted
-    # finds' count, hash16, slot, x, y, z, priority and injection time in tenths
-    Kind.FOUND: struct.Struct(">BHHHHhHH"),
+    # finds' count, hash16, slot, x, y, z, priority and injection time in tenths, sigma
+    Kind.FOUND: struct.Struct(">BHHHHhHHB"),
     Kind.KEY: struct.Struct(">"),  # nothing: the disclosed key is the frame
 }
 _HEAD = struct.Struct(">BBIB")  # version|kind, sender, seq, heard offset
@@ -340,7 +355,7 @@ class Codec:
     @staticmethod
     def for_problem(problem: Problem, key: bytes, run_id: str, margin_m: float = 100.0,
                     found_from: int | None = None,
-                    max_frame_bytes: int = MAX_FRAME_BYTES) -> "Codec":
+                    max_frame_bytes: int = MAX_FRAME_BYTES) -> Codec:
         """Origin at the south-west corner of everything in the scenario (``margin_m``
         margin: wider in dynamic missions, where finds may lie off the map); decimetres unless
         the field is wider than 6.5 km; frames of the modem's ``max_frame_bytes``."""
@@ -425,7 +440,7 @@ class Codec:
             if not (0 <= prio <= MAX_TENTHS and 0 <= service <= MAX_TENTHS):
                 raise WireSizeError("find priority or injection time beyond 6553.5")
             return fmt.pack(msg.digest.count & 0x7F, msg.digest.hash16 & 0xFFFF, msg.slot,
-                            *self.quantise(msg.pos), prio, service)
+                            *self.quantise(msg.pos), prio, service, sigma_code(msg.sigma_m))
         if not 0 <= msg.who < self.n_vehicles:
             raise ValueError(f"abort subject {msg.who} outside the roster")
         if not 0 <= msg.t_s <= MAX_SEQ:
@@ -550,11 +565,11 @@ class Codec:
         return Key(sender, seq, heard)
 
     def _found(self, sender: int, seq: int, heard: Heard, f: tuple, tail: bytes) -> Found:
-        count, h16, slot, x, y, z, prio, service = f
+        count, h16, slot, x, y, z, prio, service, sigma = f
         if tail or not (count < 128 and self.found_from <= slot < self.n_tasks):
             raise WireError("malformed", "find out of range")
         return Found(sender, seq, Digest(count, h16), slot, self.dequantise(x, y, z),
-                     prio / 10, service / 10, heard)
+                     prio / 10, service / 10, heard, sigma * SIGMA_UNIT_M)
 
     # -- limits ----------------------------------------------------------------------------
 
@@ -577,7 +592,7 @@ class Codec:
             return (Claim if kind == Kind.CLAIM else Release)(top, MAX_SEQ, MAX_SEQ, ids, heard)
         if kind == Kind.FOUND:
             return Found(top, MAX_SEQ, digest, self.n_tasks - 1, far, MAX_TENTHS / 10,
-                         MAX_TENTHS / 10, heard)
+                         MAX_TENTHS / 10, heard, MAX_SIGMA_M)
         if kind == Kind.KEY:
             return Key(top, MAX_SEQ, heard)
         return Abort(top, MAX_SEQ, MAX_SEQ, heard, top - 1 if top else None)

@@ -98,6 +98,9 @@ _WORDS: dict[str, Callable[[Event], str]] = {
     "inspected": lambda e: f"{e.id} saw COTS at {spot_list(e.tasks)}"
                            + (", too far for its battery to treat" if "beyond" in e.detail
                               else ""),
+    "judged_treated": lambda e: f"{e.id} skips {spot_list(e.tasks)}: someone already "
+                                "treated what is probably the same aggregation",
+    "search": lambda e: f"{e.id} searches around {spot_list(e.tasks)}",
     "claim": lambda e: f"{e.id} claimed {spot_list(e.tasks)}",
     "claim_lost": lambda e: f"{e.id} gave up {spot_list(e.tasks)} to "
                             f"{e.peer or 'a peer'}'s earlier claim",

@@ -48,6 +48,8 @@ EVENT_KINDS = (
     "found",  # an aggregation the map missed (tasks: its find id; detail: "x,y,z rho r")
     "empty",  # a predicted spot inspected and found empty
     "inspected",  # a predicted spot inspected and found to hold COTS
+    "judged_treated",  # spots whose estimate could be an aggregation already treated: skipped
+    "search",  # an orbit around a spot just treated (tasks: it; detail: "x,y,z expected n")
 )
 
 

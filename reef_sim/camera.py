@@ -2,9 +2,14 @@
 
 Two things the camera does, both pure and seeded:
 
-- *inspection*: a vehicle that keeps station at a predicted spot to look learns whether COTS
+- *the look*: a vehicle that keeps station at a predicted spot to look learns whether COTS
   are there and, if so, their real priority rho and injection time t (paper eq. 2, as they
-  really are);
+  really are). What it sees is decided where the vehicle really is: the aggregation the
+  predicted spot names (`reef_sim.truth`) is seen if it lies within ``look_radius_m`` of the
+  vehicle's true position (`look`). A vehicle whose navigation put it farther off sees
+  nothing there. Other aggregations around are the sweep's (the camera is always on), so a
+  look answers one question, whether the predicted aggregation is here, and with exact
+  navigation it answers it as the truth's own bookkeeping does (`inspect`);
 - *sighting*: along any path (transit included), a truth spot within ``detect_radius_m`` of
   the vehicle's true track is seen with probability ``p_detect`` per pass. A pass begins when
   the track comes within reach of the spot after being out of it; each pass has its own draw,
@@ -17,6 +22,7 @@ navigation frame (`reef_sim.vehicle`).
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -28,11 +34,17 @@ SENSOR_STREAM = 0x5E50  # keeps the camera's draws apart from every other seeded
 
 
 class SeenSpot(NamedTuple):
-    """An aggregation seen along the track: where it really is, what it is worth (rho, t)."""
+    """An aggregation seen along the track: where it really is, what it is worth (rho, t),
+    which truth spot it is and on which pass, and where the vehicle really was when the pass
+    began (the track's first point within reach: the navigation error of the sighting is
+    the one there, whatever the polling)."""
 
     pos: Point3
     priority: float
     service_s: float
+    spot: int = -1  # the truth spot's index
+    pass_no: int = 0
+    at: Point3 | None = None
 
 
 class Inspection(NamedTuple):
@@ -51,6 +63,24 @@ def pass_seen(seed: int, vehicle: int, spot: int, pass_no: int, p_detect: float)
     return bool(rng.random() < p_detect)
 
 
+def entry_point(a: Point3, b: Point3, spot: Point3, reach_m: float) -> Point3:
+    """The first point of the segment a-b within ``reach_m`` of ``spot`` (3-D; the point
+    nearest to it if rounding leaves none)."""
+    pa = np.asarray(a, float)
+    d = np.asarray(b, float) - pa
+    q = pa - np.asarray(spot, float)
+    dd = float(d @ d)
+    if dd <= 0.0:
+        return a
+    # |q + f d|^2 = r^2: the smaller root, clipped to the segment
+    half_b, c = float(q @ d), float(q @ q) - reach_m * reach_m
+    disc = half_b * half_b - dd * c
+    f = (-half_b - math.sqrt(disc)) / dd if disc >= 0 else -half_b / dd
+    f = min(1.0, max(0.0, f))
+    x, y, z = (pa + f * d).tolist()
+    return (x, y, z)
+
+
 def segment_distance_m(a: Point3, b: Point3, points: np.ndarray) -> np.ndarray:
     """Distance from each row of ``points`` (m, 3) to the segment a-b (3-D)."""
     pa, ab = points - np.asarray(a, float), np.asarray(b, float) - np.asarray(a, float)
@@ -63,7 +93,7 @@ def segment_distance_m(a: Point3, b: Point3, points: np.ndarray) -> np.ndarray:
 
 class ReefCamera:
     """The hidden reef as one vehicle's camera meets it: call `sweep` with each point of the
-    true track and `inspect` when the vehicle keeps station at a predicted spot to look."""
+    true track and `look` when the vehicle keeps station at a predicted spot to look."""
 
     # Slack on the reach, so a spot exactly at the detect radius is within it despite the
     # rounding of positions computed along a leg.
@@ -96,13 +126,41 @@ class ReefCamera:
             self._passes[i] += 1
             if pass_seen(self.seed, self.vehicle, i, int(self._passes[i]), self.reef.p_detect):
                 s = self.reef.spots[i]
-                seen.append(SeenSpot(s.pos, s.priority, s.service_s))
+                seen.append(SeenSpot(s.pos, s.priority, s.service_s, i, int(self._passes[i]),
+                                     entry_point(a, pos, s.pos, self.reach_m)))
         return seen
 
     def inspect(self, task: int) -> Inspection:
-        """What predicted spot ``task`` really holds."""
+        """What predicted spot ``task`` really holds (the truth's bookkeeping, wherever the
+        vehicle is: for a helm that does not say where it really is)."""
         i = self.reef.of_task(task)
         if i is None:
             return Inspection(False)
         s = self.reef.spots[i]
         return Inspection(True, s.priority, s.service_s)
+
+    def look(self, task: int, pos: Point3) -> Inspection:
+        """What a look at predicted spot ``task`` shows with the vehicle really at ``pos``:
+        the aggregation the spot names if it lies within ``look_radius_m`` (horizontally: the
+        camera looks down at the seabed), else nothing."""
+        i = self.reef.of_task(task)
+        if i is None:
+            return Inspection(False)
+        s = self.reef.spots[i]
+        if math.dist(s.pos[:2], pos[:2]) > self.reef.look_radius_m + self.REACH_EPS_M:
+            return Inspection(False)
+        return Inspection(True, s.priority, s.service_s)
+
+    def treated(self, task: int | None, pos: Point3) -> int | None:
+        """The truth spot an injection at ``pos`` treats (the world's bookkeeping): the one
+        predicted spot ``task`` names if within the look's footprint, else the nearest truth
+        spot within it, else None (the vehicle injected bare seabed)."""
+        i = None if task is None else self.reef.of_task(task)
+        reach = self.reef.look_radius_m + self.REACH_EPS_M
+        if i is not None and math.dist(self.reef.spots[i].pos[:2], pos[:2]) <= reach:
+            return i
+        if not len(self._xyz):
+            return None
+        d = np.hypot(self._xyz[:, 0] - pos[0], self._xyz[:, 1] - pos[1])
+        j = int(np.argmin(d))
+        return j if d[j] <= reach else None

@@ -6,7 +6,7 @@ to the simulated world, like ``fleet/truth`` positions: the planner never reads 
 learn it only through their simulated camera (``detect_radius_m``, ``p_detect``) and by
 looking at a predicted spot (``inspect_s``). JSON shape::
 
-    "truth": {"detect_radius_m": 25.0, "p_detect": 0.9, "inspect_s": 20.0,
+    "truth": {"detect_radius_m": 25.0, "p_detect": 0.9, "inspect_s": 20.0, "look_radius_m": 15.0,
               "spots": [{"pos": [x, y, z], "priority": 57.0, "service_s": 74.2, "task": 12},
                         {"pos": [x, y, z], "priority": 31.0, "service_s": 66.0, "task": null}]}
 
@@ -30,6 +30,10 @@ from hfc_core.model.problem import Problem, Task
 DEFAULT_DETECT_RADIUS_M = 25.0
 DEFAULT_P_DETECT = 0.9
 DEFAULT_INSPECT_S = 20.0
+# A look at a predicted spot sees its aggregation if it lies this close to where the vehicle
+# really is: a hover with the camera scanning around, wide enough for how far a hand-made truth
+# puts an aggregation from its predicted spot (11.4 m in examples/green_island.json).
+DEFAULT_LOOK_RADIUS_M = 15.0
 
 
 def _number(value: Any, where: str) -> float:
@@ -81,12 +85,15 @@ class TruthSpot:
 class Reef:
     """The real reef and the camera that sees it: ``detect_radius_m`` its reach, ``p_detect``
     the chance one pass within reach sees a spot, ``inspect_s`` the time spent at a predicted
-    spot to see what is there. What the sensor does with them is the agent's business."""
+    spot to see what is there, ``look_radius_m`` the footprint of that look around where the
+    vehicle really is (`reef_sim.camera.ReefCamera.look`). What the sensor does with them is
+    the agent's business."""
 
     detect_radius_m: float = DEFAULT_DETECT_RADIUS_M
     p_detect: float = DEFAULT_P_DETECT
     inspect_s: float = DEFAULT_INSPECT_S
     spots: tuple[TruthSpot, ...] = ()
+    look_radius_m: float = DEFAULT_LOOK_RADIUS_M
     _by_task: dict[int, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -94,6 +101,8 @@ class Reef:
                            _non_negative(self.detect_radius_m, "truth.detect_radius_m"))
         object.__setattr__(self, "p_detect", _probability(self.p_detect, "truth.p_detect"))
         object.__setattr__(self, "inspect_s", _non_negative(self.inspect_s, "truth.inspect_s"))
+        object.__setattr__(self, "look_radius_m",
+                           _non_negative(self.look_radius_m, "truth.look_radius_m"))
         object.__setattr__(self, "spots", tuple(self.spots))
         by_task: dict[int, int] = {}
         for i, spot in enumerate(self.spots):
@@ -124,7 +133,7 @@ class Reef:
     def to_dict(self) -> dict[str, Any]:
         """The scenario's ``truth`` section (`reef_from_doc` reads it back)."""
         return {"detect_radius_m": self.detect_radius_m, "p_detect": self.p_detect,
-                "inspect_s": self.inspect_s,
+                "inspect_s": self.inspect_s, "look_radius_m": self.look_radius_m,
                 "spots": [{"pos": list(s.pos), "priority": s.priority, "service_s": s.service_s,
                            "task": s.task} for s in self.spots]}
 
@@ -162,10 +171,11 @@ def reef_from_doc(doc: Mapping[str, Any], problem: Problem) -> Reef | None:
         raise ScenarioError(f"truth: expected an object, got {type(raw).__name__}")
     knobs = {name: raw.get(name, default) for name, default in (
         ("detect_radius_m", DEFAULT_DETECT_RADIUS_M), ("p_detect", DEFAULT_P_DETECT),
-        ("inspect_s", DEFAULT_INSPECT_S))}
+        ("inspect_s", DEFAULT_INSPECT_S), ("look_radius_m", DEFAULT_LOOK_RADIUS_M))}
     knobs["detect_radius_m"] = _non_negative(knobs["detect_radius_m"], "truth.detect_radius_m")
     knobs["p_detect"] = _probability(knobs["p_detect"], "truth.p_detect")
     knobs["inspect_s"] = _non_negative(knobs["inspect_s"], "truth.inspect_s")
+    knobs["look_radius_m"] = _non_negative(knobs["look_radius_m"], "truth.look_radius_m")
     if "spots" not in raw:
         raise ScenarioError("truth: missing field 'spots'")
     if not isinstance(raw["spots"], list):

@@ -13,6 +13,15 @@ when it arrives (`Arrived`), when a look or an injection ends (`Looked` with the
 answer, `Injected`), what its camera sees on the way (`Sighted`) and, on every poll, a
 navigation fix. States are an explicit machine over `Phase`.
 
+Navigation (`reef_sim.navigation`, optional): without it the vehicle knows exactly where it is.
+With it, everything the vehicle reports is in its own navigation estimate, which drifts from
+the truth: the fix's position and sigma, a sighting's position (the estimate where the pass
+began plus the offset the camera measured), and the waypoints it is sent to are positions in
+that frame too: it flies until its *estimate* reads the waypoint, so it really ends off by its
+navigation error. The camera works where the vehicle really is (a look sees the predicted
+aggregation only within its footprint of the true position, `ReefCamera.look`), and the world
+keeps its own book of what each injection really treated (`treatments`).
+
 Pure and exact: `poll` runs to any later time, settling arrivals and work ends at the moment
 they happen, so what it reports does not depend on how often it is polled (every position is
 computed from the current segment's origin and its precomputed pieces).
@@ -32,6 +41,7 @@ from hfc_core.model.paths import PathFn, as_point3, path_function
 from hfc_core.model.problem import Problem
 from hfc_core.model.travel import LegError, segment_pieces
 from reef_sim.camera import ReefCamera
+from reef_sim.navigation import DeadReckoning
 
 Point3 = tuple[float, float, float]
 _EPS = 1e-9
@@ -68,15 +78,28 @@ class _Segment:
         return run0
 
 
+@dataclass(frozen=True)
+class Treatment:
+    """The world's book of one injection: when it ended, the spot the vehicle was told it was
+    (``task``, an index of its agent's working problem), where the vehicle really was, and
+    the truth spot that really got treated there (None: nothing within the footprint)."""
+
+    t_s: float
+    task: int
+    pos: Point3
+    spot: int | None
+
+
 class SimVehicle:
     """A simulated AUV (a `fleet_bus.vehicle_port.VehiclePort`). ``camera``: its camera on
-    the hidden reef (dynamic missions), else it sees nothing."""
+    the hidden reef (dynamic missions), else it sees nothing. ``navigation``: its drifting
+    navigation estimate (None: exact)."""
 
     name = "sim"
 
     def __init__(self, problem: Problem, index: int, *, camera: ReefCamera | None = None,
                  t_s: float = 0.0, pos: Sequence[float] | None = None,
-                 odometer_m: float = 0.0) -> None:
+                 odometer_m: float = 0.0, navigation: DeadReckoning | None = None) -> None:
         spec = problem.vehicles[index]
         self.index = index
         self.speed_mps = spec.speed_mps
@@ -95,6 +118,11 @@ class SimVehicle:
         self._work: StationKeep | None = None
         self._work_end_s = math.inf
         self._held: list[VehicleReport] = []  # reported while catching up to a command
+        self.navigation = navigation
+        self._seg_end: Point3 = self.pos  # where the segment under way really ends
+        self._fixed_s = self.t_s  # the last time navigation fixes were taken up to
+        self._swept: tuple[Point3, float] = (self.pos, self.odometer_m)  # the camera's last
+        self.treatments: list[Treatment] = []
 
     # -- the port ----------------------------------------------------------------------------
 
@@ -105,9 +133,12 @@ class SimVehicle:
             self._held.append(Refused(self.t_s, type(cmd).__name__, "recovered"))
             return
         if isinstance(cmd, GoTo):
-            if self.phase is Phase.FLYING and self.target == cmd.target:
+            if self.phase is Phase.FLYING and self.target == cmd.target and (
+                    not cmd.waypoints or not self._waypoints
+                    or as_point3(cmd.waypoints[-1]) == self._waypoints[-1]):
                 self.ahead = cmd.ahead  # the same leg: fly on, only the route after it changed
                 return
+            # the same target somewhere else (its camera saw it there): a new leg
             self.ahead = cmd.ahead
             self._fly_to(cmd.target, cmd.waypoints)
         elif isinstance(cmd, StationKeep):
@@ -127,7 +158,11 @@ class SimVehicle:
 
     def next_report_s(self) -> float | None:
         if self.phase is Phase.FLYING:
-            return max(self.t_s, self._flight_end_s())
+            # A fix under way steers the flight again from the new estimate: the end is known
+            # only from there, and the agent hears of the jump in its navigation then.
+            fix = math.inf if self.navigation is None else self.navigation.next_fix_s(
+                self._fixed_s)
+            return max(self.t_s, min(self._flight_end_s(), fix))
         if self.phase is Phase.WORKING:
             return max(self.t_s, self._work_end_s)
         return None
@@ -138,10 +173,22 @@ class SimVehicle:
     # -- what the simulation itself reads ----------------------------------------------------
 
     def fix(self) -> NavFix:
-        """The navigation estimate now: exact (the simulated vehicle knows where it is)."""
+        """The navigation estimate now (exact without a navigation model)."""
         speed = self.speed_mps if self.phase is Phase.FLYING else 0.0
-        return NavFix(self.t_s, self.pos, 0.0, self.yaw_deg, self.pitch_deg, speed,
-                      self.odometer_m)
+        nav = self.navigation
+        if nav is None:
+            return NavFix(self.t_s, self.pos, 0.0, self.yaw_deg, self.pitch_deg, speed,
+                          self.odometer_m)
+        yaw = self.yaw_deg + nav.heading_deg()  # the compass's bias, within -180..180
+        yaw = yaw - 360.0 if yaw > 180.0 else yaw + 360.0 if yaw <= -180.0 else yaw
+        return NavFix(self.t_s, self.estimate(), nav.sigma_m(self.pos, self.odometer_m), yaw,
+                      self.pitch_deg, speed, self.odometer_m)
+
+    def estimate(self) -> Point3:
+        """Where the vehicle believes it is."""
+        if self.navigation is None:
+            return self.pos
+        return self.navigation.estimate(self.pos, self.odometer_m)
 
     def true_pose(self) -> tuple[Point3, float, float]:
         """Where the vehicle really is (the channel's and the ground station's truth)."""
@@ -150,7 +197,18 @@ class SimVehicle:
     # -- motion ----------------------------------------------------------------------------
 
     def _run(self, until_s: float, out: list[VehicleReport]) -> None:
-        """Run to ``until_s``, reporting arrivals, ends of work and sightings as they happen."""
+        """Run to ``until_s``, reporting arrivals, ends of work and sightings as they happen,
+        taking each navigation fix at its time (a flight then steers again from it)."""
+        nav = self.navigation
+        while nav is not None and (t_fix := nav.next_fix_s(self._fixed_s)) <= until_s:
+            self._advance(t_fix, out)
+            nav.fix(t_fix, self.pos, self.odometer_m)
+            self._fixed_s = t_fix
+            if self.phase is Phase.FLYING and self._waypoints:
+                self._start_segment(self.pos, self.t_s, self.odometer_m)
+        self._advance(until_s, out)
+
+    def _advance(self, until_s: float, out: list[VehicleReport]) -> None:
         while True:
             if self.phase is Phase.FLYING:
                 if not self._fly(until_s, out):
@@ -174,7 +232,8 @@ class SimVehicle:
                 self.t_s = max(self.t_s, until_s)
                 self._move_along(until_s)
                 return False
-            w = self._waypoints.pop(0)
+            self._waypoints.pop(0)
+            w = self._seg_end
             seg_m = math.dist(self._segment.origin, w)
             self.t_s = max(self.t_s, reach_s)
             self._start_segment(w, self.t_s, self._segment.odometer0_m + seg_m)
@@ -187,7 +246,7 @@ class SimVehicle:
 
     def _fly_to(self, target: int, waypoints: Sequence[Sequence[float]]) -> None:
         self.phase, self.target, self._work = Phase.FLYING, target, None
-        self._waypoints = [as_point3(w) for w in waypoints] or [self.pos]
+        self._waypoints = [as_point3(w) for w in waypoints] or [self.estimate()]
         self._start_segment(self.pos, self.t_s, self.odometer_m)
 
     def _start_segment(self, origin: Point3, t_s: float, odometer_m: float) -> None:
@@ -195,9 +254,10 @@ class SimVehicle:
         seg = self._segment = _Segment(origin, t_s, odometer_m)
         if not self._waypoints:
             return
-        self._heading(origin, self._waypoints[0])
+        end = self._seg_end = self._true_end(self._waypoints[0], origin, odometer_m)
+        self._heading(origin, end)
         try:
-            pieces = segment_pieces(self.current, origin, self._waypoints[0], self.speed_mps, t_s)
+            pieces = segment_pieces(self.current, origin, end, self.speed_mps, t_s)
         except LegError:
             seg.pieces = [(math.inf, 0.0)]  # no headway against the current: never arrives
             return
@@ -206,8 +266,15 @@ class SimVehicle:
             t, run = t + duration, run + length
             seg.pieces.append((t, run))
 
+    def _true_end(self, target: Point3, origin: Point3, odometer_m: float) -> Point3:
+        """Where a straight run from ``origin`` really ends when the vehicle is sent to
+        ``target`` (a position in its navigation frame)."""
+        if self.navigation is None:
+            return target
+        return self.navigation.to_true(target, origin, odometer_m)
+
     def _move_along(self, t_s: float) -> None:
-        w, seg = self._waypoints[0], self._segment
+        w, seg = self._seg_end, self._segment
         seg_m = math.dist(seg.origin, w)
         run_m = min(seg_m, seg.run_m(t_s))
         f = run_m / seg_m if seg_m > _EPS else 1.0
@@ -217,12 +284,15 @@ class SimVehicle:
     def _flight_end_s(self) -> float:
         """When the flight under way ends (from the segment's origin: independent of polling)."""
         t = self._segment.end_s
-        prev = self._waypoints[0] if self._waypoints else self.pos
-        for w in self._waypoints[1:]:
+        prev = self._seg_end if self._waypoints else self.pos
+        odometer = self._segment.odometer0_m + math.dist(self._segment.origin, prev)
+        for target in self._waypoints[1:]:
+            w = self._true_end(target, prev, odometer)
             try:
                 t += sum(d for d, _ in segment_pieces(self.current, prev, w, self.speed_mps, t))
             except LegError:
                 return math.inf
+            odometer += math.dist(prev, w)
             prev = w
         return t
 
@@ -255,14 +325,30 @@ class SimVehicle:
         assert work is not None
         if work.work is Work.LOOK:
             assert self.camera is not None
-            seen = self.camera.inspect(work.task)
+            seen = self.camera.look(work.task, self.pos)
             return Looked(self.t_s, work.task, seen.present, seen.priority, seen.service_s)
+        spot = None if self.camera is None else self.camera.treated(work.task, self.pos)
+        self.treatments.append(Treatment(self.t_s, work.task, self.pos, spot))
         return Injected(self.t_s, work.task)
 
     def _sightings(self, t_s: float) -> list[VehicleReport]:
         if self.camera is None:
             return []
-        return [Sighted(t_s, s.pos, s.priority, s.service_s) for s in self.camera.sweep(self.pos)]
+        (a, odometer_a), self._swept = self._swept, (self.pos, self.odometer_m)
+        seen = self.camera.sweep(self.pos)
+        nav = self.navigation
+        if nav is None:
+            return [Sighted(t_s, s.pos, s.priority, s.service_s) for s in seen]
+        out: list[VehicleReport] = []
+        for s in seen:
+            # The estimate where the pass began, plus the offset the camera measured: the
+            # aggregation moved by the navigation error there, and the camera's own error.
+            at = s.at if s.at is not None else self.pos
+            ex, ey = nav.error(at, odometer_a + math.dist(a, at))
+            cx, cy = nav.camera_error(s.spot, s.pass_no)
+            pos = (s.pos[0] + ex + cx, s.pos[1] + ey + cy, s.pos[2])
+            out.append(Sighted(t_s, pos, s.priority, s.service_s))
+        return out
 
 
 def fly(problem: Problem, index: int, route: Sequence[int], paths: PathFn | None = None

@@ -19,6 +19,7 @@ from fleet_agent.wire import MAX_VEHICLES
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.model.errors import ScenarioError
 from hfc_core.model.problem import Problem
+from reef_sim.navigation import DEFAULT_NAVIGATION, navigation_from_doc
 from reef_sim.scenarios.area import AreaParams, generate_area_doc, out_of_reach
 from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
 from reef_sim.scenarios.field import PAPER_PRESET, GeneratorParams, generate_doc
@@ -39,6 +40,8 @@ GEOJSON_ONLY = ("simplify_m",)
 # Flag -> `DynamicParams` field of the hidden reef's knobs (--dynamic).
 DYNAMIC_ONLY = {"empty_share": "empty_share", "priority_error": "priority_error",
                 "unmapped": "n_unmapped", "unmapped_spread_m": "unmapped_spread_m"}
+# Flags of the simulated vehicles' navigation (--dynamic), not of the hidden reef.
+NAVIGATION_ONLY = ("drift_pct",)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -108,6 +111,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     dynamic.add_argument("--unmapped-spread-m", type=float, metavar="M",
                          help="Gaussian spread (per axis) of the missed aggregations around "
                               "the predicted spots, m (default 50)")
+    dynamic.add_argument("--drift-pct", type=float, metavar="X",
+                         help="the vehicles' navigation drifts by X %% of the distance run "
+                              f"(default {DEFAULT_NAVIGATION.drift_pct:g}; 0: exact "
+                              "navigation, no 'navigation' section); the section's other "
+                              "fields take their defaults (docs/scenario.md)")
     parser.add_argument("--name", help="scenario name")
     parser.add_argument("-o", "--output", metavar="OUT.json",
                         help="write here (default: print the JSON on stdout)")
@@ -212,8 +220,25 @@ def draw(base: GeneratorParams | AreaParams, args: argparse.Namespace) -> dict:
     if params is not None:
         from cotsfleet.io import check_schema
 
+        navigation = navigation_section(args)
+        if navigation is not None:
+            doc["navigation"] = navigation
         check_schema(doc, "scenario", "generated scenario", ScenarioError)  # our own contract
     return doc
+
+
+def navigation_section(args: argparse.Namespace) -> dict | None:
+    """The ``navigation`` section a dynamic scenario gets: the documented default
+    (`reef_sim.navigation.DEFAULT_NAVIGATION`) with ``--drift-pct``; None for exact
+    navigation (``--drift-pct 0``)."""
+    drift = getattr(args, "drift_pct", None)
+    if drift is None:
+        return DEFAULT_NAVIGATION.to_dict()
+    if not (math.isfinite(drift) and drift >= 0):
+        raise UsageError(f"--drift-pct must be >= 0, got {drift}")
+    if drift == 0:
+        return None
+    return replace(DEFAULT_NAVIGATION, drift_pct=float(drift)).to_dict()
 
 
 def truth_summary(doc: dict, problem: Problem) -> str:
@@ -225,9 +250,16 @@ def truth_summary(doc: dict, problem: Problem) -> str:
     mapped = reef.total_priority() - sum(reef.spots[i].priority for i in reef.unmapped())
     predicted = float(problem.priority.sum())
     share = f" ({reef.total_priority() / predicted:.0%})" if predicted > 0 else ""
-    return (f"truth: {n - empty} of {n} predicted spots hold COTS ({empty} empty), {unmapped} "
+    line = (f"truth: {n - empty} of {n} predicted spots hold COTS ({empty} empty), {unmapped} "
             f"unmapped aggregation(s); real priority {reef.total_priority():.0f} vs the map's "
             f"{predicted:.0f}{share}, {mapped:.0f} of it at predicted spots")
+    nav = navigation_from_doc(doc)
+    if nav is not None:
+        fixes = "no fixes" if nav.fix_period_s is None else \
+            f"a {nav.fix_sigma_m:g} m USBL fix every {nav.fix_period_s:g} s"
+        line += (f"\nnavigation: drifts by {nav.drift_pct:g} % of the distance run, {fixes} "
+                 "(--drift-pct 0: exact)")
+    return line
 
 
 def reef_options(args: argparse.Namespace) -> "ReefOptions":
@@ -313,7 +345,7 @@ def check_dynamic_flags(args: argparse.Namespace) -> None:
     if args.from_geojson is not None and args.dynamic:
         raise UsageError("--dynamic: not with --from-geojson (the reef's truth points are its "
                          "hidden reef)")
-    given = _given(args, DYNAMIC_ONLY)
+    given = _given(args, (*DYNAMIC_ONLY, *NAVIGATION_ONLY))
     if given and not args.dynamic:
         raise UsageError(f"{', '.join(given)}: only with --dynamic")
     given = _given(args, GEOJSON_ONLY)

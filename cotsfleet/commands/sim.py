@@ -48,6 +48,7 @@ def _out_dir(args: argparse.Namespace) -> Path:
 def run(args: argparse.Namespace) -> int:
     from cotsfleet.mission.faults import FaultError
     from cotsfleet.mission.inprocess import simulate
+    from reef_sim.navigation import navigation_from_doc
 
     if args.runs < 1:
         raise UsageError("--runs must be >= 1")
@@ -61,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
         m = mission_args(args)
         try:
             result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
-                              reef=m.reef)
+                              reef=m.reef, navigation=navigation_from_doc(m.scenario))
         except FaultError as exc:  # a fault the simulation cannot make (`backend.check`)
             raise UsageError(str(exc)) from None
         report = msgspec.structs.replace(result.report, wall_s=round(result.wall_s, 3))

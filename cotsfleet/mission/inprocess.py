@@ -45,6 +45,7 @@ from fleet_bus.modem_port import WATER_SPEC
 from fleet_bus.orders import TOPSIDE
 from fleet_bus.telemetry import Event, Status, Truth
 from hfc_core.model.problem import Problem
+from reef_sim.navigation import NavigationParams
 from reef_sim.truth import Reef
 
 STEP_S = 60.0  # the runner looks at the mission (progress, end) this often
@@ -110,10 +111,11 @@ class InProcessBackend:
                  loss: float = 0.0, channel: ChannelConfig | None = None,
                  planner: Planner | None = None, key: bytes | None = None,
                  oracle_iterations: int = 300, tap: Tap | None = None,
-                 reef: Reef | None = None) -> None:
+                 reef: Reef | None = None, navigation: NavigationParams | None = None) -> None:
         self.problem = problem
         self.seed = seed
         self.reef = reef  # the hidden reef (dynamic mission), seen only through the camera
+        self.navigation = navigation  # the vehicles' navigation error (None: exact)
         key = key or np.random.default_rng(
             np.random.SeedSequence(seed).spawn(MISSION_STREAMS)[2]).bytes(16)
         self.config = config.with_key(key)
@@ -226,7 +228,8 @@ class InProcessBackend:
         # The vehicle is where the agent last knew it was (a restarted agent: its last
         # checkpoint; the vehicle was dead in the water meanwhile).
         vehicle = sim_vehicle(self.problem, index, seed=self.seed, reef=self.reef, t_s=now,
-                              pos=agent.own.pos, odometer_m=agent.own.distance_m)
+                              pos=agent.own.pos, odometer_m=agent.own.distance_m,
+                              navigation=self.navigation)
         seat.driver = AgentDriver(agent, vehicle, _SeatModem(self, seat),
                                   _SeatTelemetry(self, seat), journal,
                                   truth=vehicle.true_pose,

@@ -27,10 +27,11 @@ def run_seed(spec: SweepSpec, seed: int) -> RunResult:
     try:
         from cotsfleet.mission.inprocess import simulate
         from cotsfleet.sweep.spec import build_mission
+        from reef_sim.navigation import navigation_from_doc
 
         m = build_mission(spec, seed)
         result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
-                          reef=m.reef)
+                          reef=m.reef, navigation=navigation_from_doc(m.scenario))
     except Exception as exc:  # whatever a run raises is that run's result
         text = "".join(traceback.format_exception(exc))
         return FailedRun(seed=seed, error=repr(exc), traceback=text[-TRACEBACK_CHARS:],

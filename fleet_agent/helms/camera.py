@@ -25,12 +25,14 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Protocol
 
+from reef_sim.camera import SeenSpot
+
 Point3 = tuple[float, float, float]
 MAX_DETECTION_CHARS = 512  # one detection is a short line; longer text is not one
 
 
 class Camera(Protocol):
-    def sweep(self, pos: Point3) -> Iterable[tuple[Point3, float, float]]: ...
+    def sweep(self, pos: Point3) -> Iterable[SeenSpot]: ...
 
     def inspect(self, task: int) -> tuple[bool, float, float]: ...
 

@@ -376,9 +376,10 @@ class MoosHelm:
         camera = self.camera
         if camera is None:  # no camera on this vehicle: nothing to see
             return
-        for pos, prio, service in camera.sweep(true):
-            # Where the vehicle believes it is plus what the camera measured from it.
-            # where it lies in the vehicle's own navigation frame
+        for spot in camera.sweep(true):
+            pos, prio, service = spot.pos, spot.priority, spot.service_s
+            # Where the vehicle believes it is plus what the camera measured from it (in its
+            # own navigation frame).
             seen = (fix.pos[0] + (pos[0] - true[0]), fix.pos[1] + (pos[1] - true[1]),
                     fix.pos[2] + (pos[2] - true[2]))
             self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))

@@ -366,7 +366,8 @@ class Ros2Helm:
         camera = self.camera
         if camera is None:  # no camera on this vehicle: nothing to see
             return
-        for pos, prio, service in camera.sweep(true):
+        for spot in camera.sweep(true):
+            pos, prio, service = spot.pos, spot.priority, spot.service_s
             # where it lies in the vehicle's own navigation frame
             seen = (fix.pos[0] + (pos[0] - true[0]), fix.pos[1] + (pos[1] - true[1]),
                     fix.pos[2] + (pos[2] - true[2]))

@@ -10,14 +10,15 @@ find. On an exact map there is nothing to see and nothing here runs.
 
 from __future__ import annotations
 
-from fleet_agent.beliefs import UNKNOWN
+from fleet_agent.association import Estimate, probably_treated, sighting
+from fleet_agent.beliefs import EMPTY, UNKNOWN
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Hold, Intent, Note, Owe, SeekWork, Tell
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Inspected
 from fleet_agent.outbox import FindsGap, Owed
 from fleet_agent.records import Clear, FoundSpot
-from fleet_agent.wire import MAX_TENTHS, Codec, Found
+from fleet_agent.wire import MAX_TENTHS, SIGMA_UNIT_M, Codec, Found, sigma_code
 from fleet_bus.telemetry import position_detail
 from fleet_bus.vehicle_port import Looked, Sighted
 
@@ -37,6 +38,8 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
         return [Count("inspection_stale")]  # the look was abandoned meanwhile
     if r.present:
         know.beliefs.learn(r.task, True, r.priority, r.service_s)
+    if know.search is not None and r.task < know.beliefs.n:
+        know.search.learn(r.task, r.present)
     ev = own.looked(r.task, r.service_s if r.present else None, r.t_s)
     if ev is None:
         return []
@@ -61,31 +64,101 @@ def inspected(know: Knowledge, config: AgentConfig, ev: Inspected) -> list[Inten
 
 def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted,
                now: float) -> list[Intent]:
-    """An aggregation along the track: a predicted spot now known, or news."""
+    """An aggregation along the track (`association`, docs/search.md): a predicted spot now
+    known (and, when surely one, a landmark for the vehicle's navigation), a find already
+    known, something already treated, or news."""
     if not config.discovery:
         return [Count("sightings_ignored")]
-    b = know.beliefs
-    what = b.match(seen.pos)
+    b, own = know.beliefs, know.own
+    params = b.params
+    est = sighting(own.frame.to_map(seen.pos), own.sigma_m, params)
+    what, sure = b.resolve(est)
     if what is None:
-        return _discover(know, codec, seen, now)
-    if what[0] == "task" and b.state[what[1]] == UNKNOWN and what[1] not in know.cleared:
-        b.learn(what[1], True, seen.priority, seen.service_s)
-    return []
+        if probably_treated(est, treated_estimates(know), params):
+            return [Count("sightings_treated")]  # seen again: never treated twice
+        return _discover(know, codec, seen, est, now)
+    kind, spot = what
+    if kind == "task" and sure:
+        if own.frame.landmark(seen.pos, b.scenario.tasks[spot].pos,
+                              params.map_sigma_m ** 2 + params.camera_sigma_m ** 2
+                              + params.extent_var / 2):
+            know.touch()  # the goals moved with the vehicle's frame
+        if b.state[spot] == UNKNOWN and spot not in know.cleared:
+            b.learn(spot, True, seen.priority, seen.service_s)
+            if know.search is not None:
+                know.search.learn(spot, True)
+    return [] if sure else [Count("sightings_ambiguous")]  # a look will tell which
 
 
-def _discover(know: Knowledge, codec: Codec, seen: Sighted, now: float) -> list[Intent]:
+def treated_estimates(know: Knowledge, finds_only: bool = False,
+                      but: int | None = None) -> list[Estimate]:
+    """Where the spots taken as treated are (`association.probably_treated`): every cleared
+    spot but those this vehicle saw empty and those it only judged treated (`fold_treated`:
+    no chains of judgements), each as its estimate; ``finds_only``: the finds of them."""
+    b = know.beliefs
+    out = []
+    for t in know.cleared:
+        if t == but or t in know.folded or (t < b.n and (finds_only or b.state[t] == EMPTY)):
+            continue
+        if t >= b.n and t not in b.finds:
+            continue
+        out.append(b.estimate(t))
+    return out
+
+
+def fold_treated(know: Knowledge, now: float) -> list[Intent]:
+    """Never treat a spot twice (docs/search.md, "Never twice"): a spot nobody has cleared
+    whose estimate could be an aggregation already treated is cleared too (a find held
+    against every treated spot, a predicted spot against treated finds: the map says its
+    spots are distinct). Run when the cleared set or the finds change."""
+    b = know.beliefs
+    if b.exact:
+        return []
+    key = (len(know.cleared), len(b.finds), len(b.alias))
+    if key == know.fold_key:
+        return []
+    know.fold_key = key
+    params = b.params
+    all_treated = treated_estimates(know)
+    finds_treated = treated_estimates(know, finds_only=True)
+    if not all_treated:
+        return []
+    new = []
+    for s, f in b.finds.items():
+        if s in know.cleared or s in b.alias:
+            continue
+        if probably_treated(f.estimate, all_treated, params):
+            new.append(s)
+    if finds_treated:
+        for t in range(b.n):
+            if t not in know.cleared and b.state[t] != EMPTY and \
+                    probably_treated(b.estimate(t), finds_treated, params):
+                new.append(t)
+    if not new:
+        return []
+    know.folded.update(new)
+    know.clear(new)
+    know.fold_key = (len(know.cleared), len(b.finds), len(b.alias))
+    return [Count("spots_judged_treated", len(new)), Note(Clear(now, tuple(new), own=False)),
+            Tell(now, "judged_treated", tuple(new))]
+
+
+def _discover(know: Knowledge, codec: Codec, seen: Sighted, est: Estimate,
+              now: float) -> list[Intent]:
     """An aggregation the map missed: name it, tell the fleet, plan it once settled."""
     b = know.beliefs
     slot = b.own_slot()
     if slot is None:
         return [Count("finds_dropped")]
     # What the fleet will know: the wire's figures, so every vehicle plans the same find.
-    pos = codec.dequantise(*codec.quantise(seen.pos))
+    pos = codec.dequantise(*codec.quantise((*est.xy, seen.pos[2])))
     rho = min(round(seen.priority * 10), MAX_TENTHS) / 10
     service = min(round(seen.service_s * 10), MAX_TENTHS) / 10
-    if not b.add_find(slot, pos, rho, service, now):
+    sigma = sigma_code(est.sigma_m) * SIGMA_UNIT_M
+    if not b.add_find(slot, pos, rho, service, now, sigma):
         return [Count("finds_refused")]  # on land once on the wire's grid: nobody could go
-    return [Count("finds"), Note(FoundSpot(now, slot, pos, rho, service, durable=True)),
+    return [Count("finds"), Note(FoundSpot(now, slot, pos, rho, service, durable=True,
+                                           sigma_m=sigma)),
             Owe(Owed.FIND, slot), Tell(now, "found", (slot,),
                                       detail=f"{where(know, slot)} rho {rho:g}")]
 
@@ -98,8 +171,9 @@ def on_found(know: Knowledge, msg: Found, now: float) -> list[Intent]:
         return [Count("drop_found_static")]
     conflicts, refused = b.conflicts, b.refused
     out: list[Intent] = []
-    if b.add_find(msg.slot, msg.pos, msg.priority, msg.service_s, now):
-        out.append(Note(FoundSpot(now, msg.slot, msg.pos, msg.priority, msg.service_s)))
+    if b.add_find(msg.slot, msg.pos, msg.priority, msg.service_s, now, msg.sigma_m):
+        out.append(Note(FoundSpot(now, msg.slot, msg.pos, msg.priority, msg.service_s,
+                                  sigma_m=msg.sigma_m)))
     elif b.conflicts != conflicts:
         out.append(Count("drop_found_conflict"))
     elif b.refused != refused:

@@ -61,7 +61,7 @@ def content(know: Knowledge, config: AgentConfig, msg: Message, now: float,
         return _holding(know, msg, now)
     if isinstance(msg, Found):
         verdict = plausible.find(know, msg.sender, msg.slot, msg.pos, msg.priority,
-                                 msg.service_s, now)
+                                 msg.service_s, now, msg.sigma_m)
         if verdict == plausible.REFUSE:
             return _suspect(know, msg.sender, "find")
         return discovery.on_found(know, msg, now) if verdict == plausible.TAKE else \
@@ -90,7 +90,7 @@ def _cleared(know: Knowledge, msg: ClearedSegment, now: float) -> list[Intent]:
     news = [lo + i for i in range(bits.bit_length()) if bits >> i & 1
             and lo + i < know.problem.n_tasks and lo + i not in know.cleared]
     out: list[Intent] = []
-    take, waiting = plausible.cleared(know, msg.sender, news)
+    take, waiting = plausible.cleared(know, msg.sender, news, now)
     new = know.clear(take)
     if new:
         out.append(Note(Clear(now, tuple(new), own=False)))

@@ -6,8 +6,9 @@ peer says is weighed against what it could have done, so that one vehicle's lies
 what its own work is worth:
 
 - *cleared spots*: a spot is taken as cleared when its sender held it (the initial plan, or a
-  claim: its own work), when no other working vehicle holds it, or when two different peers
-  say so; otherwise it waits for a second word (`Witness`);
+  claim: its own work), when no other working vehicle holds it, when its sender's track
+  passed it (`been_there`), or when two different peers say so; otherwise it waits for a
+  second word (`Witness`);
 - *claims*: a vehicle may claim no more than it could treat before its battery ends: the
   injection times of what it claims, plus a minimum spanning tree through those spots and its
   last known position at its speed (a lower bound of any route through them), within its
@@ -41,19 +42,23 @@ from hfc_core.model.problem import Problem
 
 HOME_RADIUS_M = 50.0  # "home" said farther than this from its rendezvous is a lie
 FIND_MARGIN_M = 15.0  # beyond the camera's reach: navigation and quantisation
+FIND_SIGMAS = 3.0  # and its finder's navigation uncertainty, this many sigmas of it ...
+FIND_SIGMA_CAP_M = 60.0  # ... at most (a liar's sigma loosens the check no further)
 TRACK_SPEED_FACTOR = 1.2  # how much farther than cruise speed a peer may have gone between poses
 CLAIM_SLACK = 1.1  # a claim's lower bound against the battery: currents, clock offsets
 HELD_SLACK = 2.0  # all a vehicle holds, while its releases are on their way (measured: 1.54)
 
 
-def cleared(know: Knowledge, sender: int, spots: Iterable[int]) -> tuple[list[int], int]:
+def cleared(know: Knowledge, sender: int, spots: Iterable[int],
+            now: float = 0.0) -> tuple[list[int], int]:
     """Of the ``spots`` ``sender`` says are cleared (news to us), those to take now, and how
     many wait for a second word."""
     take, waiting = [], 0
     for t in spots:
         own = know.holdings.claim_time(t, sender) is not None  # the initial plan's, or claimed
         free = know.holder(t) is None and _known_or_its_own(know.beliefs, sender, t)
-        if own or free or Witness.second(know.witness.cleared, t, sender):
+        if own or free or been_there(know, sender, t, now) or \
+                Witness.second(know.witness.cleared, t, sender):
             take.append(t)
         else:
             waiting += 1
@@ -67,6 +72,22 @@ def _known_or_its_own(beliefs: Beliefs, sender: int, t: int) -> bool:
     second word: otherwise one CLEARED frame with every bit set would wipe out, ahead of
     time, every find the fleet is yet to make."""
     return t < beliefs.n or t in beliefs.finds or (beliefs.cap > 0 and beliefs.finder(t) == sender)
+
+
+def been_there(know: Knowledge, sender: int, task: int, now: float) -> bool:
+    """Could ``sender`` have been at spot ``task`` (its track passed within the camera's
+    reach, the margin and the spot's uncertainty)? A vehicle that claimed a spot we also
+    hold (two claims crossed under loss) and treated it says so; waiting for a second word
+    there would treat it twice."""
+    track = know.tracks.get(sender)
+    if track is None:
+        return False
+    b = know.beliefs
+    sigma = b.finds[task].sigma_m if task in b.finds else 0.0
+    reach = (b.camera.detect_radius_m if b.camera is not None else 0.0) + FIND_MARGIN_M + \
+        min(FIND_SIGMAS * sigma, FIND_SIGMA_CAP_M)
+    speed = TRACK_SPEED_FACTOR * know.problem.vehicles[sender].speed_mps
+    return near_track(track, tuple(know.problem.xyz[task]), reach, speed, now)
 
 
 def claims(know: Knowledge, sender: int, tasks: Iterable[int]) -> list[int]:
@@ -118,7 +139,7 @@ TAKE, WAIT, REFUSE = "take", "wait", "refuse"
 
 
 def find(know: Knowledge, sender: int, slot: int, pos: Iterable[float], priority: float,
-         service_s: float, now: float) -> str:
+         service_s: float, now: float, sigma_m: float = 0.0) -> str:
     """A find as ``sender`` tells it: `REFUSE` beyond the scenario's figures or, told by its
     finder, away from its track; `WAIT` relayed by another until its finder or a second peer
     tells it too; else `TAKE`. Before any pose of the finder, its start places it."""
@@ -137,7 +158,10 @@ def find(know: Knowledge, sender: int, slot: int, pos: Iterable[float], priority
             return TAKE  # its finder cannot tell it any more: one word is all there will be
         return TAKE if Witness.second(know.witness.finds, slot, sender) else WAIT
     track = know.tracks.get(sender) or new_track(sc.vehicles[sender].start)
-    reach = (b.camera.detect_radius_m if b.camera is not None else 0.0) + FIND_MARGIN_M
+    # Its find and its track are both in its own navigation frame, but a landmark may have
+    # moved that frame between its last pose and the find (`fleet_agent.landmarks`).
+    reach = (b.camera.detect_radius_m if b.camera is not None else 0.0) + FIND_MARGIN_M + \
+        min(FIND_SIGMAS * sigma_m, FIND_SIGMA_CAP_M)
     near = near_track(track, tuple(pos), reach, TRACK_SPEED_FACTOR * sc.vehicles[sender].speed_mps,
                       now)
     return TAKE if near else REFUSE

@@ -16,10 +16,11 @@ from typing import Any
 import numpy as np
 
 from reef_sim.cotsmap import ProbabilityMap, on_land
+from reef_sim.navigation import DEFAULT_NAVIGATION
 from reef_sim.scenarios.area import AreaParams, generate_area_doc
 from reef_sim.scenarios.field import PAPER_PRESET, GeneratorParams, generate_doc
 from reef_sim.scenarios.seabed import boundary_distance_m, seabed_depth_m
-from reef_sim.truth import Reef, TruthSpot
+from reef_sim.truth import DEFAULT_LOOK_RADIUS_M, Reef, TruthSpot
 
 DEFAULT_UNMAPPED_PER_90 = 12  # unmapped aggregations per 90 predicted spots (the paper's count)
 
@@ -30,10 +31,19 @@ class DynamicParams:
     hidden reef it predicts: ``empty_share`` of the predicted spots hold nothing; the others
     hold a real priority ``predicted * exp(e * z - e**2 / 2)``, z ~ N(0, 1), e =
     ``priority_error`` (lognormal, right on average); ``n_unmapped`` aggregations the map missed
-    lie at a Gaussian offset (``unmapped_spread_m`` per axis) from a predicted spot chosen at
-    random, in the water and the area, with eq. (2)'s priority. Real injection times are drawn
-    U(``service_range_s``) (eq. 2; None: the predicted one). ``detect_radius_m``, ``p_detect``
-    and ``inspect_s`` are the simulated camera's (see `reef_sim.truth.Reef`)."""
+    (or ``unmapped_share`` times the predicted spots, rounded) lie at a Gaussian offset
+    (``unmapped_spread_m`` per axis) from a predicted spot chosen at random, in the water and
+    the area, with eq. (2)'s priority. With ``unmapped_min_m`` and ``unmapped_max_m`` they lie
+    instead in the ring between them around the chosen spot (uniform over its area), never
+    nearer than ``unmapped_min_m`` to any predicted spot. ``empty_anchor_weight``: how likely
+    an empty predicted spot is to be the one chosen, against 1 for a spot that holds COTS (1:
+    any alike; less: COTS gather around live aggregations). Real injection times are drawn
+    U(``service_range_s``) (eq. 2; None: the predicted one). ``detect_radius_m``,
+    ``p_detect``, ``inspect_s`` and ``look_radius_m`` are the simulated camera's (see
+    `reef_sim.truth.Reef`).
+
+    The defaults draw what they always drew: the new knobs at their defaults take no draw
+    of their own and change none."""
 
     base: GeneratorParams | AreaParams = PAPER_PRESET
     empty_share: float = 0.25
@@ -44,6 +54,11 @@ class DynamicParams:
     detect_radius_m: float = 25.0
     p_detect: float = 0.9
     inspect_s: float = 20.0
+    unmapped_share: float | None = None  # None: n_unmapped (or 12 per 90 predicted spots)
+    unmapped_min_m: float | None = None  # with unmapped_max_m: a ring instead of a Gaussian
+    unmapped_max_m: float | None = None
+    empty_anchor_weight: float = 1.0
+    look_radius_m: float = DEFAULT_LOOK_RADIUS_M
 
     def __post_init__(self) -> None:
         if not isinstance(self.base, (GeneratorParams, AreaParams)):
@@ -68,11 +83,30 @@ class DynamicParams:
                 raise ValueError(f"{name} must be >= 0, got {value}")
         if not (math.isfinite(self.p_detect) and 0.0 <= self.p_detect <= 1.0):
             raise ValueError(f"p_detect must be in 0..1, got {self.p_detect}")
+        if self.unmapped_share is not None:
+            if not (math.isfinite(self.unmapped_share) and self.unmapped_share >= 0):
+                raise ValueError(f"unmapped_share must be >= 0, got {self.unmapped_share}")
+            if self.n_unmapped is not None:
+                raise ValueError("give n_unmapped or unmapped_share, not both")
+        r_in, r_out = self.unmapped_min_m, self.unmapped_max_m
+        if (r_in is None) != (r_out is None):
+            raise ValueError("unmapped_min_m and unmapped_max_m go together")
+        if r_in is not None and r_out is not None and not (
+                math.isfinite(r_in) and math.isfinite(r_out) and 0 <= r_in < r_out):
+            raise ValueError(f"unmapped ring needs 0 <= unmapped_min_m < unmapped_max_m, got "
+                             f"{(r_in, r_out)}")
+        if not (math.isfinite(self.empty_anchor_weight) and self.empty_anchor_weight >= 0):
+            raise ValueError(f"empty_anchor_weight must be >= 0, got "
+                             f"{self.empty_anchor_weight}")
+        if not (math.isfinite(self.look_radius_m) and self.look_radius_m >= 0):
+            raise ValueError(f"look_radius_m must be >= 0, got {self.look_radius_m}")
 
     @property
     def unmapped_count(self) -> int:
         if self.n_unmapped is not None:
             return self.n_unmapped
+        if self.unmapped_share is not None:
+            return math.floor(self.unmapped_share * self.base.n_tasks + 0.5)  # halves up
         return round(self.base.n_tasks * DEFAULT_UNMAPPED_PER_90 / 90)
 
 
@@ -85,29 +119,44 @@ def _water(doc: dict[str, Any], base: GeneratorParams | AreaParams) -> tuple[
     return (0.0, side, 0.0, side), land
 
 
-def _unmapped_xy(anchors: np.ndarray, count: int, spread_m: float, doc: dict[str, Any],
-                 base: GeneratorParams | AreaParams, rng: np.random.Generator) -> np.ndarray:
-    """``(count, 2)`` positions near ``anchors`` (Gaussian offsets), redrawn until each lies in
-    the area and at least a metre from any land (so rounding never puts one ashore)."""
+def _unmapped_xy(anchors: np.ndarray, count: int, params: DynamicParams, doc: dict[str, Any],
+                 rng: np.random.Generator, weights: np.ndarray | None = None) -> np.ndarray:
+    """``(count, 2)`` positions near ``anchors``, chosen in proportion to ``weights`` (None:
+    alike): a Gaussian offset, or a point of the ring (see `DynamicParams`); redrawn until
+    each lies in the area and at least a metre from any land (so rounding never puts one
+    ashore), and in a ring, no nearer than its inner radius to any predicted spot."""
+    base = params.base
     if count and not len(anchors):
         raise ValueError("no predicted spot to put the unmapped aggregations near")
     (xmin, xmax, ymin, ymax), land = _water(doc, base)
+    lo, hi = params.unmapped_min_m, params.unmapped_max_m
     out = np.empty((0, 2))
     for _ in range(1000):
         if len(out) >= count:
             break
         need = count - len(out)
-        xy = anchors[rng.integers(len(anchors), size=need)] + rng.normal(0.0, spread_m,
-                                                                         size=(need, 2))
+        # The old draws, call for call, for the old knobs (a seed's reef stays the same).
+        chosen = rng.integers(len(anchors), size=need) if weights is None else rng.choice(
+            len(anchors), size=need, p=weights)
+        if lo is None or hi is None:
+            xy = anchors[chosen] + rng.normal(0.0, params.unmapped_spread_m, size=(need, 2))
+        else:
+            r = np.sqrt(rng.uniform(lo ** 2, hi ** 2, size=need))
+            theta = rng.uniform(0.0, 2.0 * math.pi, size=need)
+            xy = anchors[chosen] + np.column_stack([r * np.cos(theta), r * np.sin(theta)])
         x, y = xy[:, 0], xy[:, 1]
         ok = (x >= xmin) & (x <= xmax) & (y >= ymin) & (y <= ymax)
         if land:
             ok &= ~on_land(land, x, y)
             ok &= np.min([boundary_distance_m(x, y, poly) for poly in land], axis=0) >= 1.0
+        if lo is not None:
+            nearest = np.min(np.linalg.norm(xy[:, None, :] - anchors[None, :, :], axis=2),
+                             axis=1)
+            ok &= nearest >= lo
         out = np.vstack([out, xy[ok]])
     if len(out) < count:
         raise ValueError(f"could not place {count} unmapped aggregations in the water near "
-                         "the predicted spots (a smaller unmapped_spread_m?)")
+                         "the predicted spots (a smaller unmapped_spread_m or ring?)")
     return out[:count]
 
 
@@ -148,12 +197,21 @@ def draw_truth(doc: dict[str, Any], params: DynamicParams, rng: np.random.Genera
     else:
         service = rng.uniform(*base.service_range_s, size=m)
     anchors = np.array([t["pos"][:2] for t in tasks], dtype=float).reshape(-1, 2)
-    xy = _unmapped_xy(anchors, m, params.unmapped_spread_m, doc, base, rng)
+    weights = None
+    if params.empty_anchor_weight != 1.0:
+        weights = np.array([params.empty_anchor_weight if i in empty else 1.0
+                            for i in range(n)])
+        if not weights.sum() > 0:
+            raise ValueError("every predicted spot is empty and empty_anchor_weight is 0: no "
+                             "spot to put the unmapped aggregations near")
+        weights = weights / weights.sum()
+    xy = _unmapped_xy(anchors, m, params, doc, rng, weights)
     depth = _depth_m(doc, base, xy)
     spots += [TruthSpot((round(float(x), 2), round(float(y), 2), -round(float(d), 2)),
                         round(float(rho), 2), round(float(t), 2), None)
               for (x, y), d, rho, t in zip(xy, depth, priority, service)]
-    reef = Reef(params.detect_radius_m, params.p_detect, params.inspect_s, tuple(spots))
+    reef = Reef(params.detect_radius_m, params.p_detect, params.inspect_s, tuple(spots),
+                params.look_radius_m)
     return reef.to_dict()
 
 
@@ -172,7 +230,9 @@ DYNAMIC_PRESET = DynamicParams()  # the paper's field with the defaults: the dem
 
 def dynamic_preset_doc(seed: int) -> dict[str, Any]:
     """`paper_preset_doc(seed)` (the same tasks and map) plus a hidden reef with the defaults
-    of `DynamicParams`; vehicles ``auv1..auv3``."""
+    of `DynamicParams` and the default navigation error (`reef_sim.navigation`); vehicles
+    ``auv1..auv3``: what ``cotsfleet scenario --paper --dynamic --seed S`` writes."""
     doc = generate_dynamic_doc(DYNAMIC_PRESET, np.random.default_rng(seed))
+    doc["navigation"] = DEFAULT_NAVIGATION.to_dict()
     doc["name"] = f"paper-dynamic-seed{seed}"
     return doc

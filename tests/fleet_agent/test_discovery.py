@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from cotsfleet.mission.inprocess import simulate
 from fleet_agent.agent import Agent
-from fleet_agent.beliefs import EMPTY, MERGE_M, PRESENT, Beliefs
+from fleet_agent.beliefs import EMPTY, PRESENT, Beliefs
 from fleet_agent.config import AgentConfig
 from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
@@ -70,7 +70,7 @@ def test_two_finds_of_one_aggregation_merge_and_the_lower_slot_wins(fleet):
     high = b.n + 2 * CONFIG.find_slots  # vehicle 2's first slot
     low = b.n + 0 * CONFIG.find_slots  # vehicle 0's first slot
     assert b.add_find(high, pos, 40.0, 60.0, 0.0)
-    near = (pos[0] + MERGE_M / 2, pos[1], pos[2])
+    near = (pos[0] + 1.0, pos[1], pos[2])  # one aggregation (`association`)
     assert b.add_find(low, near, 40.0, 60.0, 5.0)
     assert b.alias == {high: low} and b.canonical(high) == low
     assert high in b.blocked(1e9) and low not in b.blocked(1e9)

@@ -194,12 +194,16 @@ def test_a_version_1_frame_is_refused_as_such() -> None:
     assert err.value.reason == "version"
 
 
+V = VERSION << 4
+
+
 @pytest.mark.parametrize("frame,reason", [
-    (b"", "short"), (b"\x31", "short"), (bytes([0x31, 0]) + bytes(13), "short"),
+    (b"", "short"), (bytes([V | 1]), "short"), (bytes([V | 1, 0]) + bytes(13), "short"),
     (bytes(65), "long"), (bytes([0x15, 0]), "version"),
     (bytes([0x11, 0]) + bytes(20), "version"), (bytes([0x21, 0]) + bytes(20), "version"),
-    (bytes([0x39, 0]) + bytes(20), "kind"), (bytes([0x31, 3]) + bytes(20), "sender"),
-    (bytes([0x31, 0]) + bytes(20), "mac"),
+    (bytes([0x31, 0]) + bytes(20), "version"),  # v3: a find without its finder's sigma
+    (bytes([V | 9, 0]) + bytes(20), "kind"), (bytes([V | 1, 3]) + bytes(20), "sender"),
+    (bytes([V | 1, 0]) + bytes(20), "mac"),
 ])
 def test_header_checks_name_their_reason(frame: bytes, reason: str) -> None:
     with pytest.raises(WireError) as err:

@@ -49,7 +49,12 @@ def test_each_pass_draws_once_and_the_draws_do_not_depend_on_step_times():
         for f in np.linspace(0.0, 1.0, 97):  # the same track in many small steps
             got_fine += fine.sweep(tuple(a[i] + (b[i] - a[i]) * f for i in range(3)))
     key = lambda s: s.pos  # noqa: E731 - within one step, order is by spot, not by time
-    assert got_coarse and sorted(got_coarse, key=key) == sorted(got_fine, key=key)
+    coarse_seen, fine_seen = sorted(got_coarse, key=key), sorted(got_fine, key=key)
+    assert got_coarse and [s[:5] for s in coarse_seen] == [s[:5] for s in fine_seen]
+    # where each pass began: the same point of the track (to rounding), however it was cut
+    for c, f in zip(coarse_seen, fine_seen):
+        assert c.at == pytest.approx(f.at, abs=1e-9)
+        assert math.dist(c.at, c.pos) == pytest.approx(coarse.reach_m, abs=1e-9) or c.at in track
     assert (coarse._passes == fine._passes).all()
     # a pass is one draw: p_detect 0.5 over many passes sees some and misses some
     assert 0 < len(got_coarse) < int(coarse._passes.sum())

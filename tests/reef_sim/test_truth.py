@@ -187,7 +187,7 @@ def test_dynamic_scenario_round_trips_through_json(dynamic_doc):
 
 def test_the_prior_is_the_static_scenario_of_the_same_seed(dynamic_doc):
     static = paper_preset_doc(0)
-    assert {k: v for k, v in dynamic_doc.items() if k not in ("truth", "name")} == {
+    assert {k: v for k, v in dynamic_doc.items() if k not in ("truth", "navigation", "name")} == {
         k: v for k, v in static.items() if k != "name"}
 
 

@@ -122,3 +122,16 @@ def test_a_look_without_a_camera_is_refused() -> None:
     v.command(StationKeep(Work.LOOK, 0, 20.0), 0.0)
     refused = v.poll(1.0)[0]
     assert isinstance(refused, Refused) and "camera" in refused.reason
+
+
+def test_the_same_target_somewhere_else_is_a_new_leg_and_the_same_goal_flies_on():
+    p = small_problem()
+    v = SimVehicle(p, 0)
+    v.command(GoTo(0, ((50.0, 0.0, -10.0), spot(p, 0))), 0.0)
+    v.poll(30.0)
+    v.command(GoTo(0, (spot(p, 0),), ahead=(spot(p, 1),)), 30.0)  # a new path, same goal
+    assert v._waypoints == [(50.0, 0.0, -10.0), spot(p, 0)] and v.ahead == (spot(p, 1),)
+    moved = (100.0, 12.0, -10.0)  # its camera saw the spot here
+    v.command(GoTo(0, (moved,)), 30.0)
+    got = [r for r in v.poll(500.0) if isinstance(r, Arrived)]
+    assert got and v.pos == pytest.approx(moved)

@@ -1,0 +1,229 @@
+"""Matching under uncertainty (`fleet_agent.association`): named cases from the issue and the
+example reef, and properties searched by Hypothesis."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from fleet_agent.association import (AssociationParams, Estimate, assign, chi2_gate,
+                                     distance2, fuse, match, posteriors, predicted,
+                                     probably_treated, resolve, same_aggregation, sighting)
+
+REPO = Path(__file__).resolve().parents[2]
+P = AssociationParams()
+
+
+def drifted(pos, run_m: float, drift_pct: float = 1.0) -> Estimate:
+    """A sighting by a vehicle that ran ``run_m`` metres on dead reckoning at ``drift_pct``."""
+    return sighting(pos, drift_pct / 100.0 * run_m, P)
+
+
+# -- named cases ------------------------------------------------------------------------------
+
+
+def test_the_gate_is_the_chi_square_quantile_of_two_degrees_of_freedom():
+    assert chi2_gate(0.99) == pytest.approx(9.2103, abs=1e-4)
+    assert chi2_gate(0.999) == pytest.approx(13.8155, abs=1e-4)
+
+
+def test_two_vehicles_estimates_of_one_aggregation_8_m_apart_merge():
+    a = drifted((100.0, 200.0), 300.0)
+    b = drifted((108.0, 200.0), 250.0)
+    assert same_aggregation(a, b, P) and same_aggregation(b, a, P)
+    assert match(b, [("find-7", a)], P) == "find-7"
+
+
+def test_two_real_aggregations_40_m_apart_stay_two():
+    a = drifted((100.0, 200.0), 300.0)
+    b = drifted((100.0, 240.0), 400.0)
+    assert not same_aggregation(a, b, P)
+    assert match(b, [("find-7", a)], P) is None
+
+
+def test_an_aggregation_7_4_m_from_its_predicted_spot_is_that_spot():
+    # Green Island's first aggregation: 7.4 m from predicted spot 0, exact navigation
+    spot = predicted((0.0, 0.0), P)
+    seen = sighting((7.4, 0.0), 0.0, P)
+    assert match(seen, [(0, spot), ("find", sighting((60.0, 0.0), 2.0, P))], P) == 0
+
+
+def test_green_island_every_mapped_aggregation_is_a_predicted_spot_never_new():
+    doc = json.loads((REPO / "examples" / "green_island.json").read_text())
+    tasks = [predicted(t["pos"], P) for t in doc["tasks"]]
+    named = [s for s in doc["truth"]["spots"] if s["task"] is not None]
+    assert named
+    for s in named:
+        seen = sighting(s["pos"], 0.0, P)
+        got = match(seen, list(enumerate(tasks)), P)
+        assert got is not None  # never taken for a new aggregation
+        # it is its own spot once the spots a look showed empty are out of the running
+        empty = set(range(len(tasks))) - {x["task"] for x in named}
+        live = [(i, t) for i, t in enumerate(tasks) if i not in empty]
+        assert match(seen, live, P) == s["task"]
+        # and whichever spot it matched, treating it makes the other "probably treated"
+        own = tasks[s["task"]]
+        assert probably_treated(own, [tasks[got]], P)
+    unmapped = [s for s in doc["truth"]["spots"] if s["task"] is None]
+    far = [s for s in unmapped
+           if min(math.dist(s["pos"][:2], t.xy) for t in tasks) > 30.0]
+    for s in far:  # the aggregations the map missed far from any spot are new
+        assert match(sighting(s["pos"], 0.0, P), list(enumerate(tasks)), P) is None
+
+
+def test_between_two_predicted_spots_alike_only_a_look_can_tell():
+    # Green Island's first aggregation: 7.4 m from its spot (task 0), 6.6 m from an empty one
+    seen = sighting((0.0, 0.0), 0.0, P)
+    own, empty = predicted((7.4, 0.0), P), predicted((-6.6, 0.0), P)
+    key, sure = resolve(seen, [(0, own), (3, empty)], P)
+    assert key == 3 and not sure  # nearest, but not nearer by enough to be taken for it
+    probs = dict(posteriors(seen, [(0, own), (3, empty)], P))
+    assert probs[3] + probs[0] == pytest.approx(1.0) and 0.5 < probs[3] < P.sure_p
+    # on a generated map the aggregation is at its spot: the next one 10 m off is no rival
+    key, sure = resolve(seen, [(0, predicted((0.0, 0.0), P)), (1, predicted((10.0, 0.0), P))],
+                        P)
+    assert (key, sure) == (0, True)
+    assert resolve(seen, [(0, predicted((90.0, 0.0), P))], P) == (None, True)
+
+
+def test_a_treated_aggregation_seen_again_by_another_vehicle_is_not_treated_again():
+    treated_by_auv3 = drifted((412.0, 230.0), 600.0)  # its estimate when it injected
+    seen_by_auv1 = drifted((421.0, 236.0), 900.0)  # the same aggregation, 11 m off
+    assert probably_treated(seen_by_auv1, [treated_by_auv3], P)
+    elsewhere = drifted((470.0, 236.0), 900.0)
+    assert not probably_treated(elsewhere, [treated_by_auv3], P)
+    assert not probably_treated(elsewhere, [], P)
+
+
+def test_the_treated_gate_is_looser_than_the_matching_gate():
+    a, b = sighting((0.0, 0.0), 2.0, P), sighting((0.0, 0.0), 2.0, P)
+    d = math.sqrt((P.gate + P.treated_gate) / 2 * (8.0 + P.extent_var))  # between the gates
+    b = sighting((d, 0.0), 2.0, P)
+    assert not same_aggregation(a, b, P) and probably_treated(b, [a], P)
+
+
+def test_a_vague_candidate_does_not_win_by_its_vagueness():
+    seen = sighting((0.0, 0.0), 1.0, P)
+    sharp = Estimate((6.0, 0.0), 1.0)
+    vague = Estimate((9.0, 0.0), 40.0)  # a find whose finder had drifted far
+    assert distance2(seen, vague, P) < distance2(seen, sharp, P)  # Mahalanobis alone...
+    assert match(seen, [("vague", vague), ("sharp", sharp)], P) == "sharp"  # ...would not do
+
+
+def test_assign_gives_each_candidate_to_one_sighting_globally():
+    cands = [("a", sighting((0.0, 0.0), 1.0, P)), ("b", sighting((10.0, 0.0), 1.0, P))]
+    seen = [sighting((4.0, 0.0), 1.0, P), sighting((-5.0, 0.0), 1.0, P)]
+    # one by one, the first sighting would take its nearest, "a", and leave the second
+    # (15 m from "b": outside the gate) a new aggregation; together both are matched
+    assert [match(s, cands, P) for s in seen] == ["a", "a"]
+    assert assign(seen, cands, P) == ["b", "a"]
+    crowd = [sighting((0.5, 0.0), 1.0, P), sighting((-0.5, 0.0), 1.0, P)]
+    assert sorted(assign(crowd, cands[:1], P), key=str) == [None, "a"]
+    assert assign([], cands, P) == [] and assign(seen, [], P) == [None, None]
+
+
+def test_fusing_two_looks_weights_the_surer_one():
+    a, b = Estimate((0.0, 0.0), 1.0), Estimate((10.0, 0.0), 3.0)
+    f = fuse(a, b)
+    assert f.xy == pytest.approx((1.0, 0.0))
+    assert f.sigma_m == pytest.approx(math.sqrt(9 / 10))
+
+
+@pytest.mark.parametrize("bad", [dict(gate_p=1.0), dict(treated_gate_p=0.0),
+                                 dict(extent_m=-1.0), dict(map_sigma_m=math.nan)])
+def test_bad_parameters_are_refused(bad):
+    with pytest.raises(ValueError):
+        AssociationParams(**bad)
+
+
+def test_bad_estimates_are_refused():
+    with pytest.raises(ValueError):
+        Estimate((math.nan, 0.0), 1.0)
+    with pytest.raises(ValueError):
+        Estimate((0.0, 0.0), -1.0)
+
+
+# -- properties -------------------------------------------------------------------------------
+
+coord = st.floats(-2000.0, 2000.0, allow_nan=False)
+sigma = st.floats(0.0, 50.0, allow_nan=False)
+estimates = st.builds(lambda x, y, s: Estimate((x, y), s), coord, coord, sigma)
+
+
+@given(estimates, estimates)
+def test_one_aggregation_or_two_does_not_depend_on_the_order(a, b):
+    assert same_aggregation(a, b, P) == same_aggregation(b, a, P)
+    assert distance2(a, b, P) == pytest.approx(distance2(b, a, P))
+
+
+@given(estimates, st.floats(0.0, 50.0), st.floats(0.0, 3000.0), st.floats(0.0, 6.283))
+def test_more_uncertainty_never_splits_and_farther_never_merges(a, more, d, theta):
+    b = Estimate((a.xy[0] + d * math.cos(theta), a.xy[1] + d * math.sin(theta)), a.sigma_m)
+    vaguer = Estimate(b.pos, math.hypot(b.sigma_m, more))
+    if same_aggregation(a, b, P):
+        assert same_aggregation(a, vaguer, P)
+    farther = Estimate((a.xy[0] + 2 * d * math.cos(theta), a.xy[1] + 2 * d * math.sin(theta)),
+                       a.sigma_m)
+    if same_aggregation(a, farther, P):
+        assert same_aggregation(a, b, P)
+    assert same_aggregation(a, Estimate(a.pos, a.sigma_m), P)  # itself
+
+
+@settings(max_examples=60)
+@given(st.lists(estimates, max_size=6), st.lists(estimates, max_size=6))
+def test_assign_is_a_matching_inside_the_gate_of_largest_size(seen, cands):
+    keyed = list(enumerate(cands))
+    got = assign(seen, keyed, P)
+    taken = [k for k in got if k is not None]
+    assert len(taken) == len(set(taken))  # each candidate to one sighting at most
+    for s, k in zip(seen, got):
+        if k is not None:
+            assert same_aggregation(s, cands[k], P)
+    # no unmatched sighting could take a candidate left free
+    free = set(range(len(cands))) - set(taken)
+    for s, k in zip(seen, got):
+        if k is None:
+            assert not any(same_aggregation(s, cands[j], P) for j in free)
+
+
+@given(estimates, st.lists(estimates, max_size=8))
+def test_match_is_inside_the_gate_and_treated_is_a_looser_gate(seen, cands):
+    got = match(seen, list(enumerate(cands)), P)
+    if got is None:
+        assert not any(same_aggregation(seen, c, P) for c in cands)
+    else:
+        assert same_aggregation(seen, cands[got], P)
+        assert probably_treated(seen, cands, P)
+
+
+@given(estimates, estimates)
+def test_fusion_is_between_and_surer_than_either(a, b):
+    f = fuse(a, b)
+    assert f.sigma_m <= min(a.sigma_m, b.sigma_m) + 1e-9
+    for i in (0, 1):
+        lo, hi = sorted((a.xy[i], b.xy[i]))
+        assert lo - 1e-6 <= f.xy[i] <= hi + 1e-6
+
+
+def test_drifting_vehicles_estimates_of_one_aggregation_merge_at_the_gate_rate():
+    """Simulated: two vehicles see one aggregation (a disc of radius extent_m) with 1 %
+    drift over 100-800 m each; about gate_p of the pairs merge (the gate is calibrated)."""
+    rng = np.random.default_rng(0)
+    merged, n = 0, 4000
+    for _ in range(n):
+        runs = rng.uniform(100.0, 800.0, size=2)
+        sig = [math.hypot(0.01 * r, P.camera_sigma_m) for r in runs]
+        centre = np.zeros(2)
+        looks = []
+        for s in sig:
+            r, th = P.extent_m * math.sqrt(rng.uniform()), rng.uniform(0, 2 * math.pi)
+            where = centre + [r * math.cos(th), r * math.sin(th)] + rng.normal(0, s, 2)
+            looks.append(Estimate(tuple(where), s))
+        merged += same_aggregation(*looks, P)
+    assert merged / n == pytest.approx(P.gate_p, abs=0.01)

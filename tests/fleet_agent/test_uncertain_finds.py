@@ -1,0 +1,281 @@
+"""Issue 30 in the agent: finds under navigation error merge by the association rule, a
+treated aggregation seen again is never injected, the vehicle's frame follows the map's
+landmarks, a search is flown only when it is worth more than the next spot, and a find's
+sigma travels in one byte."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from fleet_agent.agent import Agent
+from fleet_agent.beliefs import Beliefs
+from fleet_agent.config import AgentConfig
+from fleet_agent.fleet import Fleet
+from fleet_agent.helms.sim import camera_figures
+from fleet_agent.io_types import Helm, Tick
+from fleet_agent.landmarks import MapFrame
+from fleet_agent.motion import Activity
+from fleet_agent.policies import searching
+from fleet_agent.wire import MAX_SIGMA_M, Codec, Digest, Found
+from fleet_bus.vehicle_port import GoTo, Injected, NavFix, Sighted
+from hfc_core.formats.scenario import problem_from_dict
+from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
+from reef_sim.scenarios.field import GeneratorParams
+from reef_sim.truth import reef_from_doc
+
+KEY = bytes(range(16))
+RUN = "test-uncertain"
+CONFIG = AgentConfig(plan_iterations=30, replan_iterations=10).with_key(KEY)
+DRIFT_SIGMA = 3.0  # 1 % drift over 300 m, per axis
+
+
+def small_doc(seed: int = 5) -> dict:
+    params = DynamicParams(base=GeneratorParams(name="small", n_tasks=30, n_vehicles=3,
+                                                size_m=600.0, battery_s=1500.0,
+                                                service_s=60.0), n_unmapped=5)
+    return generate_dynamic_doc(params, np.random.default_rng(seed))
+
+
+def build(config: AgentConfig = CONFIG) -> Fleet:
+    doc = small_doc()
+    problem = problem_from_dict(doc)
+    return Fleet.build(problem, KEY, 4, config, run_id=RUN,
+                       camera=camera_figures(reef_from_doc(doc, problem)))
+
+
+@pytest.fixture(scope="module")
+def fleet() -> Fleet:
+    return build()
+
+
+def off_map(fleet: Fleet, clear_m: float = 60.0) -> tuple[float, float, float]:
+    """A place no predicted spot is within ``clear_m`` of."""
+    assert fleet.dynamic is not None
+    xyz = fleet.dynamic.scenario.xyz[:fleet.dynamic.scenario.n_tasks]
+    for x in np.arange(20.0, 600.0, 13.0):
+        for y in np.arange(20.0, 600.0, 17.0):
+            if np.linalg.norm(xyz[:, :2] - (x, y), axis=1).min() > clear_m:
+                return (float(x), float(y), -3.0)
+    raise AssertionError("no place off the map")
+
+
+# -- merging ------------------------------------------------------------------------------------
+
+
+def test_two_vehicles_finds_of_one_aggregation_8_m_apart_merge(fleet):
+    """Each finder's 1 % drift over 300 m (3 m per axis) with the default rule: 8 m apart is
+    one aggregation (d2 = 2.1), 40 m apart two (d2 = 52)."""
+    b = Beliefs(fleet.dynamic.scenario, fleet.dynamic.camera, CONFIG, 0, 0, 7.5)
+    pos = off_map(fleet)
+    a, c, far = b.n + CONFIG.find_slots, b.n + 2 * CONFIG.find_slots, b.n + 1
+    assert b.add_find(c, pos, 40.0, 60.0, 0.0, DRIFT_SIGMA)
+    assert b.add_find(a, (pos[0] + 8.0, pos[1], pos[2]), 40.0, 60.0, 0.0, DRIFT_SIGMA)
+    assert b.alias == {c: a}
+    assert b.add_find(far, (pos[0] - 40.0, pos[1], pos[2]), 40.0, 60.0, 0.0, DRIFT_SIGMA)
+    assert b.alias == {c: a}  # 40 m off: another aggregation
+
+
+def test_merging_is_order_free_and_transitive(fleet):
+    """Every vehicle folds the same aliases from the same finds, whatever their order."""
+    pos = off_map(fleet)
+    n = fleet.dynamic.scenario.n_tasks
+    finds = [(n + 2 * CONFIG.find_slots, 0.0), (n + CONFIG.find_slots, 7.0), (n + 3, 14.0)]
+    aliases = set()
+    for order in ([0, 1, 2], [2, 1, 0], [1, 2, 0]):
+        b = Beliefs(fleet.dynamic.scenario, fleet.dynamic.camera, CONFIG, 0, 0, 7.5)
+        for k in order:
+            slot, dx = finds[k]
+            b.add_find(slot, (pos[0] + dx, pos[1], pos[2]), 40.0, 60.0, 0.0, 1.0)
+        aliases.add(tuple(sorted(b.alias.items())))
+    assert aliases == {((n + CONFIG.find_slots, n + 3), (n + 2 * CONFIG.find_slots, n + 3))}
+
+
+# -- never twice --------------------------------------------------------------------------------
+
+
+def test_a_treated_aggregation_seen_again_is_not_injected(fleet):
+    """auv2 treats its find; seen again 6 m off by a drifted camera it is no news, and a
+    peer's find of it (heard) is judged treated: cleared, never in the route."""
+    agent = Agent(fleet, 1, CONFIG)
+    pos = off_map(fleet)
+    agent.step(Tick(1.0), [NavFix(1.0, pos, sigma_m=DRIFT_SIGMA),
+                           Sighted(1.0, pos, 50.0, 60.0)])
+    b, know = agent.know.beliefs, agent.know
+    (slot,) = b.finds
+    assert b.finds[slot].sigma_m == pytest.approx(3.0, abs=0.5)
+    know.treat(slot, 2.0)
+    again = (pos[0] + 6.0, pos[1], pos[2])
+    agent.step(Tick(3.0), [Sighted(3.0, again, 50.0, 60.0)])
+    assert len(b.finds) == 1 and agent.counters.get("sightings_ignored", 0) == 0
+    from fleet_agent.policies import discovery
+
+    codec = fleet.codec
+
+    def heard(slot: int, at: tuple[float, float, float], seq: int) -> None:
+        msg = codec.decode(codec.encode(Found(2, seq, Digest(1, 0), slot, at, 50.0, 60.0,
+                                              sigma_m=DRIFT_SIGMA)))
+        discovery.on_found(know, msg, float(seq))
+        agent.step(Tick(float(seq) + 1.0))
+
+    # a peer (auv3) that saw it 6 m off names it: one aggregation, an alias nobody plans
+    peer = b.n + 2 * CONFIG.find_slots
+    heard(peer, again, 4)
+    assert b.alias == {peer: slot} and peer in b.blocked(1e9)
+    # 18 m off: beyond the merge gate (0.99), inside the looser "treated" one (0.999)
+    other = peer + 1
+    heard(other, (pos[0], pos[1] + 18.0, pos[2]), 6)
+    assert other not in b.alias
+    assert other in know.cleared and other in know.folded
+    assert agent.counters["spots_judged_treated"] == 1
+    assert peer not in agent.own.route and other not in agent.own.route
+
+
+def test_a_predicted_spot_is_judged_treated_only_by_a_treated_find(fleet):
+    """The map says its spots are distinct: a treated predicted spot never clears another;
+    a treated find within the gate of one does (a drifted vehicle took it for news)."""
+    agent = Agent(fleet, 0, CONFIG)
+    b, know = agent.know.beliefs, agent.know
+    sc = fleet.dynamic.scenario
+    d = np.linalg.norm(sc.xyz[:b.n, None, :2] - sc.xyz[None, :b.n, :2], axis=2)
+    np.fill_diagonal(d, np.inf)
+    t, u = map(int, np.unravel_index(np.argmin(d), d.shape))  # the two closest spots
+    know.treat(t, 1.0)
+    agent.step(Tick(2.0))
+    assert u not in know.cleared
+    slot = b.own_slot()
+    pos = sc.tasks[u].pos
+    assert b.add_find(slot, (pos[0] + 2.0, pos[1], pos[2]), 30.0, 60.0, 2.0, 1.0)
+    know.treat(slot, 3.0)
+    agent.step(Tick(4.0))
+    assert u in know.cleared and u in know.folded
+
+
+# -- the vehicle's frame ----------------------------------------------------------------------
+
+
+def test_a_landmark_corrects_the_frame_and_a_fix_starts_it_again():
+    frame = MapFrame()
+    frame.nav(10.0)  # 10 m per axis of drift
+    assert frame.landmark((105.0, 48.0), (100.0, 50.0), 0.5)
+    assert frame.offset == pytest.approx((5.0 * 100 / 100.5, -2.0 * 100 / 100.5))
+    assert frame.sigma_m < 1.0
+    assert frame.to_vehicle(frame.to_map((1.0, 2.0, -3.0))) == pytest.approx((1.0, 2.0, -3.0))
+    frame.nav(12.0)  # drift since: the offset is as uncertain as what grew
+    assert frame.var == pytest.approx(100 * 0.5 / 100.5 + 144 - 100)
+    frame.nav(1.0)  # a USBL fix: the vehicle's frame moved
+    assert frame.offset == (0.0, 0.0) and frame.sigma_m == pytest.approx(1.0)
+
+
+def test_with_exact_navigation_the_frame_never_moves():
+    frame = MapFrame()
+    frame.nav(0.0)
+    assert not frame.landmark((105.0, 48.0), (100.0, 50.0), 0.5)
+    assert frame.offset == (0.0, 0.0)
+
+
+def test_a_sure_sighting_of_a_predicted_spot_moves_the_goals(fleet):
+    """A drifted vehicle (3 m per axis) sees a predicted spot 3 m east of the map's: its
+    frame's offset is the Kalman update toward 3 m east, and the next goal it is sent to moves
+    by it, in its own frame."""
+    exact = dataclasses.replace(CONFIG, map_sigma_m=0.5, aggregation_extent_m=1.0)
+    f = build(exact)
+    agent = Agent(f, 0, exact)
+    head = agent.own.route[0]
+    before = agent.own.command()
+    assert isinstance(before, GoTo)
+    sc = f.dynamic.scenario
+    d = np.linalg.norm(sc.xyz[:, None, :2] - sc.xyz[None, :, :2], axis=2)
+    np.fill_diagonal(d, np.inf)
+    spot = max((t for t in range(sc.n_tasks) if t != head), key=lambda t: d[t].min())
+    p = sc.tasks[spot].pos  # the loneliest spot: surely the one seen
+    agent.step(Tick(1.0), [NavFix(1.0, agent.own.pos, sigma_m=DRIFT_SIGMA),
+                           Sighted(1.0, (p[0] + 3.0, p[1], p[2]), 50.0, 60.0)])
+    assert agent.own.frame.fixes == 1
+    ox, oy = agent.own.frame.offset
+    r = 0.5 ** 2 + 0.5 ** 2 + 1.0 ** 2 / 4  # map, camera, a point of the aggregation
+    assert ox == pytest.approx(3.0 * 9 / (9 + r)) and oy == pytest.approx(0.0, abs=1e-9)
+    after = agent.own.command()
+    assert isinstance(after, GoTo)
+    goal = after.waypoints[-1]
+    target = agent.own.problem.xyz[after.target]
+    assert goal[0] - target[0] == pytest.approx(ox) and goal[1] - target[1] == pytest.approx(oy)
+
+
+# -- search -------------------------------------------------------------------------------------
+
+
+def searcher(fleet_config: AgentConfig) -> tuple[Agent, int]:
+    f = build(fleet_config)
+    agent = Agent(f, 0, fleet_config)
+    assert agent.know.search is not None
+    own = agent.own
+    task = own.route[0]
+    own.activity, own.busy_until_s = Activity.INJECTING, 60.0
+    own.pos = tuple(float(c) for c in agent.problem.xyz[task])
+    return agent, task
+
+
+def nothing_else(agent: Agent, task: int) -> None:
+    """Every other spot done: the way home is all that is left after ``task``."""
+    agent.know.clear([t for t in range(agent.know.beliefs.n) if t != task])
+    agent.own.route = [task]
+
+
+SEARCH = dataclasses.replace(CONFIG, search_per_spot=0.45, search_ring_min_m=10.0,
+                             search_ring_max_m=70.0, search_empty_weight=0.3)
+
+
+def test_a_search_is_chosen_only_when_it_beats_the_next_known_spot():
+    """After an injection: with its next spot worth its expected value the vehicle goes on;
+    with a next spot worth nothing (or none) it orbits the spot it treated, and the orbit is
+    flown on its way and counted in its time."""
+    agent, task = searcher(SEARCH)
+    nxt = agent.own.route[1]
+    assert agent.problem.priority[nxt] > 0
+    agent.step(Tick(60.0), [Injected(60.0, task)])
+    assert agent.counters.get("searches_declined") == 1 and agent.own.detour is None
+
+    agent, task = searcher(SEARCH)
+    nothing_else(agent, task)
+    finish = agent.own.time_to_finish_s([])
+    out = agent.step(Tick(60.0), [Injected(60.0, task)])
+    assert agent.counters.get("searches") == 1 and agent.own.detour is not None
+    waypoints, duration = agent.own.detour
+    assert math.dist(waypoints[0][:2], waypoints[-1][:2]) < 1e-6  # back where it began
+    assert agent.own.time_to_finish_s() == pytest.approx(finish + duration, rel=0.05)
+    helm = [o for o in out if isinstance(o, Helm)]
+    assert helm  # the orbit first, then the way home
+    np.testing.assert_allclose(helm[-1].command.waypoints[:len(waypoints) - 1], waypoints[1:])
+
+
+def test_a_spot_is_weighed_for_a_search_once():
+    agent, task = searcher(SEARCH)
+    nothing_else(agent, task)
+    agent.step(Tick(60.0), [Injected(60.0, task)])
+    assert searching.after_injection(agent.know, SEARCH, task) == []
+    assert agent.counters.get("searches") == 1
+
+
+def test_without_a_belief_nothing_is_searched(fleet):
+    agent = Agent(fleet, 0, CONFIG)
+    assert agent.know.search is None
+    assert searching.after_injection(agent.know, CONFIG, agent.own.route[0]) == []
+
+
+# -- the wire ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("sigma,back", [(0.0, 0.0), (0.5, 0.5), (3.04, 3.5), (12.0, 12.0),
+                                        (1e6, MAX_SIGMA_M)])
+def test_a_finds_sigma_round_trips_in_its_byte_rounded_up(fleet, sigma, back):
+    codec: Codec = fleet.codec
+    n = fleet.dynamic.scenario.n_tasks
+    msg = Found(1, 9, Digest(3, 77), n + 2, (100.0, 200.0, -3.0), 42.5, 61.0, sigma_m=sigma)
+    frame = codec.encode(msg)
+    assert len(frame) <= codec.max_frame_bytes
+    got = codec.decode(frame)
+    assert got.sigma_m == back and got.slot == n + 2 and got.priority == 42.5
