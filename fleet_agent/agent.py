@@ -60,7 +60,7 @@ class Agent:
         p = fleet.problem
         self.fleet, self.index, self.config = fleet, index, config
         self.id = p.vehicles[index].id
-        slots = Slots(index, p.n_vehicles, config.slot_s)
+        slots = Slots(index, p.n_vehicles, config.slot_s, fleet.schedule)
         dyn = fleet.dynamic
         beliefs = Beliefs(p if dyn is None else dyn.scenario, None if dyn is None else dyn.camera,
                           config, index, fleet.seed, slots.cycle_s, fleet.planner)

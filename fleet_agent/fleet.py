@@ -6,10 +6,11 @@ from dataclasses import dataclass
 
 from fleet_agent.beliefs import FIND_MARGIN_M, expected_problem, initial_working_problem
 from fleet_agent.config import AgentConfig
-from fleet_agent.plans import Planner
+from fleet_agent.plans import Planner, nominal_tracks
 from fleet_agent.sensor import Camera
 from fleet_agent.wire import Codec
 from fleet_bus.modem_port import WATER_SPEC, ModemSpec
+from fleet_bus.tdma import SpatialSchedule, Track
 from hfc_core.model.paths import PathFn, path_function
 from hfc_core.model.problem import Problem
 
@@ -26,8 +27,11 @@ class Dynamic:
 @dataclass(frozen=True)
 class Fleet:
     """The scenario, the wire codec under the run's keys (fleet key and run id) and the
-    modem's frame budget, the planner, the land metric, the mission seed, and the initial
-    fleet plan every agent computes alone (no messages).
+    modem's frame budget, the planner, the land metric, the mission seed, the initial fleet
+    plan every agent computes alone (no messages), where that plan puts each vehicle over
+    time (``tracks``) and the slot schedule made from them (``schedule``: spatial TDMA,
+    `fleet_bus.tdma.SpatialSchedule`). In process one Fleet serves every agent: what they
+    would all compute alike is computed once.
 
     In a dynamic mission ``problem`` is the working problem before anything is seen
     (`fleet_agent.beliefs`: predicted spots at their expected value, then a slot per possible
@@ -41,6 +45,8 @@ class Fleet:
     base_routes: tuple[tuple[int, ...], ...]
     dynamic: Dynamic | None = None
     modem: ModemSpec = WATER_SPEC
+    tracks: tuple[Track, ...] = ()
+    schedule: SpatialSchedule | None = None
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
@@ -52,8 +58,10 @@ class Fleet:
             return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem)
         codec = Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
         planner = planner or Planner.from_config(problem, seed, config)
-        return Fleet(problem, codec, planner, path_function(problem), seed,
-                     planner.initial_routes(), modem=modem)
+        routes = planner.initial_routes()
+        tracks = tuple(nominal_tracks(problem, routes))
+        return Fleet(problem, codec, planner, path_function(problem), seed, routes,
+                     modem=modem, tracks=tracks, schedule=schedule_of(tracks, config))
 
     @staticmethod
     def _build_dynamic(scenario: Problem, key: bytes, seed: int, config: AgentConfig,
@@ -65,5 +73,13 @@ class Fleet:
         expected = expected_problem(scenario, camera, config.p_cots)
         routes = Planner.from_config(expected, seed, config).initial_routes()
         planner = Planner.from_config(working, seed, config)
+        tracks = tuple(nominal_tracks(expected, routes))
         return Fleet(working, codec, planner, path_function(working), seed, routes,
-                     Dynamic(scenario, camera), modem)
+                     Dynamic(scenario, camera), modem, tracks, schedule_of(tracks, config))
+
+
+def schedule_of(tracks: tuple[Track, ...], config: AgentConfig) -> SpatialSchedule:
+    """The fleet's slot schedule from its plan's tracks and the agents' settings."""
+    return SpatialSchedule(tracks, config.slot_s, config.slot_reuse_m or None,
+                           config.schedule_margin_m, config.schedule_epoch_s,
+                           config.park_group)

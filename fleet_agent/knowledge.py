@@ -23,6 +23,7 @@ from fleet_agent.membership import Membership
 from fleet_agent.motion import OwnVehicle
 from fleet_agent.negotiation import Holdings
 from fleet_agent.plans import Planner
+from fleet_agent.reckoning import position_along
 from fleet_agent.replay import ReplayWindow
 from fleet_agent.wire import Digest
 from hfc_core.model.problem import Problem
@@ -47,7 +48,11 @@ class Knowledge:
         self.k = p.n_vehicles
         self.cleared = ClearedSet(p.n_tasks, fleet.codec.segment_bits)
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
-        self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s)
+        # Whom this vehicle expects to hear, and when the others speak (`membership`).
+        self.hear_range_m = config.hear_range_m
+        self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s,
+                                  timing=fleet.schedule, reach=self)
+        self._routes: dict[int, tuple[float, list[int]]] = {}  # peer -> (when, believed route)
         # A claim has settled once any earlier claim of its spot has been heard (`settled_s`).
         self.claim_settle_s = config.claim_settle_cycles * cycle_s + config.slot_s + 1.0
         self.replay = ReplayWindow()
@@ -156,6 +161,46 @@ class Knowledge:
                 if t not in self.cleared and self.holder(t) == self.index}
 
     # -- peers ------------------------------------------------------------------------------
+
+    def expects(self, listener: int, speaker: int, t_s: float) -> bool:
+        """Should ``listener`` have heard ``speaker`` around ``t_s`` were it alive: both where
+        they are believed to be then (`whereabouts`), within ``hear_range_m`` (`membership`
+        counts silences only where a frame was to be expected)."""
+        a, b = self.whereabouts(listener, t_s), self.whereabouts(speaker, t_s)
+        return (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 <= self.hear_range_m ** 2
+
+    def whereabouts(self, v: int, t_s: float) -> Point3:
+        """Where vehicle ``v`` is believed to be at ``t_s`` if alive: this vehicle where it
+        is; a peer dead-reckoned from its last pose along the route it is believed to fly
+        (`replans.live_peer`'s estimate), or where the fleet plan puts it when none was
+        heard (`fleet.tracks`)."""
+        if v == self.index:
+            return self.own.pos
+        pose = self.peer_pose.get(v)
+        if pose is None:
+            tracks = self.fleet.tracks
+            if not tracks:
+                return self.problem.vehicles[v].start
+            x, y = tracks[v].at(t_s)
+            return (x, y, 0.0)
+        dt = max(0.0, t_s - pose.t_s)
+        # Cheap bound first: a vehicle moves at most its speed; most peers are far away.
+        far = self.hear_range_m + self.problem.vehicles[v].speed_mps * dt
+        here = self.own.pos
+        if (pose.pos[0] - here[0]) ** 2 + (pose.pos[1] - here[1]) ** 2 > (2 * far) ** 2:
+            return pose.pos
+        route = self._believed_route(v, t_s)
+        service_left = 0.5 * float(self.problem.service_s[route[0]]) \
+            if pose.state == "injecting" and route else 0.0
+        return position_along(self.problem, v, pose.pos, route, dt, service_left)
+
+    def _believed_route(self, v: int, t_s: float) -> list[int]:
+        """`peer_route`, kept a minute (it walks every spot's holder): dead reckoning needs
+        the route's shape, not its last claim."""
+        hit = self._routes.get(v)
+        if hit is None or abs(t_s - hit[0]) > 60.0:
+            hit = self._routes[v] = (t_s, self.peer_route(v))
+        return hit[1]
 
     def active_peers(self) -> list[int]:
         return [v for v in range(self.k)

@@ -130,6 +130,7 @@ class InProcessBackend:
         self.seats: dict[str, Seat] = {}
         self.oracle: dict[str, Any] = {}
         self.at_kill: dict[str, tuple[Status, frozenset[int]]] = {}  # status, cleared set
+        self.positions_at_kill: dict[str, dict[str, tuple[float, ...]]] = {}
         self._pending: list[Fault] = []
         self._stuck = 0
 
@@ -266,6 +267,9 @@ class InProcessBackend:
             # What the dead agent knew (for tests); the fleet and the report only have what it
             # last published, as in a real mission.
             self.at_kill[f.vid] = (agent.status(now), frozenset(agent.know.cleared))
+            # Where everyone was (the truth): who was within reach of the dead vehicle.
+            self.positions_at_kill[f.vid] = {
+                v: tuple(s.agent.own.pos) for v, s in self.seats.items() if s.agent is not None}
             seat.driver = None
             if seat.handle is not None:
                 seat.handle.cancel()

@@ -1,5 +1,10 @@
 """A peer declared gone: replan the survivors over the spots it freed; take this vehicle's share.
 
+Local: beyond ``takeover_peers`` survivors only those nearest the freed spots replan (who is
+near is decided alike on every survivor: `replans.nearest`), over the freed spots and their
+own, so a takeover costs the same in any fleet; in a smaller fleet every survivor replans
+over every free spot.
+
 Safe under false suspicion: the taken spots the peer would reach within ``takeover_wait_s`` go
 to the end of the route (`replans.after_own`), so they are reached as late as the route
 allows, which leaves the presumed-lost vehicle the most time to be heard again; when it is,
@@ -13,8 +18,8 @@ from __future__ import annotations
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Hold, Intent, Steer, Tell
 from fleet_agent.knowledge import Knowledge
-from fleet_agent.policies.replans import (after_own, live_peer, live_self, peer_etas,
-                                          takeover_share)
+from fleet_agent.policies.replans import (after_own, live_peer, live_self, nearest,
+                                          peer_etas, takeover_share)
 from fleet_agent.policies.route import keeping_own
 
 
@@ -33,11 +38,26 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
     if not free:
         return []
     own = know.own
+    active = know.active_peers()
+    scope = None
+    if len(active) + 1 > config.takeover_peers:
+        # Only the survivors nearest the freed spots replan, over those spots and their own:
+        # the same problem size in any fleet, and the same choice on every survivor with the
+        # same view (positions as believed, ties by index).
+        freed = [t for t in know.freed_route(gone) if t in free]
+        if not freed:
+            return []
+        xy = know.problem.xyz[freed, :2].mean(axis=0)
+        where = {v: know.whereabouts(v, now) for v in [know.index, *active]}
+        near = nearest(where, xy, config.takeover_peers)
+        if know.index not in near:
+            return [Count("takeovers_left_to_nearer")]
+        active, scope = [v for v in near if v != know.index], freed
     peers = [live_peer(know.problem, v, know.peer_pose.get(v), know.peer_route(v), now)
-             for v in know.active_peers()]
+             for v in active]
     # The same seed on every survivor: equal views give equal answers.
     mine = takeover_share(know.planner, live_self(own), peers, know.unavailable(now),
-                          know.held_map(), seed=know.fleet.seed * 1000 + gone)
+                          know.held_map(), seed=know.fleet.seed * 1000 + gone, scope=scope)
     gained = [t for t in mine if t in free]
     etas = peer_etas(know.problem, gone, know.peer_pose.get(gone), know.freed_route(gone))
     horizon = now + config.takeover_wait_s
