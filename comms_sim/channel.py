@@ -290,7 +290,7 @@ class Channel:
         if tdma is None:
             return t
         return slot_start(t, self.config.airtime_s(nbytes), self._slots[src], len(self._slots),
-                          tdma.slot_s, tdma.guard_s)
+                          tdma.slot_s, tdma.guard_s, tdma.schedule)
 
     def _schedule_next(self, src: str, node: _Node, t_s: float) -> None:
         head = node.queue.head()

@@ -58,6 +58,9 @@ class Knowledge:
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
+        # Spots a peer that fell silent had probably treated before (its clear may have died
+        # with it): left out of every plan of this vehicle (`policies.takeover`).
+        self.doubtful: set[int] = set()
         self.peer_digest: dict[int, Digest] = {}
         # Bumped by every change a decision may depend on: the route is checked against the
         # knowledge again whenever it moved (`policies.route.sync`).
@@ -122,7 +125,7 @@ class Knowledge:
 
     def unavailable(self, now: float) -> frozenset[int]:
         """Cleared or blocked: what a replan must leave out."""
-        return frozenset(self.cleared) | self.blocked(now)
+        return frozenset(self.cleared) | self.blocked(now) | frozenset(self.doubtful)
 
     # -- holdings under the current membership view ----------------------------------------
 
@@ -142,8 +145,8 @@ class Knowledge:
     def free_spots(self, now: float = 0.0) -> set[int]:
         held = self.held_map()
         blocked = self.blocked(now)
-        return {t for t in range(self.problem.n_tasks)
-                if t not in self.cleared and t not in held and t not in blocked}
+        return {t for t in range(self.problem.n_tasks) if t not in self.cleared
+                and t not in held and t not in blocked and t not in self.doubtful}
 
     def settled_s(self, task: int) -> float:
         """When this vehicle may start work at ``task``: at once (0) on its initial plan,

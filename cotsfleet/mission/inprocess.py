@@ -117,8 +117,8 @@ class InProcessBackend:
         self.fleet = Fleet.build(problem, key, seed, self.config, planner, run_id=f"sim-{seed}",
                                  camera=None if reef is None else camera_figures(reef))
         self.loop = EventLoop()
-        self.channel = Channel(replace(channel or ChannelConfig(), extra_loss=loss),
-                               channel_rng(seed))
+        self.channel = Channel(mac_of(replace(channel or ChannelConfig(), extra_loss=loss),
+                                      self.fleet, problem), channel_rng(seed))
         self.net = InProcessNetwork(self.channel, self.loop)
         self.net.add_listener(self._overhear)
         self.intruder = Intruder(problem, intruder_rng(seed))
@@ -334,6 +334,19 @@ class InProcessBackend:
                    if t in idx and idx[t] not in before)
 
 
+def mac_of(channel: ChannelConfig, fleet: Fleet, problem: Problem) -> ChannelConfig:
+    """The channel with its TDMA MAC, if it has one, on the fleet's own schedule (the spatial
+    schedule every agent computes: `Fleet.schedule`), so that the water and the agents agree
+    on every slot; the guard is cut to what the agents' slot leaves after the largest frame."""
+    if channel.tdma is None or fleet.schedule is None:
+        return channel
+    slot = fleet.schedule.slot_s
+    guard = min(channel.tdma.guard_s, slot - channel.airtime_s(channel.max_frame_bytes))
+    tdma = replace(channel.tdma, slot_s=slot, guard_s=max(0.0, guard),
+                   order=tuple(v.id for v in problem.vehicles), schedule=fleet.schedule)
+    return replace(channel, tdma=tdma)
+
+
 @dataclass
 class SimResult:
     report: dict[str, Any]
@@ -363,7 +376,11 @@ def simulate(problem: Problem, config: AgentConfig | None = None, *,
              progress: Any = None, **kw: Any) -> SimResult:
     """One seeded in-process mission (keyword arguments of `InProcessBackend`)."""
     backend = InProcessBackend(problem, config or AgentConfig(), **kw)
+    horizon = horizon_s or horizon_of(problem)
+    bind = getattr(progress, "bind", None)
+    if bind is not None:  # a progress line that counts the spots cleared (`cotsfleet sim`)
+        bind(backend.ledger, horizon)
     outcome: Outcome = run_mission(problem, backend, faults, seed=backend.seed, step_s=STEP_S,
-                                   horizon_s=horizon_s or horizon_of(problem),
+                                   horizon_s=horizon,
                                    progress=progress, reef=backend.reef)
     return SimResult(outcome.report, outcome.wall_s, backend, backend.ledger)

@@ -15,6 +15,9 @@ while the silence may be a false alarm.
 
 from __future__ import annotations
 
+import numpy as np
+
+from fleet_agent import membership as mb
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Hold, Intent, Steer, Tell
 from fleet_agent.knowledge import Knowledge
@@ -34,9 +37,17 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
     replan would). Either way the taken spots the peer would itself reach within
     ``takeover_wait_s`` go last: a vehicle cut off by a partition looks dead to the others
     exactly as a dead one does, and its next spots are where a duplicate would happen."""
+    out: list[Intent] = []
+    if know.members.status(gone) == mb.LOST:
+        doubtful = likely_treated(know, gone) - know.doubtful
+        if doubtful:
+            know.doubtful |= doubtful
+            out += [Count("doubtful_spots", len(doubtful)),
+                    Tell(now, "replan", tuple(sorted(doubtful)), peer=know.vid(gone),
+                         detail="left out: probably treated by the lost vehicle")]
     free = know.free_spots(now)
     if not free:
-        return []
+        return out
     own = know.own
     active = know.active_peers()
     scope = None
@@ -46,12 +57,12 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
         # same view (positions as believed, ties by index).
         freed = [t for t in know.freed_route(gone) if t in free]
         if not freed:
-            return []
+            return out
         xy = know.problem.xyz[freed, :2].mean(axis=0)
         where = {v: know.whereabouts(v, now) for v in [know.index, *active]}
         near = nearest(where, xy, config.takeover_peers)
         if know.index not in near:
-            return [Count("takeovers_left_to_nearer")]
+            return out + [Count("takeovers_left_to_nearer")]
         active, scope = [v for v in near if v != know.index], freed
     peers = [live_peer(know.problem, v, know.peer_pose.get(v), know.peer_route(v), now)
              for v in active]
@@ -62,7 +73,7 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
     etas = peer_etas(know.problem, gone, know.peer_pose.get(gone), know.freed_route(gone))
     horizon = now + config.takeover_wait_s
     soon = [t for t in gained if etas.get(t, horizon) < horizon]
-    out: list[Intent] = [Count("replans")]
+    out.append(Count("replans"))
     if gained:
         out += [Hold(tuple(gained), True),
                 Tell(now, "takeover", tuple(gained), peer=know.vid(gone))]
@@ -72,3 +83,43 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
     held = [t for t in own.route if t not in know.cleared]
     planned = keeping_own(own, config.battery_reserve_s, mine, held, soon)
     return out + [Steer(tuple(planned), why, frozenset(held))]
+
+
+def likely_treated(know: Knowledge, gone: int, on_leg_m: float = 25.0) -> set[int]:
+    """Spots of ``gone``'s route (as believed) that it had probably treated before it fell
+    silent, its clear unheard. A vehicle flies its route in order, so its last pose places it:
+    on the leg into a spot of the route (within ``on_leg_m`` of the straight leg), every spot
+    before that one is behind it; injecting at a spot, that spot too once half its injection
+    time has passed by the last frame of its own this vehicle took; and every spot it would
+    have finished, flying on from its last pose, before that last frame (it lived that long).
+
+    Why: a vehicle killed at 3000 s had treated a spot at 2950 s and was on its way to the
+    next; its clear never went out, and the taker treated the spot again. Treating a spot
+    twice is the one loss a takeover must not make; leaving one out costs at most its
+    priority."""
+    pose = know.peer_pose.get(gone)
+    route = know.freed_route(gone)
+    if pose is None or not route:
+        return set()
+    p = know.problem
+    heard_s = know.members.peers[gone].direct_s
+    xy = np.asarray(pose.pos[:2], dtype=float)
+    pts = p.xyz[route, :2]
+    done: set[int] = set()
+    near = np.linalg.norm(pts - xy, axis=1)
+    j = int(np.argmin(near))
+    if near[j] <= on_leg_m:  # at a spot of its route: the ones before are behind it
+        done |= set(route[:j])
+        if pose.state == "injecting" and pose.t_s + 0.5 * float(p.service_s[route[j]]) \
+                <= heard_s:
+            done.add(route[j])
+    elif len(route) > 1:  # on a leg: the spot it left and those before are behind it
+        a, b = pts[:-1], pts[1:]
+        detour = (np.linalg.norm(a - xy, axis=1) + np.linalg.norm(b - xy, axis=1)
+                  - np.linalg.norm(b - a, axis=1))
+        i = int(np.argmin(detour))
+        if detour[i] <= on_leg_m:
+            done |= set(route[:i + 1])
+    rest = [t for t in route if t not in done]
+    etas = peer_etas(p, gone, pose, rest)
+    return done | {t for t in rest if etas[t] + float(p.service_s[t]) <= heard_s}
