@@ -28,7 +28,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from functools import cached_property
 from typing import Any, Iterable, Mapping
@@ -38,7 +38,6 @@ from comms_sim.acoustics.modems import MODEMS, Modem
 from comms_sim.acoustics.modulation import ErrorTable
 from comms_sim.acoustics.noise import SHRIMP_BED_DB, SeaState
 from fleet_bus.link import Partition
-from fleet_bus.tdma import SpatialSchedule
 
 MODELS = ("physical", "empirical")
 EMPIRICAL_MAX_RANGE_M = 3000.0  # the empirical model's hard cut when max_range_m is unset
@@ -52,16 +51,11 @@ class TdmaConfig:
     in the order they first transmit (which lengthens the cycle for everyone, so list them all
     when the fleet is known). A frame starts only if it ends ``guard_s`` before its slot does,
     so that it has reached every receiver within range before the next slot opens.
-
-    ``schedule``: the fleet's spatial schedule (`fleet_bus.tdma.SpatialSchedule`, the one its
-    agents compute from the fleet plan), vehicle ``order[i]`` being its vehicle ``i``; then
-    the slots are that schedule's, and a node not listed (not of the fleet) is not held to it.
     """
 
     slot_s: float = 3.0
     order: tuple[str, ...] = ()
     guard_s: float = 2.0  # 3 km at 1500 m/s
-    schedule: SpatialSchedule | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "order", tuple(str(n) for n in self.order))
@@ -69,10 +63,6 @@ class TdmaConfig:
             raise ValueError(f"need slot_s > 0 and guard_s >= 0, got {self.slot_s}, {self.guard_s}")
         if len(set(self.order)) != len(self.order):
             raise ValueError(f"TDMA order lists a vehicle twice: {self.order}")
-        if self.schedule is not None and (self.schedule.n != len(self.order)
-                                          or self.schedule.slot_s != self.slot_s):
-            raise ValueError("a spatial TDMA schedule needs the whole roster in order and "
-                             "its own slot length")
 
 
 @dataclass(frozen=True)

@@ -124,8 +124,12 @@ class Knowledge:
         return self.beliefs.blocked(now)
 
     def unavailable(self, now: float) -> frozenset[int]:
-        """Cleared or blocked: what a replan must leave out."""
-        return frozenset(self.cleared) | self.blocked(now) | frozenset(self.doubtful)
+        """Cleared, blocked, doubtful or held by a peer gone home: what a replan must leave
+        out."""
+        cleared = self.cleared
+        out = frozenset(cleared) | self.blocked(now) | frozenset(self.doubtful)
+        return out | self.held_home(t for t in range(self.problem.n_tasks)
+                                    if t not in out and t not in cleared)
 
     # -- holdings under the current membership view ----------------------------------------
 
@@ -143,10 +147,24 @@ class Knowledge:
         return [t for t, h in self.held_map().items() if h == v]
 
     def free_spots(self, now: float = 0.0) -> set[int]:
+        """Spots nobody holds, nobody is known to have cleared and no plan may take. A spot
+        still claimed by a peer that has gone home is not free: the peer treated it or
+        released it before it left, and no release was heard, so its clear is on its way
+        (in a large fleet the cleared set spreads hop by hop: a vehicle once took such a spot
+        700 s after it was treated)."""
         held = self.held_map()
         blocked = self.blocked(now)
-        return {t for t in range(self.problem.n_tasks) if t not in self.cleared
+        free = {t for t in range(self.problem.n_tasks) if t not in self.cleared
                 and t not in held and t not in blocked and t not in self.doubtful}
+        return free - self.held_home(free)
+
+    def held_home(self, tasks: Iterable[int]) -> set[int]:
+        """Those of ``tasks`` still claimed by a peer that has gone home (`free_spots`)."""
+        home = {v for v in range(self.k) if v != self.index
+                and self.members.status(v) == mb.HOME}
+        if not home:
+            return set()
+        return {t for t in tasks if self.holdings.holder(t, home.__contains__) is not None}
 
     def settled_s(self, task: int) -> float:
         """When this vehicle may start work at ``task``: at once (0) on its initial plan,

@@ -117,8 +117,9 @@ class InProcessBackend:
         self.fleet = Fleet.build(problem, key, seed, self.config, planner, run_id=f"sim-{seed}",
                                  camera=None if reef is None else camera_figures(reef))
         self.loop = EventLoop()
-        self.channel = Channel(mac_of(replace(channel or ChannelConfig(), extra_loss=loss),
-                                      self.fleet, problem), channel_rng(seed))
+        water = mac_of(replace(channel or ChannelConfig(), extra_loss=loss), self.fleet, problem)
+        self.channel = Channel(water, channel_rng(seed),
+                               self.fleet.schedule if water.tdma is not None else None)
         self.net = InProcessNetwork(self.channel, self.loop)
         self.net.add_listener(self._overhear)
         self.intruder = Intruder(problem, intruder_rng(seed))
@@ -335,15 +336,16 @@ class InProcessBackend:
 
 
 def mac_of(channel: ChannelConfig, fleet: Fleet, problem: Problem) -> ChannelConfig:
-    """The channel with its TDMA MAC, if it has one, on the fleet's own schedule (the spatial
-    schedule every agent computes: `Fleet.schedule`), so that the water and the agents agree
-    on every slot; the guard is cut to what the agents' slot leaves after the largest frame."""
+    """The channel with its TDMA MAC, if it has one, set for the fleet's own schedule (the
+    spatial schedule every agent computes, `Fleet.schedule`, handed to the `Channel`): the
+    roster in order, the agents' slot, the guard cut to what that slot leaves after the
+    largest frame; so the water and the agents agree on every slot."""
     if channel.tdma is None or fleet.schedule is None:
         return channel
     slot = fleet.schedule.slot_s
     guard = min(channel.tdma.guard_s, slot - channel.airtime_s(channel.max_frame_bytes))
     tdma = replace(channel.tdma, slot_s=slot, guard_s=max(0.0, guard),
-                   order=tuple(v.id for v in problem.vehicles), schedule=fleet.schedule)
+                   order=tuple(v.id for v in problem.vehicles))
     return replace(channel, tdma=tdma)
 
 

@@ -89,9 +89,11 @@ def likely_treated(know: Knowledge, gone: int, on_leg_m: float = 25.0) -> set[in
     """Spots of ``gone``'s route (as believed) that it had probably treated before it fell
     silent, its clear unheard. A vehicle flies its route in order, so its last pose places it:
     on the leg into a spot of the route (within ``on_leg_m`` of the straight leg), every spot
-    before that one is behind it; injecting at a spot, that spot too once half its injection
-    time has passed by the last frame of its own this vehicle took; and every spot it would
-    have finished, flying on from its last pose, before that last frame (it lived that long).
+    before that one is behind it; injecting at a spot, that spot too (it may have finished and
+    died before its clear went out); and every spot it would have finished, flying on from its
+    last pose, before its next slot after the last frame of its own this vehicle took (it may
+    have lived until that slot, the first it was silent in: one was heard 22 m short of a spot
+    at 2905 s, treated it until 2997 s and was killed at 3000 s, its slot).
 
     Why: a vehicle killed at 3000 s had treated a spot at 2950 s and was on its way to the
     next; its clear never went out, and the taker treated the spot again. Treating a spot
@@ -102,7 +104,9 @@ def likely_treated(know: Knowledge, gone: int, on_leg_m: float = 25.0) -> set[in
     if pose is None or not route:
         return set()
     p = know.problem
+    # It may have lived until its next slot, the first it was silent in.
     heard_s = know.members.peers[gone].direct_s
+    alive_s = heard_s + know.members.timing.turn_s(gone, heard_s)
     xy = np.asarray(pose.pos[:2], dtype=float)
     pts = p.xyz[route, :2]
     done: set[int] = set()
@@ -110,8 +114,7 @@ def likely_treated(know: Knowledge, gone: int, on_leg_m: float = 25.0) -> set[in
     j = int(np.argmin(near))
     if near[j] <= on_leg_m:  # at a spot of its route: the ones before are behind it
         done |= set(route[:j])
-        if pose.state == "injecting" and pose.t_s + 0.5 * float(p.service_s[route[j]]) \
-                <= heard_s:
+        if pose.state == "injecting":  # it may have finished and died before telling
             done.add(route[j])
     elif len(route) > 1:  # on a leg: the spot it left and those before are behind it
         a, b = pts[:-1], pts[1:]
@@ -122,4 +125,4 @@ def likely_treated(know: Knowledge, gone: int, on_leg_m: float = 25.0) -> set[in
             done |= set(route[:i + 1])
     rest = [t for t in route if t not in done]
     etas = peer_etas(p, gone, pose, rest)
-    return done | {t for t in rest if etas[t] + float(p.service_s[t]) <= heard_s}
+    return done | {t for t in rest if etas[t] + float(p.service_s[t]) <= alive_s}
