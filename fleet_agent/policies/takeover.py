@@ -85,15 +85,22 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
     return out + [Steer(tuple(planned), why, frozenset(held))]
 
 
+# How far into a silent peer's route (as believed) its last pose is looked for: the clears of
+# its that we lack are its last few (its cleared set gossips while it works), and further on,
+# in a compact field where its legs cross, the pose would match a leg it has not flown yet.
+AHEAD = 6
+
+
 def likely_treated(know: Knowledge, gone: int, on_leg_m: float = 25.0) -> set[int]:
     """Spots of ``gone``'s route (as believed) that it had probably treated before it fell
-    silent, its clear unheard. A vehicle flies its route in order, so its last pose places it:
-    on the leg into a spot of the route (within ``on_leg_m`` of the straight leg), every spot
-    before that one is behind it; injecting at a spot, that spot too (it may have finished and
-    died before its clear went out); and every spot it would have finished, flying on from its
-    last pose, before its next slot after the last frame of its own this vehicle took (it may
-    have lived until that slot, the first it was silent in: one was heard 22 m short of a spot
-    at 2905 s, treated it until 2997 s and was killed at 3000 s, its slot).
+    silent, its clear unheard. A vehicle flies its route in order, so its last pose places it
+    (among the first `AHEAD` spots): on the leg into a spot of the route (within ``on_leg_m`` of the straight leg), every spot
+    before that one is behind it; at a spot, that spot too (injecting it, just done with it or
+    about to start: it may have finished and died before its clear went out); and every spot
+    it would have finished, flying on from its last pose, before its next slot after the last
+    frame of its own this vehicle took (it may have lived until that slot, the first it was
+    silent in: one was heard leaving a spot at 2905 s, treated the next, 22 m on, until 2997 s
+    and was killed at 3000 s, its slot).
 
     Why: a vehicle killed at 3000 s had treated a spot at 2950 s and was on its way to the
     next; its clear never went out, and the taker treated the spot again. Treating a spot
@@ -108,21 +115,21 @@ def likely_treated(know: Knowledge, gone: int, on_leg_m: float = 25.0) -> set[in
     heard_s = know.members.peers[gone].direct_s
     alive_s = heard_s + know.members.timing.turn_s(gone, heard_s)
     xy = np.asarray(pose.pos[:2], dtype=float)
-    pts = p.xyz[route, :2]
+    head = route[:AHEAD + 1]  # its clears we may lack are its last few: it is near the head
+    pts = p.xyz[head, :2]
     done: set[int] = set()
-    near = np.linalg.norm(pts - xy, axis=1)
-    j = int(np.argmin(near))
-    if near[j] <= on_leg_m:  # at a spot of its route: the ones before are behind it
-        done |= set(route[:j])
-        if pose.state == "injecting":  # it may have finished and died before telling
-            done.add(route[j])
-    elif len(route) > 1:  # on a leg: the spot it left and those before are behind it
+    near = np.flatnonzero(np.linalg.norm(pts - xy, axis=1) <= on_leg_m)
+    if len(near):
+        # At a spot of its route: those before are behind it, and that one it is injecting,
+        # has just left or is about to inject (it may have finished and died untold).
+        done |= set(route[:int(near[0]) + 1])
+    elif len(head) > 1:  # on a leg: the spot it left and those before are behind it
         a, b = pts[:-1], pts[1:]
         detour = (np.linalg.norm(a - xy, axis=1) + np.linalg.norm(b - xy, axis=1)
                   - np.linalg.norm(b - a, axis=1))
-        i = int(np.argmin(detour))
-        if detour[i] <= on_leg_m:
-            done |= set(route[:i + 1])
+        on = np.flatnonzero(detour <= on_leg_m)
+        if len(on):
+            done |= set(route[:int(on[0]) + 1])
     rest = [t for t in route if t not in done]
     etas = peer_etas(p, gone, pose, rest)
     return done | {t for t in rest if etas[t] + float(p.service_s[t]) <= alive_s}
