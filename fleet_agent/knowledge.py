@@ -53,6 +53,8 @@ class Knowledge:
         self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s,
                                   timing=fleet.schedule, reach=self)
         self._routes: dict[int, tuple[float, list[int]]] = {}  # peer -> (when, believed route)
+        self._held: dict[int, int] = {}
+        self._held_key: tuple[int, ...] | None = None
         # A claim has settled once any earlier claim of its spot has been heard (`settled_s`).
         self.claim_settle_s = config.claim_settle_cycles * cycle_s + config.slot_s + 1.0
         self.replay = ReplayWindow()
@@ -138,10 +140,16 @@ class Knowledge:
 
     def held_map(self) -> dict[int, int]:
         """Spot -> holder, for every held spot nobody has cleared (an alias of a find is not
-        a spot: its aggregation is held under the find's own slot)."""
+        a spot: its aggregation is held under the find's own slot). Kept until the holdings,
+        a peer's status, the cleared set or the aliases change (it walks every spot): do not
+        change the dict returned."""
         alias = self.beliefs.alias
-        return {t: h for t, h in self.holdings.holders(self.members.alive).items()
-                if t not in self.cleared and t not in alias}
+        key = (self.holdings.version, self.members.version, len(self.cleared), len(alias))
+        if key != self._held_key:
+            self._held = {t: h for t, h in self.holdings.holders(self.members.alive).items()
+                          if t not in self.cleared and t not in alias}
+            self._held_key = key
+        return self._held
 
     def held_by(self, v: int) -> list[int]:
         return [t for t, h in self.held_map().items() if h == v]
@@ -210,7 +218,10 @@ class Knowledge:
         here = self.own.pos
         if (pose.pos[0] - here[0]) ** 2 + (pose.pos[1] - here[1]) ** 2 > (2 * far) ** 2:
             return pose.pos
-        route = self._believed_route(v, t_s)
+        # Its last pose said it was done with its route: straight home, whatever spots of it
+        # we still believe it holds (their clears may not have reached us yet).
+        route = [] if pose.state in ("returning", "home", "aborted") \
+            else self._believed_route(v, t_s)
         service_left = 0.5 * float(self.problem.service_s[route[0]]) \
             if pose.state == "injecting" and route else 0.0
         return position_along(self.problem, v, pose.pos, route, dt, service_left)

@@ -17,7 +17,8 @@ acoustic range of each other. So silence counts only where a frame was to be exp
   slot schedule says how often it speaks) is only *suspected*: it keeps its spots and claims,
   and nothing is replanned;
 - it is declared *lost* (and its work taken over) only when two observers that should have
-  heard it have not: this vehicle, within whose reach it is, and a *witness*, the sender of
+  heard it have not: this vehicle, within whose reach it is and which heard it itself about
+  as late as anyone did (`RECENT_TURNS`), and a *witness*, the sender of
   a frame sent after the suspicion began whose heard code says it has not heard the suspect
   for 4 periods either (`HEARD_NEVER`) although it was within its reach too. A witness out
   of the suspect's reach proves nothing, however silent; a vehicle out of its reach never
@@ -37,6 +38,7 @@ again. Aborted and home are final.
 
 from __future__ import annotations
 
+import heapq
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -46,6 +48,10 @@ ALIVE, SUSPECT, LOST, ABORTED, HOME = "alive", "suspect", "lost", "aborted", "ho
 # Statuses under which a peer keeps its work (its claims count, it is planned for).
 WORKING = (ALIVE, SUSPECT)
 OBSERVERS = 2  # silent observers within reach needed to declare a silence a loss
+# A vehicle judges a peer's silence only if it heard the peer itself within this many turns
+# of the latest evidence of it from anyone (the peer was near in fact: a belief of where it
+# is, dead reckoned on old news, once made a vehicle "expect" a peer that had long left).
+RECENT_TURNS = 2
 
 
 class Timing(Protocol):
@@ -95,6 +101,7 @@ class Peer:
     frames: int = 0  # frames of its own taken (for the link's reception estimate)
     first_s: float | None = None  # when its first frame was taken
     witnesses: set[int] = field(default_factory=set)  # confirmed its current suspicion
+    queued: bool = False  # has an entry in the deadline queue
 
 
 class Membership:
@@ -111,14 +118,37 @@ class Membership:
         self.reach: Reach = reach or Everyone()
         self.start_s = start_s
         self._checked_s = start_s  # the latest `check`
+        self.version = 0  # bumped by every change of a peer's status
         # Everyone starts alive at the mission start: silence is counted from there.
         self.peers = {v: Peer(ALIVE, float("-inf"), start_s, start_s)
                       for v in range(n_vehicles) if v != me}
+        # When each alive peer may next be found silent: a lower bound (evidence only moves
+        # a deadline later), corrected when it comes due, so a step costs O(log n), not O(n).
+        self._due: list[tuple[float, int]] = []
+        for v in self.peers:
+            self._queue(v)
 
     @property
     def period_s(self) -> float:
         """The heartbeat period at the mission start (a reference for tests and reports)."""
         return self.timing.cycle_s(self.start_s)
+
+    def _deadline(self, v: int, at_s: float) -> float:
+        """When alive peer ``v``'s silence becomes a suspicion, as the schedule stands at
+        ``at_s`` (or later)."""
+        p = self.peers[v]
+        return p.evidence_s + self.lost_after_s(v, max(at_s, p.evidence_s), p.evidence_s)
+
+    def _queue(self, v: int) -> None:
+        p = self.peers[v]
+        if p.status == ALIVE and not p.queued:
+            p.queued = True
+            heapq.heappush(self._due, (self._deadline(v, self._checked_s), v))
+
+    def _set(self, p: Peer, status: str, now_s: float) -> None:
+        p.status, p.since_s = status, now_s
+        p.witnesses.clear()
+        self.version += 1
 
     def lost_after_s(self, v: int, t_s: float, since_s: float | None = None) -> float:
         """How long peer ``v`` may be silent at ``t_s`` before it is suspected (its slot's
@@ -158,11 +188,11 @@ class Membership:
             return False
         p.evidence_s = t_s
         if p.status == SUSPECT and now_s < t_s + self.lost_after_s(v, now_s, t_s):
-            p.status, p.since_s = ALIVE, now_s  # only suspected: nobody acted on it
-            p.witnesses.clear()
+            self._set(p, ALIVE, now_s)  # only suspected: nobody acted on it
+            self._queue(v)
         elif p.status == LOST and t_s > p.since_s:
-            p.status, p.since_s = ALIVE, now_s
-            p.witnesses.clear()
+            self._set(p, ALIVE, now_s)
+            self._queue(v)
             return True
         return False
 
@@ -171,20 +201,25 @@ class Membership:
         p = self.peers[v]
         if p.status in (ABORTED, HOME) or p.status == status:
             return False
-        p.status, p.since_s = status, now_s
+        self._set(p, status, now_s)
         return True
 
     def check(self, now_s: float) -> list[int]:
         """Peers that went silent too long as of ``now_s`` (newly suspected)."""
         self._checked_s = max(self._checked_s, now_s)
         suspected = []
-        for v, p in self.peers.items():
-            if p.status == ALIVE and now_s >= p.evidence_s + self.lost_after_s(
-                    v, now_s, p.evidence_s):
-                p.status, p.since_s = SUSPECT, now_s
-                p.witnesses.clear()
-                suspected.append(v)
-        return suspected
+        while self._due and self._due[0][0] <= now_s:
+            _, v = heapq.heappop(self._due)
+            p = self.peers[v]
+            p.queued = False
+            if p.status != ALIVE:
+                continue
+            if now_s < self._deadline(v, now_s):  # heard since, or its turns grew longer
+                self._queue(v)
+                continue
+            self._set(p, SUSPECT, now_s)
+            suspected.append(v)
+        return sorted(suspected)
 
     def confirm(self, sender: int, field: Heard, sent_s: float, now_s: float) -> list[int]:
         """Suspects whose silence ``sender``'s frame (sent at ``sent_s``) confirms: it was
@@ -200,15 +235,23 @@ class Membership:
         for v in sorted(never):
             p = self.peers.get(v)
             if (v == sender or p is None or p.status != SUSPECT or sent_s < p.since_s
-                    or not self.reach.expects(self.me, v, now_s)
+                    or not self._judges(v, now_s)
                     or not self.reach.expects(sender, v, sent_s)):
                 continue
             p.witnesses.add(sender)
             if len(p.witnesses) + 1 >= OBSERVERS:
-                p.status, p.since_s = LOST, now_s
-                p.witnesses.clear()
+                self._set(p, LOST, now_s)
                 lost.append(v)
         return lost
+
+    def _judges(self, v: int, now_s: float) -> bool:
+        """May this vehicle judge ``v``'s silence? Only if it heard ``v`` itself about as
+        late as anyone did (within `RECENT_TURNS` turns of the latest evidence of it: ``v``
+        was near in fact, not only believed near on old news while others heard it
+        elsewhere) and ``v`` is within its reach as it believes."""
+        p = self.peers[v]
+        recent = RECENT_TURNS * self.timing.turn_s(v, p.evidence_s)
+        return p.direct_s >= p.evidence_s - recent and self.reach.expects(self.me, v, now_s)
 
     def reception(self, now_s: float) -> float:
         """How much of what the peers send reaches this vehicle: frames taken per turn of
@@ -241,10 +284,18 @@ class Membership:
     def next_deadline_s(self) -> float | None:
         """When `check` could next find a silent peer (the silence thresholds as they stand
         now; `check` takes the schedule at the time it runs)."""
-        at = self._checked_s
-        times = [p.evidence_s + self.lost_after_s(v, max(at, p.evidence_s), p.evidence_s)
-                 for v, p in self.peers.items() if p.status == ALIVE]
-        return min(times) if times else None
+        while self._due:
+            due, v = self._due[0]
+            p = self.peers[v]
+            if p.status != ALIVE:
+                heapq.heappop(self._due)
+                p.queued = False
+                continue
+            true = self._deadline(v, self._checked_s)
+            if true <= due:
+                return due
+            heapq.heapreplace(self._due, (true, v))
+        return None
 
     def heard_field(self, now_s: float) -> Heard:
         """What this vehicle tells the others: the `HEARD_AGES` code of its last direct
@@ -261,7 +312,7 @@ class Membership:
             urgent = [v for v, p in self.peers.items()
                       if (p.status == SUSPECT or (p.status == LOST and now_s - p.since_s
                                                   <= self.lost_after_s(v, now_s)))
-                      and self.reach.expects(self.me, v, now_s)]
+                      and self._judges(v, now_s)]
             if urgent:
                 offset = urgent[cycle % len(urgent)]
         codes = []

@@ -23,8 +23,12 @@ Alive = Callable[[int], bool]
 class Holdings:
     def __init__(self, n_tasks: int, base_routes: Sequence[Sequence[int]]) -> None:
         self.n_tasks = n_tasks
+        self.version = 0  # bumped by every change (what depends on holdings may be cached)
         # task -> vehicle -> (time, is_claim)
         self._events: dict[int, dict[int, tuple[int, bool]]] = {}
+        # vehicle -> task -> claim time, for claims after the initial plan (an index of
+        # `_events`: a vehicle's status reports its claims every few seconds)
+        self._explicit: dict[int, dict[int, int]] = {}
         for v, route in enumerate(base_routes):
             for task in route:
                 self._events.setdefault(int(task), {})[v] = (0, True)
@@ -41,6 +45,13 @@ class Holdings:
             if old is None or (new[0], not new[1]) > (old[0], not old[1]):
                 row[v] = new
                 changed.append(int(task))
+                mine = self._explicit.setdefault(v, {})
+                if claim and new[0] > 0:
+                    mine[int(task)] = new[0]
+                else:
+                    mine.pop(int(task), None)
+        if changed:
+            self.version += 1
         return changed
 
     def holder(self, task: int, alive: Alive) -> int | None:
@@ -65,8 +76,7 @@ class Holdings:
 
     def explicit_claims(self, v: int) -> dict[int, int]:
         """Spots ``v`` claimed after the initial plan: task -> claim time."""
-        return {task: row[v][0] for task, row in self._events.items()
-                if v in row and row[v][1] and row[v][0] > 0}
+        return dict(self._explicit.get(v, {}))
 
     def records(self) -> list[tuple[int, int, int, bool]]:
         """(task, vehicle, time, is_claim) of every non-initial record (for the journal)."""

@@ -196,7 +196,8 @@ def subproblem(problem: Problem, tasks: Sequence[int], vehicles: Sequence[int]) 
 def regions(problem: Problem, per_region: int) -> list[tuple[list[int], list[int]]]:
     """The fleet cut into regions of at most about ``per_region`` vehicles (one region when
     ``per_region`` is 0 or the fleet is no larger): ``(tasks, vehicles)`` per region, index
-    lists, every spot and every vehicle in exactly one.
+    lists, every vehicle in exactly one, every spot some vehicle can reach (`reachable`) in
+    exactly one (the others are in no plan anyway, and cost the planner time).
 
     Spots are cut into angular sectors around the mean of the vehicles' starts (a support
     vessel the fleet fans out from), each sector cut at the widest angular gap near an
@@ -209,7 +210,9 @@ def regions(problem: Problem, per_region: int) -> list[tuple[list[int], list[int
         return [(list(range(n)), list(range(k)))]
     starts = np.array([v.start[:2] for v in problem.vehicles], dtype=float)
     centre = starts.mean(axis=0)
-    xy = problem.xyz[:n, :2] - centre
+    spots = reachable(problem)  # a spot no vehicle can reach alone is in no plan
+    n = len(spots)
+    xy = problem.xyz[spots, :2] - centre
     angle = np.arctan2(xy[:, 1], xy[:, 0])
     order = np.lexsort((np.arange(n), angle))
     gaps = np.diff(np.append(angle[order], angle[order[0]] + 2.0 * math.pi))
@@ -230,10 +233,22 @@ def regions(problem: Problem, per_region: int) -> list[tuple[list[int], list[int
     v_order = [int(v) for v in np.lexsort((np.arange(k), v_angle))]
     out, at = [], 0
     for j in range(g):
-        out.append((sorted(int(t) for t in order[cuts[j]:cuts[j + 1]]),
+        out.append((sorted(int(spots[t]) for t in order[cuts[j]:cuts[j + 1]]),
                     sorted(v_order[at:at + quota[j]])))
         at += quota[j]
     return out
+
+
+def reachable(problem: Problem) -> np.ndarray:
+    """Indices of the spots some vehicle could treat alone: from its start, the injection,
+    then to its rendezvous within its battery (the planner's leg times)."""
+    n = problem.n_tasks
+    ok = np.zeros(n, dtype=bool)
+    for v, veh in enumerate(problem.vehicles):
+        t = problem.travel_s[v]
+        need = t[problem.start_node(v), :n] + problem.service_s + t[:n, problem.end_node(v)]
+        ok |= need <= veh.battery_s
+    return np.flatnonzero(ok)
 
 
 def _shares(k: int, sizes: Sequence[int]) -> list[int]:

@@ -125,7 +125,7 @@ class SpatialSchedule:
     """
 
     def __init__(self, tracks: Sequence[Track], slot_s: float, reuse_m: float | None = None,
-                 margin_m: float = 500.0, epoch_s: float = 600.0, park_group: int = 4,
+                 margin_m: float = 300.0, epoch_s: float = 300.0, park_group: int = 4,
                  n_vehicles: int | None = None) -> None:
         n = len(tracks) if n_vehicles is None else n_vehicles
         if n < 1 or (tracks and len(tracks) != n) or (reuse_m is not None and not tracks):
@@ -144,17 +144,23 @@ class SpatialSchedule:
         self.park_group = int(park_group)
         self._epochs: list[Epoch] = []
         self._starts: list[float] = []
+        self._last: tuple[float, float, Epoch] | None = None  # the epoch last asked for
 
     # -- epochs ----------------------------------------------------------------------------
 
     def epoch(self, t_s: float) -> Epoch:
         """The epoch in force at mission time ``t_s`` (the first one before 0)."""
+        last = self._last
+        if last is not None and last[0] <= t_s < last[1]:
+            return last[2]
         if not self._epochs:
             self._extend()
         while self._end(self._epochs[-1]) <= t_s:
             self._extend()
         i = max(0, bisect.bisect_right(self._starts, t_s) - 1)
-        return self._epochs[i]
+        e = self._epochs[i]
+        self._last = (e.start_s if i else -math.inf, self._end(e), e)
+        return e
 
     def _end(self, e: Epoch) -> float:
         return e.start_s + e.cycles * e.n_slots * self.slot_s

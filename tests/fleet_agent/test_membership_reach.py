@@ -49,6 +49,7 @@ def member(me: int, x: dict[int, float], cycle: float = 10.0, **kw: object) -> M
 def test_a_suspect_out_of_reach_stays_suspected_whatever_the_witnesses_say() -> None:
     x = {0: 0.0, 1: 5000.0, 2: 5500.0, 3: 5200.0}  # 1 is 5 km from us, 2 and 3 near it
     m = member(0, x)
+    m.heard(1, 0.0, 0.5)
     assert 1 in m.check(40.0)
     for w in (2, 3):
         assert m.confirm(w, never(4, 1), sent_s=45.0, now_s=46.0) == []
@@ -58,6 +59,7 @@ def test_a_suspect_out_of_reach_stays_suspected_whatever_the_witnesses_say() -> 
 def test_a_witness_out_of_the_suspects_reach_confirms_nothing() -> None:
     x = {0: 0.0, 1: 800.0, 2: 3000.0, 3: 400.0}  # 1 near us; 2 far from 1; 3 near 1
     m = member(0, x)
+    m.heard(1, 0.0, 0.5)
     m.check(40.0)
     assert m.confirm(2, never(4, 1), sent_s=45.0, now_s=46.0) == []
     assert m.status(1) == SUSPECT
@@ -92,3 +94,19 @@ def test_the_heard_window_speaks_first_of_the_silences_its_sender_judges() -> No
     assert m.status(33) == ALIVE
     # Nothing to judge within reach: the window rotates over the roster as before.
     assert m.heard_field(63.0).offset != 33 or n <= HEARD_WINDOW
+
+
+def test_only_a_vehicle_that_heard_the_suspect_about_as_late_as_anyone_judges_it() -> None:
+    """Believed near on old news while others heard it later elsewhere: not ours to judge."""
+    x = {0: 0.0, 1: 500.0, 2: 300.0}
+    m = member(0, x)
+    m.heard(1, 0.0, 0.5)  # we heard it at 0 s...
+    m.relayed(1, 30.0, 35.0)  # ...another vehicle at 30 s
+    m.heard(2, 69.0, 69.5)
+    assert m.check(70.0) == [1]
+    assert m.confirm(2, never(3, 1), sent_s=72.0, now_s=73.0) == []
+    assert m.status(1) == SUSPECT
+    m.heard(1, 80.0, 80.5)  # heard again ourselves: ours to judge once more
+    m.heard(2, 119.0, 119.5)
+    assert m.check(120.0) == [1]
+    assert m.confirm(2, never(3, 1), sent_s=122.0, now_s=123.0) == [1]

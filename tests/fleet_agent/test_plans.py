@@ -100,14 +100,18 @@ def _area(n_vehicles: int, n_tasks: int, area_m: float, seed: int = 5):
 
 
 def test_regions_cover_every_spot_and_vehicle_once_and_one_region_when_small() -> None:
-    from fleet_agent.plans import regions
+    from fleet_agent.plans import reachable, regions
 
     p = _area(30, 300, 4000.0)
     parts = regions(p, 12)
     assert len(parts) == 3
     tasks = sorted(t for ts, _ in parts for t in ts)
     vehicles = sorted(v for _, vs in parts for v in vs)
-    assert tasks == list(range(300)) and vehicles == list(range(30))
+    # Every spot a vehicle can reach alone, in one region; the others in none.
+    far = set(range(300)) - set(reachable(p).tolist())
+    assert tasks == sorted(set(range(300)) - far) and vehicles == list(range(30))
+    for t in far:
+        assert min(p.route_time_s(v, [t]) for v in range(30)) > p.vehicles[0].battery_s
     assert all(ts and vs for ts, vs in parts)
     assert regions(p, 12) == parts  # the same on every vehicle
     assert regions(p, 0) == [(list(range(300)), list(range(30)))]
