@@ -144,7 +144,7 @@ class Knowledge:
         a peer's status, the cleared set or the aliases change (it walks every spot): do not
         change the dict returned."""
         alias = self.beliefs.alias
-        key = (self.holdings.version, self.members.version, len(self.cleared), len(alias))
+        key = (self.holdings.version, self.members.alive_version, len(self.cleared), len(alias))
         if key != self._held_key:
             self._held = {t: h for t, h in self.holdings.holders(self.members.alive).items()
                           if t not in self.cleared and t not in alias}
@@ -152,7 +152,12 @@ class Knowledge:
         return self._held
 
     def held_by(self, v: int) -> list[int]:
-        return [t for t, h in self.held_map().items() if h == v]
+        """The spots ``v`` holds (nobody cleared them), in `held_map`'s order: from ``v``'s
+        own claims, not a walk over every spot (the route is checked against it at every
+        change)."""
+        alias, alive = self.beliefs.alias, self.members.alive
+        return [t for t in self.holdings.claimed_by(v) if t not in self.cleared
+                and t not in alias and self.holdings.holder(t, alive) == v]
 
     def free_spots(self, now: float = 0.0) -> set[int]:
         """Spots nobody holds, nobody is known to have cleared and no plan may take. A spot

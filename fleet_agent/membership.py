@@ -119,6 +119,7 @@ class Membership:
         self.start_s = start_s
         self._checked_s = start_s  # the latest `check`
         self.version = 0  # bumped by every change of a peer's status
+        self.alive_version = 0  # bumped by every change of who holds spots (`alive`)
         # Everyone starts alive at the mission start: silence is counted from there.
         self.peers = {v: Peer(ALIVE, float("-inf"), start_s, start_s)
                       for v in range(n_vehicles) if v != me}
@@ -146,6 +147,8 @@ class Membership:
             heapq.heappush(self._due, (self._deadline(v, self._checked_s), v))
 
     def _set(self, p: Peer, status: str, now_s: float) -> None:
+        if (p.status in WORKING) != (status in WORKING):
+            self.alive_version += 1
         p.status, p.since_s = status, now_s
         p.witnesses.clear()
         self.version += 1
@@ -236,7 +239,7 @@ class Membership:
             p = self.peers.get(v)
             if (v == sender or p is None or p.status != SUSPECT or sent_s < p.since_s
                     or not self._judges(v, now_s)
-                    or not self.reach.expects(sender, v, sent_s)):
+                    or not self.reach.expects(sender, v, min(sent_s, self._fell_silent(v)))):
                 continue
             p.witnesses.add(sender)
             if len(p.witnesses) + 1 >= OBSERVERS:
@@ -251,7 +254,16 @@ class Membership:
         elsewhere) and ``v`` is within its reach as it believes."""
         p = self.peers[v]
         recent = RECENT_TURNS * self.timing.turn_s(v, p.evidence_s)
-        return p.direct_s >= p.evidence_s - recent and self.reach.expects(self.me, v, now_s)
+        return p.direct_s >= p.evidence_s - recent and \
+            self.reach.expects(self.me, v, min(now_s, self._fell_silent(v)))
+
+    def _fell_silent(self, v: int) -> float:
+        """When ``v``'s first unheard frame was due: a turn after its latest evidence. Where
+        it was then is what says who should have heard it (were it alive, it would not have
+        gone far by its next slot; reckoned on to now, over the silence a large fleet's
+        long cycles make, the guess drifts a kilometre from where it fell silent)."""
+        p = self.peers[v]
+        return p.evidence_s + self.timing.turn_s(v, p.evidence_s)
 
     def reception(self, now_s: float) -> float:
         """How much of what the peers send reaches this vehicle: frames taken per turn of

@@ -29,9 +29,13 @@ class Holdings:
         # vehicle -> task -> claim time, for claims after the initial plan (an index of
         # `_events`: a vehicle's status reports its claims every few seconds)
         self._explicit: dict[int, dict[int, int]] = {}
+        # vehicle -> spots whose newest record of it is a claim (what it may hold)
+        self._claimed: dict[int, set[int]] = {}
+        self._ranks: dict[int, int] = {}  # spot -> its place in `_events` (order of claims)
         for v, route in enumerate(base_routes):
             for task in route:
                 self._events.setdefault(int(task), {})[v] = (0, True)
+                self._claimed.setdefault(v, set()).add(int(task))
 
     def apply(self, v: int, t_s: int, tasks: Iterable[int], claim: bool) -> list[int]:
         """Record a claim (``claim``) or release by ``v`` at ``t_s``; returns the spots whose
@@ -50,6 +54,10 @@ class Holdings:
                     mine[int(task)] = new[0]
                 else:
                     mine.pop(int(task), None)
+                if claim:
+                    self._claimed.setdefault(v, set()).add(int(task))
+                else:
+                    self._claimed.get(v, set()).discard(int(task))
         if changed:
             self.version += 1
         return changed
@@ -73,6 +81,18 @@ class Holdings:
             if h is not None:
                 out[task] = h
         return out
+
+    def claimed_by(self, v: int) -> list[int]:
+        """Spots ``v`` claims (its newest record of each is a claim): those it may hold, in
+        the order `holders` lists spots (the order they were first claimed)."""
+        rank = self._rank
+        return sorted(self._claimed.get(v, ()), key=lambda t: rank[t])
+
+    @property
+    def _rank(self) -> dict[int, int]:
+        if len(self._ranks) != len(self._events):
+            self._ranks = {t: i for i, t in enumerate(self._events)}
+        return self._ranks
 
     def explicit_claims(self, v: int) -> dict[int, int]:
         """Spots ``v`` claimed after the initial plan: task -> claim time."""
