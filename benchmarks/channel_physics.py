@@ -112,7 +112,7 @@ def fleet_figures(channel: ChannelConfig, n_vehicles: int, seeds: Sequence[int]
     priority, cleared, dups, treated, link = [], [], [], [], {}
     for seed in seeds:
         problem = problem_from_dict(scenario_doc(None, n_vehicles, seed))
-        report = simulate(problem, AgentConfig(), seed=seed, channel=channel).report
+        report = simulate(problem, AgentConfig(), seed=seed, channel=channel).report.to_dict()
         f = report["fleet"]
         priority.append(f["priority"])
         cleared.append(f["spots_cleared"])

@@ -174,13 +174,14 @@ def _run(case: Case | None, run_dir: Path, seed: int, warp: float) -> Outcome:
             for child in backend.children.values():
                 if child.popen.poll() is None:
                     os.killpg(child.popen.pid, signal.SIGKILL)
-    out.report = result.get("report")
-    if out.report is not None:  # what `cotsfleet run` would write, as it would
+    report = result.get("report")
+    if report is not None:  # what `cotsfleet run` would write, as it would
         from cotsfleet.commands.mission_args import write_reports
 
         with contextlib.redirect_stdout(open(os.devnull, "w")), \
                 contextlib.redirect_stderr(open(os.devnull, "w")):
-            write_reports(out.report, run_dir / "report.json", backend.ledger.events, doc)
+            write_reports(report, run_dir / "report.json", backend.ledger.events, doc)
+        out.report = report.to_dict()  # the document, as report.json holds it
     out.report_on_disk = (run_dir / "report.json").exists() and _json_ok(run_dir / "report.json")
     events = run_dir / "events.jsonl"
     out.events_on_disk = len(events.read_text().splitlines()) if events.exists() else 0

@@ -47,7 +47,7 @@ def one(seed: int, clairvoyant_s: float) -> dict[str, Any]:
     for name, config, loss in (("fleet", AgentConfig(), 0.0),
                                ("no_discovery", AgentConfig(discovery=False), 0.0),
                                ("loss", AgentConfig(), LOSS)):
-        r = simulate(problem, config, seed=seed, loss=loss, reef=reef).report
+        r = simulate(problem, config, seed=seed, loss=loss, reef=reef).report.to_dict()
         out[name] = r["fleet"]["priority"]
         out[f"{name}_dups"] = r["fleet"]["duplicate_treatments"]
         out[f"{name}_found"] = r["dynamic"]["spots_discovered"]

@@ -48,7 +48,7 @@ def main(runs: int, quick: bool) -> None:
         cleared, prio, dups, treated, delays, worst, false, bpm, oracle = ([] for _ in range(9))
         for seed in range(runs):
             problem = problem_from_dict(scenario_doc(None, None, seed))
-            r = simulate(problem, config, seed=seed, loss=loss, faults=faults).report
+            r = simulate(problem, config, seed=seed, loss=loss, faults=faults).report.to_dict()
             f = r["fleet"]
             cleared.append(f["spots_cleared"])
             prio.append(f["priority"])

@@ -30,16 +30,16 @@ def main(seed: int, warp: float, quick: bool) -> None:
         sim = simulate(problem, AgentConfig(), seed=seed)
         sims.append(sim)
     wall_sim = min(s.wall_s for s in sims)
-    f = sims[0].report["fleet"]
+    f = sims[0].report.to_dict()["fleet"]
     rows.append(["in-process (DES)", "-", f"{wall_sim:.2f}", f["spots_cleared"],
                  round(f["priority"], 1), f["duplicate_treatments"], f["vehicles_home"],
-                 sims[0].report["messages"]["frames_sent"], "<= 5"])
+                 sims[0].report.to_dict()["messages"]["frames_sent"], "<= 5"])
     print(f"in-process: {wall_sim:.2f} s wall, {f['spots_cleared']} spots, "
           f"priority {f['priority']:.0f}")
     t0 = time.perf_counter()
     backend = ProcessBackend(problem, doc, seed, ProcessOptions(warp=warp, progress_every_s=0),
                              out=lambda s: None)
-    report = run_mission(problem, backend, (), seed=seed, step_s=warp * 0.25).report
+    report = run_mission(problem, backend, (), seed=seed, step_s=warp * 0.25).report.to_dict()
     wall_run = time.perf_counter() - t0
     f = report["fleet"]
     rows.append([f"multi-process (Zenoh, {len(problem.vehicles) + 2} processes)", f"{warp:g}",

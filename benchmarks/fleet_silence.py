@@ -78,7 +78,7 @@ def in_process_row(name: str, runs: int, loss: float, faults: tuple[Fault, ...],
     for seed in range(runs):
         problem = problem_from_dict(scenario_doc(None, None, seed))
         sim = simulate(problem, config, seed=seed, loss=loss, faults=faults)
-        r = sim.report
+        r = sim.report.to_dict()
         f, base = r["fleet"], r["baseline"]["priority"]
         ratios.append(f["priority"] / base if base > 0 else math.nan)
         below += f["priority"] < base - 1e-6
@@ -265,8 +265,9 @@ def part_b(seeds: list[int], warps: list[float], config: AgentConfig,
     inproc: dict[tuple[int, bool], dict[str, Any]] = {}
     for seed in seeds:  # the reference, measured before the hogs start
         problem = problem_from_dict(scenario_doc(None, None, seed))
-        inproc[(seed, False)] = simulate(problem, config, seed=seed).report
-        inproc[(seed, True)] = simulate(problem, config, seed=seed, faults=[STALL]).report
+        inproc[(seed, False)] = simulate(problem, config, seed=seed).report.to_dict()
+        inproc[(seed, True)] = simulate(problem, config, seed=seed,
+                                        faults=[STALL]).report.to_dict()
     me = psutil.Process()
     hogs: list[subprocess.Popen] = []
     spawned = 0

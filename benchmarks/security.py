@@ -93,7 +93,7 @@ def mission(doc: dict, seed: int, warp: float, attack: bool, flood_s: float, rat
             out=lambda s: None)
         result: dict = {}
         thread = threading.Thread(target=lambda: result.update(report=run_mission(
-            problem, backend, (), seed=seed, step_s=warp * 0.25).report), daemon=True)
+            problem, backend, (), seed=seed, step_s=warp * 0.25).report.to_dict()), daemon=True)
         thread.start()
         intruder, stop = None, threading.Event()
         if attack:

@@ -40,13 +40,28 @@ def _available() -> dict[str, object]:
     return mods
 
 
+def version() -> str:
+    """The installed distribution's version (``pyproject.toml``), or the package's own when
+    run from a source tree that was never installed."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("cotsfleet")
+    except metadata.PackageNotFoundError:
+        from cotsfleet import __version__
+
+        return f"{__version__} (not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
+    # allow_abbrev=False everywhere: "--kil auv3@1200" must be an error, not a --kill
     parser = argparse.ArgumentParser(
-        prog="cotsfleet", description="COTSbot AUV fleet: planner, emulated missions, dashboard"
-    )
+        prog="cotsfleet", description="COTSbot AUV fleet: planner, emulated missions, dashboard",
+        allow_abbrev=False)
+    parser.add_argument("--version", action="version", version=f"cotsfleet {version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, mod in _available().items():
-        p = sub.add_parser(name, help=mod.HELP, description=mod.HELP)
+        p = sub.add_parser(name, help=mod.HELP, description=mod.HELP, allow_abbrev=False)
         mod.add_arguments(p)
         p.set_defaults(_run=mod.run)
     return parser

@@ -55,4 +55,4 @@ if __name__ == "__main__":
     raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT],
                                         credentials=args.credentials), args.id, config,
                           args.journal or Path(f"{args.id}.journal"), process_stop(),
-                          args.mission_timeout, auth, modem))
+                          args.mission_timeout, auth, modem, args.credentials))

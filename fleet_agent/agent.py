@@ -24,39 +24,82 @@ the vehicle's slot. The parts, one idea each:
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from fleet_agent import records as rec
 from fleet_agent.beliefs import Beliefs
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
-from fleet_agent.intents import Count, Hold, Intent, Note, Owe, SeekWork, Steer, Tell
-from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, Publish,
-                                  Record, Send, Tick)
+from fleet_agent.intents import (
+    Count,
+    Hold,
+    Intent,
+    LastWords,
+    Note,
+    Owe,
+    SeekWork,
+    Steer,
+    Tell,
+)
+from fleet_agent.io_types import (
+    Command,
+    Frame,
+    Helm,
+    Input,
+    Output,
+    Outputs,
+    Publish,
+    Record,
+    Send,
+    Tick,
+)
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import discovery, hearing
 from fleet_agent.policies.cooperate import CoopClock, cooperate
 from fleet_agent.policies.route import sync
+from fleet_agent.provenance import Provenance
 from fleet_agent.radio import Radio, Slots
 from fleet_agent.restore import Snapshot, fold
 from fleet_agent.routing import fit_route
-from fleet_agent.wire import MAX_LEAD_S, WireError, radio_kind
+from fleet_agent.wire import Message, radio_kind
 from fleet_bus.telemetry import Status
-from fleet_bus.vehicle_port import (Arrived, Injected, Looked, NavFix, Refused, Sighted,
-                                    VehicleReport)
+from fleet_bus.vehicle_port import (
+    Arrived,
+    Injected,
+    Looked,
+    NavFix,
+    Refused,
+    Sighted,
+    VehicleReport,
+)
 from hfc_core.model.problem import Problem
 
-__all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Input", "Send", "Publish", "Record",
-           "Helm", "Output"]
+__all__ = [
+    "Agent",
+    "Command",
+    "Fleet",
+    "Frame",
+    "Helm",
+    "Input",
+    "Output",
+    "Publish",
+    "Record",
+    "Send",
+    "Tick",
+]
 
 
 class Agent:
     """One vehicle's brain: call `step` with each input; `next_wakeup` says when to tick."""
 
     def __init__(self, fleet: Fleet, index: int, config: AgentConfig, now: float = 0.0,
-                 journal: Sequence[dict[str, Any]] = ()) -> None:
+                 journal: Sequence[dict[str, Any]] = (), chain_seed: bytes | None = None
+                 ) -> None:
+        """``chain_seed``: this vehicle's key chain (`fleet_bus.tesla`) from its
+        credentials; None where the fleet's chains are derived (a simulation)."""
         p = fleet.problem
         self.fleet, self.index, self.config = fleet, index, config
         self.id = p.vehicles[index].id
@@ -69,6 +112,7 @@ class Agent:
             config.battery_reserve_s), now)
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
+        self.provenance = Provenance.of(fleet, index, chain_seed, config.slot_s)
         self.coop = CoopClock(now + config.coop_period_s * (1.0 + index / p.n_vehicles))
         self.counters: dict[str, int] = {}
         self.largest_frame = 0
@@ -184,6 +228,9 @@ class Agent:
                 self.count(i.name, i.n)
             elif isinstance(i, SeekWork):
                 self.coop.soon = True
+            elif isinstance(i, LastWords):
+                words = self.provenance.last_words(i.v)
+                self._apply(hearing.last_words(self.know, i.v, words, now), now, out)
 
     def _hold(self, h: Hold, now: float, out: Outputs) -> None:
         """Claim (or release): journal it first, then tell the fleet."""
@@ -261,25 +308,24 @@ class Agent:
     # -- the modem in ----------------------------------------------------------------------
 
     def _on_frame(self, data: bytes, now: float, out: Outputs) -> None:
-        """Bytes off the modem: authenticated, fresh and from a peer, or counted and dropped;
-        then what they say (`policies.hearing`)."""
+        """Bytes off the modem (`provenance`): evidence of life counts at once; the rest once
+        proven its sender's, then through the replay window and `policies.hearing`."""
         self.count("rx_frames")
-        try:
-            msg = self.fleet.codec.decode(data)
-        except WireError as exc:
-            self.count(f"drop_{exc.reason}")
-            return
-        if msg.sender == self.index:
-            self.count("drop_self")  # our own frame played back: a replay
-            return
-        if msg.seq > now + MAX_LEAD_S:  # from the future: forged (see wire.MAX_LEAD_S)
-            self.count("drop_future")
-            return
+        taken = self.provenance.hear(data, now)
+        for reason, n in self.provenance.take_drops().items():
+            self.count(f"drop_{reason}", n)
+        if taken.alive is not None:
+            self._apply(hearing.alive(self.know, taken.alive, now), now, out)
+        for msg in taken.proven:
+            self._take(msg, now, out)
+
+    def _take(self, msg: Message, now: float, out: Outputs) -> None:
+        """A frame proven its sender's: once only, then what it says."""
         if not self.know.replay.accept(msg.sender, msg.seq):
             self.count("drop_replay")
             return
         self.count(f"rx_{type(msg).__name__.lower()}")
-        self._apply(hearing.evidence(self.know, self.config, msg, now, self.active), now, out)
+        self._apply(hearing.confirmed(self.know, self.config, msg, now, self.active), now, out)
         self._apply(hearing.content(self.know, self.config, msg, now, self.active), now, out)
 
     def _on_command(self, name: str, now: float, out: Outputs) -> None:
@@ -302,7 +348,13 @@ class Agent:
         msgs = self.radio.messages(now, self.know, self.fleet.modem.frames_per_packet)
         if not msgs:
             return
-        frames = tuple(self.fleet.codec.encode(m) for m in msgs)
+        sealed = [(m, self.provenance.seal(m)) for m in msgs]
+        for reason, n in self.provenance.take_drops().items():
+            self.count(f"tx_{reason}", n)
+        msgs = [m for m, f in sealed if f is not None]
+        frames = tuple(f for _, f in sealed if f is not None)
+        if not frames:
+            return
         names = tuple(type(m).__name__.lower() for m in msgs)
         for name, frame in zip(names, frames):
             self.count(f"tx_{name}")
@@ -374,6 +426,7 @@ class Agent:
             claims=know.tids(sorted(know.standing_claims())),
             counters={**self.counters, "largest_frame": self.largest_frame},
             lag_s=self._take_lag(),
+            suspects={know.vid(u): n for u, n in sorted(know.suspicion.items())},
         )
 
     def _take_lag(self) -> float:

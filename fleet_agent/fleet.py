@@ -11,6 +11,7 @@ from fleet_agent.sensor import Camera
 from fleet_agent.wire import Codec
 from fleet_bus.modem_port import WATER_SPEC, ModemSpec
 from fleet_bus.tdma import SpatialSchedule, Track
+from fleet_bus.tesla import FleetChains
 from hfc_core.model.paths import PathFn, path_function
 from hfc_core.model.problem import Problem
 
@@ -47,25 +48,36 @@ class Fleet:
     modem: ModemSpec = WATER_SPEC
     tracks: tuple[Track, ...] = ()
     schedule: SpatialSchedule | None = None
+    chains: FleetChains | None = None  # every vehicle's key chain (`fleet_bus.tesla`)
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
               planner: Planner | None = None, *, run_id: str,
-              camera: Camera | None = None, modem: ModemSpec = WATER_SPEC) -> "Fleet":
+              camera: Camera | None = None, modem: ModemSpec = WATER_SPEC,
+              chains: FleetChains | None = None) -> "Fleet":
         """``modem``: what every vehicle's modem carries (one frame budget for the fleet);
-        ValueError if its frames cannot carry what the mission needs."""
+        ValueError if its frames cannot carry what the mission needs. ``chains``: the key
+        chains the credentials issued (None: derived from the fleet key, as a simulation's);
+        ValueError if they are too short for the mission's turns on the fleet's schedule."""
+        if chains is not None and len(chains.commitments) != problem.n_vehicles:
+            raise ValueError(f"key chains for {len(chains.commitments)} vehicles, the "
+                             f"scenario has {problem.n_vehicles}")
         if camera is not None:
-            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem)
+            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
+                                        chains)
         codec = Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
         planner = planner or Planner.from_config(problem, seed, config)
         routes = planner.initial_routes()
         tracks = tuple(nominal_tracks(problem, routes))
+        schedule = schedule_of(tracks, config)
         return Fleet(problem, codec, planner, path_function(problem), seed, routes,
-                     modem=modem, tracks=tracks, schedule=schedule_of(tracks, config))
+                     modem=modem, tracks=tracks, schedule=schedule,
+                     chains=chains_for(problem, schedule, key, run_id, chains))
 
     @staticmethod
     def _build_dynamic(scenario: Problem, key: bytes, seed: int, config: AgentConfig,
-                       run_id: str, camera: Camera, modem: ModemSpec) -> "Fleet":
+                       run_id: str, camera: Camera, modem: ModemSpec,
+                       chains: FleetChains | None) -> "Fleet":
         working = initial_working_problem(scenario, camera, config)
         codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
                                   found_from=scenario.n_tasks,
@@ -74,8 +86,27 @@ class Fleet:
         routes = Planner.from_config(expected, seed, config).initial_routes()
         planner = Planner.from_config(working, seed, config)
         tracks = tuple(nominal_tracks(expected, routes))
+        schedule = schedule_of(tracks, config)
         return Fleet(working, codec, planner, path_function(working), seed, routes,
-                     Dynamic(scenario, camera), modem, tracks, schedule_of(tracks, config))
+                     Dynamic(scenario, camera), modem, tracks, schedule,
+                     chains_for(scenario, schedule, key, run_id, chains))
+
+
+def chains_for(problem: Problem, schedule: SpatialSchedule, key: bytes, run_id: str,
+               chains: FleetChains | None) -> FleetChains:
+    """The fleet's key chains: one key per turn of a vehicle (`fleet_bus.tesla`: a sender's
+    cycles are its turns on the schedule, which come faster where slots are reused). Derived
+    from the fleet key when none were issued, long enough for the vehicle with the most
+    turns; issued chains too short for the mission are refused (ValueError)."""
+    battery_s = max(v.battery_s for v in problem.vehicles)
+    if chains is None:
+        turns = max(schedule.turns_before(v, battery_s + 600.0) for v in range(schedule.n))
+        return FleetChains.derived(key, run_id, problem.n_vehicles, turns + 16)
+    turns = max(schedule.turns_before(v, battery_s) for v in range(schedule.n))
+    if chains.length < turns:
+        raise ValueError(f"key chains of {chains.length} cycles are too short for a "
+                         f"mission of {turns} turns")
+    return chains
 
 
 def schedule_of(tracks: tuple[Track, ...], config: AgentConfig) -> SpatialSchedule:

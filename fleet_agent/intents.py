@@ -70,9 +70,17 @@ class Count:
 
 
 @dataclass(frozen=True)
+class LastWords:
+    """Peer ``v`` is gone: what it said in its last cycle can never be proven its (`tesla`);
+    take from it what cannot hurt anyone but ``v``'s own work: its own spots cleared."""
+
+    v: int
+
+
+@dataclass(frozen=True)
 class SeekWork:
     """Look for other work at once, not at the next cooperation period (a lost claim, a
     find settled, a spot found empty, a peer revived)."""
 
 
-Intent = Union[Hold, Steer, Owe, Tell, Note, Count, SeekWork]
+Intent = Union[Hold, Steer, Owe, Tell, Note, Count, LastWords, SeekWork]

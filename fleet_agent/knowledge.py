@@ -11,8 +11,9 @@ present: on an exact map (no hidden reef) every predicted spot is known and noth
 
 from __future__ import annotations
 
+from collections import Counter
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable
 
 from fleet_agent import membership as mb
 from fleet_agent.beliefs import Beliefs
@@ -26,6 +27,7 @@ from fleet_agent.plans import Planner
 from fleet_agent.reckoning import position_along
 from fleet_agent.replay import ReplayWindow
 from fleet_agent.wire import Digest
+from fleet_agent.witness import Track, Witness
 from hfc_core.model.problem import Problem
 
 Point3 = tuple[float, float, float]
@@ -55,8 +57,9 @@ class Knowledge:
         self._routes: dict[int, tuple[float, list[int]]] = {}  # peer -> (when, believed route)
         self._held: dict[int, int] = {}
         self._held_key: tuple[int, ...] | None = None
-        # A claim has settled once any earlier claim of its spot has been heard (`settled_s`).
-        self.claim_settle_s = config.claim_settle_cycles * cycle_s + config.slot_s + 1.0
+        # A claim has settled once any earlier claim of its spot has been heard and proven its
+        # claimer's (`settled_s`; proving takes a cycle, `fleet_bus.tesla`).
+        self.claim_settle_s = (config.claim_settle_cycles + 1.0) * cycle_s + config.slot_s + 1.0
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
@@ -64,6 +67,11 @@ class Knowledge:
         # with it): left out of every plan of this vehicle (`policies.takeover`).
         self.doubtful: set[int] = set()
         self.peer_digest: dict[int, Digest] = {}
+        # What waits for a second peer's word, each peer's recent track, and how often each
+        # peer said what could not be (`policies.plausible`).
+        self.witness = Witness()
+        self.tracks: dict[int, Track] = {}
+        self.suspicion: Counter[int] = Counter()
         # Bumped by every change a decision may depend on: the route is checked against the
         # knowledge again whenever it moved (`policies.route.sync`).
         self.version = 0
@@ -184,8 +192,9 @@ class Knowledge:
         else ``claim_settle_s`` after its own claim. Why: the holder is the earliest claimant,
         and a claim goes out in the claimer's next slot (`fleet_agent.outbox`), so a peer's
         claim made before ours (whole seconds) is on the air within a cycle and heard within a
-        slot more; by then, on a working link, we know we lost the spot. Without the wait,
-        two vehicles near a find that both claimed it seconds apart each treat it."""
+        slot more, and proven its claimer's a cycle later; by then, on a working link, we know
+        we lost the spot. Without the wait, two vehicles near a find that both claimed it
+        seconds apart each treat it."""
         c = self.holdings.claim_time(task, self.index)
         return float(c) + self.claim_settle_s if c else 0.0
 

@@ -48,6 +48,7 @@ from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
 from fleet_bus.clock import MissionClock
 from fleet_bus.commands import STOP, decode_command
+from fleet_bus.credentials import CredentialsError, load_frame_chains, load_frame_seed
 from fleet_bus.mission import ClockSync, fetch_mission
 from fleet_bus.modem_port import WATER_SPEC, ModemPort, ModemReport, ModemSpec, Received
 from fleet_bus.process import AGENT_READY, ready
@@ -157,10 +158,13 @@ class _MissionTime:
 
 def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
          stop: threading.Event, mission_timeout_s: float = 120.0,
-         auth: BusAuth | None = None, modem: ModemChoice = ModemChoice()) -> int:
+         auth: BusAuth | None = None, modem: ModemChoice = ModemChoice(),
+         credentials: Path | None = None) -> int:
     """Run agent ``vid`` until ``stop``. Returns 0, 2 if the vehicle is not in the mission,
     or 3 if no mission or clock record came. With ``auth`` (its own key and the run's ring)
-    it signs what it puts and takes only what its rightful senders signed."""
+    it signs what it puts and takes only what its rightful senders signed; with
+    ``credentials`` (its directory) its frames are provably its own (its key chain, and the
+    fleet's commitments: `fleet_bus.tesla`), else every chain derives from the fleet key."""
     inbox = Inbox()
     mission_time = _MissionTime()
 
@@ -191,10 +195,18 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
         if vid not in problem.vehicle_index:
             print(f"fleet_agent: {vid!r} is not a vehicle of the mission", file=sys.stderr)
             return 2
+        chains, seed = None, None
+        if credentials is not None:
+            try:
+                chains = load_frame_chains(credentials, [v.id for v in problem.vehicles])
+                seed = load_frame_seed(credentials)
+            except CredentialsError as exc:
+                print(f"fleet_agent {vid}: {exc}", file=sys.stderr)
+                return 2
         fleet = Fleet.build(problem, config.fleet_key, mission.seed, config,  # initial plan
                             run_id=mission.run_id,  # the wire keys bind the run
                             camera=None if reef is None else camera_figures(reef),
-                            modem=modem.spec)
+                            modem=modem.spec, chains=chains)
         clocked = threading.Event()
         threading.Thread(target=_announce_ready, args=(session, vid, auth, clocked),
                          name="ready", daemon=True).start()
@@ -213,7 +225,7 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
             while clock.now() < 0 and not stop.is_set():
                 stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
             now = clock.now()
-            agent = Agent(fleet, problem.vehicle_index[vid], config, now, journal.records)
+            agent = Agent(fleet, problem.vehicle_index[vid], config, now, journal.records, seed)
             telemetry = ZenohTelemetry(session, vid, auth)
             set_planning_hook(telemetry.planning)
             index = problem.vehicle_index[vid]

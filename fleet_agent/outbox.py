@@ -32,7 +32,7 @@ The ladder, most urgent first (a working vehicle):
 10. the cleared set, one segment: after a local clear, when a peer may lack part of it, or
     every ``cleared_refresh_cycles``;
 11. standing claims again every ``claim_refresh_cycles`` (late joiners, loss);
-12. else a pose.
+12. else the key the last frame (a pose) could not disclose (`fleet_bus.tesla`), else a pose.
 
 An aborting vehicle sends its ABORT ``abort_repeats`` times, then what it owes of the cleared
 set; a vehicle home sends ``home_repeats`` poses. Either then keeps watch: a pose every
@@ -48,8 +48,8 @@ from typing import Callable, Sequence
 
 from fleet_agent.config import AgentConfig
 from fleet_agent.knowledge import Knowledge
-from fleet_agent.wire import (Abort, Claim, ClearedSegment, Digest, Found, Heard, Message,
-                              Pose, Release)
+from fleet_agent.wire import (Abort, Claim, ClearedSegment, Digest, Found, Heard, Key,
+                              Message, Pose, Release)
 
 
 class Owed(Enum):
@@ -162,6 +162,9 @@ class Outbox:
         self._last_cleared_slot = 0
         self._last_claims_slot = 0
         self._last_found_slot = 0
+        # The last frame disclosed no key (a pose has no room for one): the next slot with
+        # nothing else to say sends one, or the pose's sender stays unproven (`tesla`).
+        self.undisclosed = False
 
     @property
     def idle(self) -> bool:
@@ -198,6 +201,7 @@ class Outbox:
         for rule in rules:
             msg = rule(self, slot)
             if msg is not None:
+                self.undisclosed = isinstance(msg, Pose)
                 return msg
         return None
 
@@ -297,10 +301,18 @@ class Outbox:
     def pose_due(self, s: Slot) -> Message | None:
         return self.pose(s) if self.since_pose >= self.spec["pose"].refresh_slots else None
 
+    def key_or_pose(self, s: Slot) -> Message:
+        """Nothing else to say: the key the last pose could not disclose, else a pose."""
+        return Key(s.me, s.seq(), s.heard) if self.undisclosed else self.pose(s)
+
     def watch(self, s: Slot) -> Message | None:
-        """Out of the mission, announcements done: a pose now and then, if keeping watch."""
+        """Out of the mission, announcements done: a pose now and then, if keeping watch,
+        and the key it could not disclose (its heard codes confirm silences only once its
+        sender is proven)."""
         every = self.spec["watch"].refresh_slots
         self.since_pose += 1
+        if self.undisclosed:
+            return Key(s.me, s.seq(), s.heard)
         return self.pose(s) if every and self.since_pose >= every else None
 
     def count_slot(self, s: Slot) -> None:
@@ -410,7 +422,7 @@ class Outbox:
 LADDER: tuple[Rule, ...] = (
     Outbox.count_slot, Outbox.claim_first, Outbox.abort_news, Outbox.pose_due, Outbox.find_first,
     Outbox.finds_starved, Outbox.segment_owed, Outbox.claim_repeat, Outbox.find_repeat,
-    Outbox.finds_due, Outbox.cleared_due, Outbox.claims_due, Outbox.pose,
+    Outbox.finds_due, Outbox.cleared_due, Outbox.claims_due, Outbox.key_or_pose,
 )
 # The further frames of a transmission that carries several: what is owed, no heartbeat.
 MORE: tuple[Rule, ...] = LADDER[1:-1]

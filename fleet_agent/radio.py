@@ -3,8 +3,9 @@
 Slots: the fleet's schedule (`fleet_bus.tdma.SpatialSchedule`, the same arithmetic as the
 water's TDMA MAC): every vehicle not parked owns a slot of every cycle, vehicles far apart
 sharing one; with one slot per vehicle, vehicle ``i`` owns slot ``i`` of every cycle of
-``n_vehicles * slot_s`` seconds. One frame per slot; a cycle is the heartbeat period. What goes in a slot is the outbox's choice
-(`fleet_agent.outbox`: what the agent owes the fleet, most urgent first).
+``n_vehicles * slot_s`` seconds. One frame per slot; a cycle is the heartbeat period. What
+goes in a slot is the outbox's choice (`fleet_agent.outbox`: what the agent owes the fleet,
+most urgent first).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ SLOT_OFFSET = 0.05  # start this far into the slot (share of it): room for clock
 # A host later than this share of a slot after its slot opened dates its frame back (a frame
 # started now would spill into the next vehicle's slot); the operator paces on it too.
 LATE_SHARE = 0.5
+_NUDGE_S = 1e-3  # a seq + 1 exactly at an opening is of that turn (turns_before is strict)
 
 
 @dataclass(frozen=True)
@@ -59,6 +61,26 @@ class Slots:
         sent now it would spill into the next vehicle's slot, so it is dated at the slot's
         opening instead."""
         return now_s - opened_s > LATE_SHARE * self.slot_s
+
+    def time(self, n: int) -> float:
+        """This vehicle's send time (its slot's opening) of its turn ``n`` (0: its first)."""
+        return self.schedule.nth_opening(self.index, n, SLOT_OFFSET)
+
+    def cycle_of(self, seq: int) -> int:
+        """The turn of a frame of this vehicle with sequence number ``seq`` (its send time in
+        whole seconds: at most a second before its slot opens, bumped by a second per further
+        frame of the slot, never reaching the next slot): the cycle its key belongs to
+        (`fleet_bus.tesla`: chain index ``cycle + 1``). A vehicle's cycles are its own turns:
+        with the spatial schedule they come at its own pace (every cycle, or every
+        ``group``-th one parked), and every receiver counts them from the same schedule."""
+        return max(0, self.schedule.turns_before(self.index, seq + 1.0 + _NUDGE_S
+                                                 - SLOT_OFFSET * self.slot_s) - 1)
+
+    def disclosure_s(self, cycle: int) -> float:
+        """The earliest mission time this vehicle may disclose the key of ``cycle``: a frame
+        of its next turn, whose seq can be a second before its slot opens. A frame of
+        ``cycle`` heard after that proves nothing about who sent it."""
+        return self.time(cycle + 1) - 1.0
 
 
 class Radio:

@@ -1,4 +1,4 @@
-"""The acoustic wire protocol, version 2: compact, quantised, versioned, authenticated frames.
+"""The acoustic wire protocol, version 3: compact, quantised, versioned, authenticated frames.
 
 Layout of every frame (fixed binary fields, big-endian; `docs/wire.md` has the full table)::
 
@@ -7,8 +7,10 @@ Layout of every frame (fixed binary fields, big-endian; `docs/wire.md` has the f
     bytes 2-5     seq: the send time in whole simulation seconds (uint32)
     byte 6        heard offset: the roster index of the first peer in the heard window
     next c bytes  heard codes, 2 bits each, for min(n, `HEARD_WINDOW`) peers from the offset
+    next 8        every kind but POSE: the sender's disclosed key of its previous cycle
     body          kind-specific fixed fields (`_BODY`), then a tail (id list, bitmap)
-    last 8        HMAC-SHA256 under the sender's run key, truncated to `MAC_BYTES`
+    next 4        the sender's own tag (`fleet_bus.tesla`: its chain key of the frame's cycle)
+    last 4        HMAC-SHA256 under the sender's run key over all before it (the fleet MAC)
 
 The sequence number is strictly increasing per sender (replay protection) and a timestamp at
 once, so no separate time field is needed: bumped by one when two frames would share a second.
@@ -25,11 +27,13 @@ Micro-Modem rate-0 frame). `Codec.max_size` gives the worst case of each kind; `
 refuses anything larger, and a codec whose budget cannot carry a kind the mission needs is
 refused when it is made.
 
-Keys: the MAC key of sender ``s`` is derived from the fleet key, the run id and ``s``
-(`sender_key`), so a frame recorded in one run fails the MAC in every other run, and a frame
-cannot be re-attributed to another sender. Every vehicle holds the fleet key (it must verify
-everyone), so a vehicle's key material speaks for the whole fleet of that fleet key:
-`docs/wire.md` says what such an insider can still do and why nothing cheaper fits 64 bytes.
+Keys: the fleet MAC key of sender ``s`` is derived from the fleet key, the run id and ``s``
+(`sender_key`), so a frame recorded in one run fails the MAC in every other run; it keeps
+outsiders out at once. Every vehicle holds the fleet key (it must check everyone), so the
+fleet MAC cannot say which vehicle sent a frame: the sender's tag does, once the key of the
+frame's cycle is disclosed (`fleet_bus.tesla`, delayed key disclosure). `decode` checks the
+fleet MAC and returns what the tag check needs (`Sealed`); the agent holds the frame until
+then.
 """
 
 from __future__ import annotations
@@ -42,14 +46,18 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Callable, Sequence, Union
 
+from fleet_bus.tesla import tag as tesla_tag
 from hfc_core.model.problem import Problem
 
-VERSION = 2
-MAC_BYTES = 8  # 2^-64 per forged frame: online forging at acoustic rates is hopeless
+VERSION = 3
+FLEET_MAC_BYTES = 4  # 2^-32 per frame an outsider forges, each costing a slot of airtime
+TAG_BYTES = 4  # the sender's own tag (`fleet_bus.tesla`)
+KEY_BYTES = 8  # a disclosed chain key
+MAC_BYTES = FLEET_MAC_BYTES + TAG_BYTES
 HEADER_BYTES = 7  # version|kind, sender, seq (4), heard offset; the heard codes follow
 MAX_FRAME_BYTES = 64  # the emulated water's budget, the default (`fleet_bus.modem_port`)
 MAX_POSE_BYTES = 32
-MIN_FRAME_BYTES = 32  # a pose of the largest fleet fits; less carries nothing useful
+MIN_FRAME_BYTES = 40  # a cleared segment of 64 spots with its disclosed key
 MAX_VEHICLES = 255  # the sender index is one byte
 MAX_TASKS = 65536  # a task id is at most two bytes
 MAX_SEQ = 2**32 - 1
@@ -58,14 +66,15 @@ MAX_SEQ = 2**32 - 1
 # mark to the end of time and silence it); the agent drops it as "future".
 MAX_LEAD_S = 30
 HEARD_WINDOW = 16  # peers whose heard code one frame carries (4 bytes)
-# Around a claim's ids and a segment's bitmap: header 7, heard codes up to 4, MAC 8, and the
-# claim's time (4) or the segment's count, hash and number (4, one byte kept spare).
-CLAIM_OVERHEAD_BYTES = 23
-SEGMENT_OVERHEAD_BYTES = 24
+# Around a claim's ids and a segment's bitmap: header 7, heard codes up to 4, a disclosed key
+# 8, MACs 8, and the claim's time (4) or the segment's count, hash and number (4, one byte
+# kept spare).
+CLAIM_OVERHEAD_BYTES = 31
+SEGMENT_OVERHEAD_BYTES = 32
 
 
 def segment_bits(max_frame_bytes: int) -> int:
-    """Spots one cleared-set segment covers in frames of ``max_frame_bytes`` (320 in 64)."""
+    """Spots one cleared-set segment covers in frames of ``max_frame_bytes`` (256 in 64)."""
     return 8 * (max_frame_bytes - SEGMENT_OVERHEAD_BYTES)
 
 
@@ -116,6 +125,7 @@ class Kind(IntEnum):
     # sender, or a vehicle whose abort the sender heard: aborts spread epidemically)
     FOUND = 6  # a COTS aggregation the map missed: its slot, position, priority, injection
     # time, and the digest of the sender's finds (gossiped until digests agree)
+    KEY = 7  # nothing but the disclosed key: a sender with nothing else to say after a pose
 
 
 class WireError(ValueError):
@@ -234,9 +244,29 @@ class Found:
     heard: Heard = NO_HEARD
 
 
-Message = Union[Pose, ClearedSegment, Claim, Release, Abort, Found]
+@dataclass(frozen=True)
+class Key:
+    """A frame that only discloses its sender's key of the previous cycle."""
+
+    sender: int
+    seq: int
+    heard: Heard = NO_HEARD
+
+
+Message = Union[Pose, ClearedSegment, Claim, Release, Abort, Found, Key]
 _KIND_OF = {Pose: Kind.POSE, ClearedSegment: Kind.CLEARED, Claim: Kind.CLAIM,
-            Release: Kind.RELEASE, Abort: Kind.ABORT, Found: Kind.FOUND}
+            Release: Kind.RELEASE, Abort: Kind.ABORT, Found: Kind.FOUND, Key: Kind.KEY}
+
+
+@dataclass(frozen=True)
+class Sealed:
+    """A frame whose fleet MAC checked: its message, and what its sender's tag covers (``data``),
+    the tag, and the key it discloses (None: a pose discloses none)."""
+
+    msg: Message
+    data: bytes
+    tag: bytes
+    disclosed: bytes | None
 MAX_TENTHS = 65535  # a find's priority and injection time travel as tenths in 16 bits
 
 
@@ -255,9 +285,10 @@ _BODY = {
     Kind.ABORT: struct.Struct(">IB"),  # abort time, the vehicle that aborted
     # finds' count, hash16, slot, x, y, z, priority and injection time in tenths
     Kind.FOUND: struct.Struct(">BHHHHhHH"),
+    Kind.KEY: struct.Struct(">"),  # nothing: the disclosed key is the frame
 }
 _HEAD = struct.Struct(">BBIB")  # version|kind, sender, seq, heard offset
-_MIN_BODY = 5  # the smallest body of any kind: an abort; a release of one spot
+_MIN_BODY = 0  # the smallest body of any kind: a KEY frame's
 
 
 class Codec:
@@ -322,15 +353,19 @@ class Codec:
 
     # -- encoding --------------------------------------------------------------------------
 
-    def encode(self, msg: Message) -> bytes:
-        frame = self._pack(msg)
+    def encode(self, msg: Message, chain_key: bytes = bytes(KEY_BYTES),
+               disclosed: bytes = bytes(KEY_BYTES)) -> bytes:
+        """The frame of ``msg``: tagged under the sender's ``chain_key`` of the frame's cycle,
+        disclosing ``disclosed`` (its key of the cycle before; ignored for a pose)."""
+        frame = self._pack(msg, chain_key, disclosed)
         kind = _KIND_OF[type(msg)]
         limit = self.max_pose_bytes if kind == Kind.POSE else self.max_frame_bytes
         if len(frame) > limit:
             raise WireSizeError(f"{kind.name} frame of {len(frame)} bytes exceeds {limit}")
         return frame
 
-    def _pack(self, msg: Message) -> bytes:
+    def _pack(self, msg: Message, chain_key: bytes = bytes(KEY_BYTES),
+              disclosed: bytes = bytes(KEY_BYTES)) -> bytes:
         kind = _KIND_OF[type(msg)]
         if not 0 <= msg.sender < self.n_vehicles:
             raise ValueError(f"sender index {msg.sender} outside the roster")
@@ -338,7 +373,12 @@ class Codec:
             raise ValueError(f"sequence number {msg.seq} out of range")
         head = _HEAD.pack((VERSION << 4) | int(kind), msg.sender, msg.seq,
                           self._check_heard(msg.heard)) + self._pack_codes(msg.heard.codes)
+        if kind != Kind.POSE:
+            if len(disclosed) != KEY_BYTES:
+                raise ValueError(f"a disclosed key is {KEY_BYTES} bytes")
+            head += bytes(disclosed)
         data = head + self._body(kind, msg)
+        data += tesla_tag(chain_key, data)
         return data + self._mac(msg.sender, data)
 
     def _check_heard(self, heard: Heard) -> int:
@@ -376,6 +416,8 @@ class Codec:
             if not 0 <= msg.t_s <= msg.seq:
                 raise ValueError("claim time out of range (after the frame was sent)")
             return fmt.pack(msg.t_s) + self._pack_ids(msg.tasks)
+        if isinstance(msg, Key):
+            return b""
         if isinstance(msg, Found):
             if not 0 <= msg.slot < self.n_tasks:  # decode also checks it is a find's slot
                 raise ValueError(f"find slot {msg.slot} outside the scenario")
@@ -416,12 +458,16 @@ class Codec:
     def _mac(self, sender: int, data: bytes) -> bytes:
         h = self._macs[sender].copy()
         h.update(data)
-        return h.digest()[:MAC_BYTES]
+        return h.digest()[:FLEET_MAC_BYTES]
 
     # -- decoding --------------------------------------------------------------------------
 
     def decode(self, frame: bytes) -> Message:
-        """The message in ``frame``, or `WireError` naming why it was refused.
+        """The message in ``frame`` (fleet MAC checked), or `WireError` naming why not."""
+        return self.unseal(frame).msg
+
+    def unseal(self, frame: bytes) -> Sealed:
+        """The frame with its fleet MAC checked, or `WireError` naming why it was refused.
 
         Only the first two bytes are looked at before the MAC is checked: nothing
         unauthenticated reaches the field parser."""
@@ -440,19 +486,23 @@ class Codec:
             raise WireError("kind", str(kind_no)) from None
         if sender >= self.n_vehicles:
             raise WireError("sender", str(sender))
-        if len(frame) < head_len + _MIN_BODY + MAC_BYTES:
+        key_len = 0 if kind == Kind.POSE else KEY_BYTES
+        if len(frame) < head_len + key_len + _MIN_BODY + MAC_BYTES:
             raise WireError("short", f"{len(frame)} bytes")
-        if not hmac.compare_digest(self._mac(sender, frame[:-MAC_BYTES]), frame[-MAC_BYTES:]):
+        signed = frame[:-FLEET_MAC_BYTES]
+        if not hmac.compare_digest(self._mac(sender, signed), frame[-FLEET_MAC_BYTES:]):
             raise WireError("mac")
         _, _, seq, offset = _HEAD.unpack_from(frame)
         if offset >= self.n_vehicles:
             raise WireError("malformed", "heard offset outside the roster")
         heard = Heard(offset, self._unpack_codes(frame[HEADER_BYTES:head_len]))
-        body = frame[head_len:-MAC_BYTES]
+        disclosed = frame[head_len:head_len + key_len] if key_len else None
+        body = frame[head_len + key_len:-MAC_BYTES]
         fmt = _BODY[kind]
         if len(body) < fmt.size:
             raise WireError("malformed", "body too short")
-        return _PARSE[kind](self, sender, seq, heard, fmt.unpack_from(body), body[fmt.size:])
+        msg = _PARSE[kind](self, sender, seq, heard, fmt.unpack_from(body), body[fmt.size:])
+        return Sealed(msg, signed[:-TAG_BYTES], signed[-TAG_BYTES:], disclosed)
 
     def _unpack_codes(self, raw: bytes) -> tuple[int, ...]:
         codes = [b >> (2 * j) & 3 for b in raw for j in range(4)]
@@ -494,6 +544,11 @@ class Codec:
             raise WireError("malformed", "abort out of range")
         return Abort(sender, seq, t_s, heard, None if who == sender else who)
 
+    def _key(self, sender: int, seq: int, heard: Heard, f: tuple, tail: bytes) -> Key:
+        if tail:
+            raise WireError("malformed", "a key frame carries nothing else")
+        return Key(sender, seq, heard)
+
     def _found(self, sender: int, seq: int, heard: Heard, f: tuple, tail: bytes) -> Found:
         count, h16, slot, x, y, z, prio, service = f
         if tail or not (count < 128 and self.found_from <= slot < self.n_tasks):
@@ -523,6 +578,8 @@ class Codec:
         if kind == Kind.FOUND:
             return Found(top, MAX_SEQ, digest, self.n_tasks - 1, far, MAX_TENTHS / 10,
                          MAX_TENTHS / 10, heard)
+        if kind == Kind.KEY:
+            return Key(top, MAX_SEQ, heard)
         return Abort(top, MAX_SEQ, MAX_SEQ, heard, top - 1 if top else None)
 
     def max_size(self, kind: Kind) -> int:
@@ -537,4 +594,5 @@ _PARSE: dict[Kind, Callable[..., Message]] = {
     Kind.RELEASE: lambda c, *a: c._holding(Release, *a),
     Kind.ABORT: Codec._abort,
     Kind.FOUND: Codec._found,
+    Kind.KEY: Codec._key,
 }

@@ -10,6 +10,8 @@ certificate of the mission's CA (`fleet_bus.certificates`) and there is no passw
     root/<id>/ring.json, ca.pem     the same, in every process's directory
     root/<id>/tls.key, tls.pem      its own TLS key and certificate (common name: its id)
     root/<id>/signing.key           its own Ed25519 private key (operator, relay, vehicles)
+    root/<vehicle>/frames.key       its own key chain's seed for the acoustic frames
+                                    (`fleet_bus.tesla`; the ring holds every commitment)
 
 for ``operator``, ``relay``, ``station`` (no signing key: it only listens), ``router`` (the
 operator's host's router; its certificate also names ``hosts``) and every vehicle; and, for
@@ -46,9 +48,14 @@ from fleet_bus.auth import (OPERATOR, OPERATOR_ID, RELAY, RELAY_ID, ROLES, VEHIC
                             Member, Signer, Verifier)
 from fleet_bus.certificates import (Authority, CertificateError, CertificateInfo, check_identity,
                                    host_name)
+from fleet_bus.tesla import KEY_BYTES, FleetChains, KeyChain
 
 RING = "ring.json"
 SIGNING_KEY = "signing.key"
+FRAMES_KEY = "frames.key"  # a vehicle's key chain seed (`fleet_bus.tesla`)
+# Cycles a vehicle's key chain covers: 8.5 h of 3 vehicles' 7.5 s cycles, 2.8 h of one
+# vehicle's 2.5 s slots; a mission longer than its chain is refused when its fleet is built.
+FRAME_CHAIN_LENGTH = 4096
 ZENOH_LOGIN = "zenoh.login"
 ROUTER_ID, STATION_ID = "router", "station"
 ROUTER_USERS = "users.txt"
@@ -136,8 +143,13 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
     _private_dir(root)
     signers = {OPERATOR_ID: OPERATOR, RELAY_ID: RELAY, **{v: VEHICLE for v in vehicles}}
     private = {sid: Ed25519PrivateKey.generate() for sid in signers}
-    ring = {"run_id": run_id, "members": {sid: {"role": role, "public": _raw_public(private[sid])}
-                                          for sid, role in signers.items()}}
+    seeds = {vid: secrets.token_bytes(16) for vid in vehicles}
+    ring = {"run_id": run_id,
+            "members": {sid: {"role": role, "public": _raw_public(private[sid])}
+                        for sid, role in signers.items()},
+            "frames": {"length": FRAME_CHAIN_LENGTH,
+                       "commitments": {vid: KeyChain(seed, FRAME_CHAIN_LENGTH).commitment.hex()
+                                       for vid, seed in seeds.items()}}}
     ring_text = json.dumps(ring, indent=1)
     (root / RING).write_text(ring_text, encoding="utf-8")
     processes = (*signers, STATION_ID, ROUTER_ID,
@@ -150,6 +162,8 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
         (d / RING).write_text(ring_text, encoding="utf-8")
         if pid in private:
             _secret_file(d / SIGNING_KEY, _raw_private(private[pid]) + "\n")
+        if pid in seeds:
+            _secret_file(d / FRAMES_KEY, seeds[pid].hex() + "\n")
         if authority is not None:
             issued = authority.issue(pid, hosts if pid == ROUTER_ID else ())
             (d / CA_CERT).write_bytes(authority.cert_pem)
@@ -190,6 +204,35 @@ def load_ring(directory: Path) -> Verifier:
     except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise CredentialsError(f"{directory}/{RING}: not a key ring ({exc})") from None
     return Verifier(members, run_id)
+
+
+def load_frame_chains(directory: Path, vehicles: Sequence[str]) -> FleetChains:
+    """Every vehicle's key chain commitment, from the ring in ``directory``, in roster order."""
+    path = Path(directory) / RING
+    try:
+        frames = json.loads(_read(path))["frames"]
+        length = int(frames["length"])
+        commitments = tuple(bytes.fromhex(frames["commitments"][vid]) for vid in vehicles)
+    except KeyError as exc:
+        raise CredentialsError(f"{path}: no key chain for {exc} (credentials made for "
+                               "another scenario?)") from None
+    except (ValueError, TypeError, AttributeError) as exc:
+        raise CredentialsError(f"{path}: not a key ring ({exc})") from None
+    if length < 1 or any(len(c) != KEY_BYTES for c in commitments):
+        raise CredentialsError(f"{path}: malformed key chains")
+    return FleetChains(commitments, length)
+
+
+def load_frame_seed(directory: Path) -> bytes:
+    """A vehicle's own key chain seed."""
+    text = _read(Path(directory) / FRAMES_KEY).strip()
+    try:
+        seed = bytes.fromhex(text)
+    except ValueError:
+        seed = b""
+    if len(seed) < 16:
+        raise CredentialsError(f"{directory}/{FRAMES_KEY}: not a key chain seed")
+    return seed
 
 
 def load_auth(directory: Path, signer_id: str | None = None) -> BusAuth:

@@ -18,6 +18,7 @@ from typing import Sequence
 import numpy as np
 
 EPS_S = 1e-9  # float slack on slot boundaries
+MIN_SLOTS = 3  # the shortest cycle of a spatial schedule, in slots (see `_colour`)
 
 
 @dataclass(frozen=True)
@@ -144,12 +145,17 @@ class SpatialSchedule:
         self.park_group = int(park_group)
         self._epochs: list[Epoch] = []
         self._starts: list[float] = []
-        self._last: tuple[float, float, Epoch] | None = None  # the epoch last asked for
+        self._last: tuple[float, float, int] | None = None  # the epoch last asked for
+        # Each vehicle's turns before each epoch (turns_before and nth_opening in O(log n))
+        self._turns: list[tuple[int, ...]] = []
 
     # -- epochs ----------------------------------------------------------------------------
 
     def epoch(self, t_s: float) -> Epoch:
         """The epoch in force at mission time ``t_s`` (the first one before 0)."""
+        return self._epochs[self._index(t_s)]
+
+    def _index(self, t_s: float) -> int:
         last = self._last
         if last is not None and last[0] <= t_s < last[1]:
             return last[2]
@@ -159,14 +165,21 @@ class SpatialSchedule:
             self._extend()
         i = max(0, bisect.bisect_right(self._starts, t_s) - 1)
         e = self._epochs[i]
-        self._last = (e.start_s if i else -math.inf, self._end(e), e)
-        return e
+        self._last = (e.start_s if i else -math.inf, self._end(e), i)
+        return i
 
     def _end(self, e: Epoch) -> float:
         return e.start_s + e.cycles * e.n_slots * self.slot_s
 
     def _extend(self) -> None:
-        start = self._end(self._epochs[-1]) if self._epochs else 0.0
+        if self._epochs:
+            prev = self._epochs[-1]
+            self._turns.append(tuple(t + _turns_in(prev, v)
+                                     for v, t in enumerate(self._turns[-1])))
+            start = self._end(prev)
+        else:
+            self._turns.append((0,) * self.n)
+            start = 0.0
         e = self._colour(start)
         self._epochs.append(e)
         self._starts.append(e.start_s)
@@ -199,7 +212,9 @@ class SpatialSchedule:
         for i in sorted(range(k), key=lambda i: (-int(degree[i]), min(nodes[i]))):
             used = {colour[j] for j in np.flatnonzero(conflict[i])}
             colour[i] = next(x for x in range(k) if x not in used)
-        n_slots = max(colour) + 1
+        # At least MIN_SLOTS a cycle: a frame must be heard before its sender discloses the
+        # key of its turn at its next turn (`fleet_bus.tesla`; a second late, a second of travel)
+        n_slots = max(max(colour) + 1, min(n, MIN_SLOTS))
         slot, group, rank = [0] * n, [1] * n, [0] * n
         for i, g in enumerate(nodes):
             for j, v in enumerate(g):
@@ -240,19 +255,27 @@ class SpatialSchedule:
 
     def turns_before(self, v: int, t_s: float) -> int:
         """How many of ``v``'s slots opened before ``t_s`` (a count of its turns)."""
-        count, e = 0, self.epoch(0.0)
-        i = 0
-        while True:
-            cycle = e.n_slots * self.slot_s
-            at = e.start_s + e.slot[v] * self.slot_s
-            k = min(e.cycles, max(0, math.ceil((t_s - at) / cycle - EPS_S)))
-            count += max(0, math.ceil((k - e.rank[v]) / e.group[v]))
-            if k < e.cycles:
-                return count
-            i += 1
-            if i >= len(self._epochs):
-                self._extend()
-            e = self._epochs[i]
+        i = self._index(t_s)
+        e = self._epochs[i]
+        cycle = e.n_slots * self.slot_s
+        at = e.start_s + e.slot[v] * self.slot_s
+        k = min(e.cycles, max(0, math.ceil((t_s - at) / cycle - EPS_S)))
+        return self._turns[i][v] + max(0, math.ceil((k - e.rank[v]) / e.group[v]))
+
+    def nth_opening(self, v: int, n: int, lead: float = 0.0) -> float:
+        """The opening (plus ``lead`` slots) of ``v``'s slot of its turn ``n`` (0: its first):
+        the inverse of `turns_before`."""
+        if n < 0:
+            raise ValueError(f"turn {n} before the first")
+        while self._turns[-1][v] + _turns_in(self._epochs[-1], v) <= n:
+            self._extend()
+        lo, hi = 0, len(self._epochs) - 1  # the last epoch whose turns before it are <= n
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            lo, hi = (mid, hi) if self._turns[mid][v] <= n else (lo, mid - 1)
+        e = self._epochs[lo]
+        k = e.rank[v] + (n - self._turns[lo][v]) * e.group[v]
+        return e.start_s + (e.slot[v] + lead) * self.slot_s + k * e.n_slots * self.slot_s
 
     def cycle_s(self, t_s: float) -> float:
         """The cycle (every vehicle not parked speaks once) in force at ``t_s``."""
@@ -304,3 +327,8 @@ class SpatialSchedule:
         if opened is not None and t_s <= opened + last + EPS_S:
             return max(t_s, opened)
         return self.opening(v, t_s)
+
+
+def _turns_in(e: Epoch, v: int) -> int:
+    """How many turns ``v`` has in epoch ``e``: its cycles ``rank``, ``rank + group``, ..."""
+    return max(0, math.ceil((e.cycles - e.rank[v]) / e.group[v]))

@@ -74,7 +74,7 @@ class Truth:
                               "pitch": self.pitch_deg, "state": self.state})
 
     @staticmethod
-    def decode(payload: bytes) -> "Truth":
+    def decode(payload: bytes) -> Truth:
         """Raises ValueError on anything that is not a well-formed truth record."""
         doc = v.unpack_map(payload, "truth")
         try:
@@ -107,12 +107,15 @@ class Status:
     # How far behind the mission clock the vehicle's process ran since its last status (its
     # worst late tick, mission seconds): the operator slows the clock down when it grows.
     lag_s: float = 0.0
+    # Peers that said what could not be, and how often (`fleet_agent.policies.plausible`):
+    # an insider's lies are refused and show here.
+    suspects: dict[str, int] = field(default_factory=dict)
 
     def encode(self) -> bytes:
         return msgpack.packb(asdict(self))
 
     @staticmethod
-    def decode(payload: bytes) -> "Status":
+    def decode(payload: bytes) -> Status:
         doc = v.unpack_map(payload, "status")
         try:
             return Status(
@@ -132,6 +135,7 @@ class Status:
                 claims=v.ids(doc.get("claims", []), "status.claims"),
                 counters=v.str_map(doc.get("counters", {}), "status.counters", int),
                 lag_s=v.number(doc.get("lag_s", 0.0), "status.lag_s"),
+                suspects=v.str_map(doc.get("suspects", {}), "status.suspects", int),
             )
         except KeyError as exc:
             raise ValueError(f"status: missing {exc}") from None
@@ -152,7 +156,7 @@ class Event:
         return msgpack.packb(asdict(self))
 
     @staticmethod
-    def decode(payload: bytes) -> "Event":
+    def decode(payload: bytes) -> Event:
         doc = v.unpack_map(payload, "event")
         try:
             return Event(v.number(doc["t_s"], "event.t_s"), v.text(doc["id"], "event.id", 64),

@@ -15,7 +15,7 @@ from typing import Sequence
 import zenoh
 
 from fleet_bus.auth import BusAuth
-from fleet_bus.credentials import STATION_ID, CredentialsError, load_auth
+from fleet_bus.credentials import CredentialsError, load_auth
 from fleet_bus.mission import fetch_mission
 from fleet_bus.process import STATION_READY, process_stop, ready
 from fleet_bus.session import DEFAULT_ENDPOINT, client_config, open_session
@@ -23,8 +23,15 @@ from ground_station.blueprint import live_blueprint
 from ground_station.rerun_log import legend_bounds
 from ground_station.station import APPLICATION_ID, GroundStation, mission_layers
 from ground_station.subscriber import Inbox, subscribed
-from ground_station.viewer import VIEWERS, SinkError, ViewerOptions, default_viewer, \
-    open_recording, rrd_for_run
+from ground_station.viewer import (
+    VIEWERS,
+    SinkError,
+    ViewerOptions,
+    check_rrd,
+    open_recording,
+    resolve_viewer,
+    rrd_for_run,
+)
 
 PREFIX = "ground_station:"
 
@@ -84,7 +91,8 @@ def main(conf: zenoh.Config, opts: ViewerOptions, stop: threading.Event,
 
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(prog="python -m ground_station", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m ground_station", description=__doc__,
+                                allow_abbrev=False)
     p.add_argument("--connect", action="append", metavar="ENDPOINT",
                    help=f"Zenoh router endpoint (repeatable; default {DEFAULT_ENDPOINT})")
     p.add_argument("--viewer", choices=VIEWERS, default=None,
@@ -114,7 +122,15 @@ if __name__ == "__main__":
     except CredentialsError as exc:
         print(f"{PREFIX} {exc}", file=sys.stderr)
         raise SystemExit(2)
-    options = ViewerOptions(viewer=args.viewer or default_viewer(), rrd=args.rrd,
+    viewer, note = resolve_viewer(args.viewer)
+    try:
+        check_rrd(args.rrd)
+    except SinkError as exc:
+        print(f"{PREFIX} {exc}", file=sys.stderr)
+        raise SystemExit(2)
+    if note:
+        print(f"{PREFIX} {note}", file=sys.stderr, flush=True)
+    options = ViewerOptions(viewer=viewer, rrd=args.rrd,
                             web_host=args.web_host, web_port=args.web_port,
                             grpc_port=args.grpc_port)
     raise SystemExit(main(client_config(args.connect or [DEFAULT_ENDPOINT],

@@ -28,6 +28,9 @@ WHOLE_MISSION = rrb.TimeAxis(view_range=rrb.TimeRange(
     start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative()))
 
 
+MAX_TITLE = 28  # characters of a plot's title that fit its column (see `live_blueprint`)
+
+
 def _series(name: str, *contents: str) -> rrb.TimeSeriesView:
     return rrb.TimeSeriesView(
         name=name, origin="/", contents=[f"+ /{SERIES}/{c}" for c in contents],
@@ -47,18 +50,22 @@ DEFAULT_LEGEND: Bounds = (-2.8, 14.8, -0.8, 4.9)
 
 def live_blueprint(bounds: Bounds, legend: Bounds = DEFAULT_LEGEND,
                    dynamic: bool = False) -> rrb.Blueprint:
-    """The live layout; ``dynamic`` (a scenario with a hidden reef) adds the plot of the
-    fleet's share of the real reef's priority."""
+    """The live layout; ``dynamic`` (a scenario with a hidden reef) names the fleet's
+    figures as the real reef's and adds the plot of its share of the real priority. Titles
+    are at most `MAX_TITLE` characters: a plot column is about 300 pixels wide on a 1400-pixel
+    screen, and a longer title is cut."""
     vehicles = rrb.Vertical(
         _series("Battery left (s)", "battery_s"),
         _series("T_diff (s)", "t_diff_s"),
         _series("Spots treated", "spots_treated"),
-        _series("Lag behind the mission clock (s)", "lag_s"),
+        _series("Lag behind clock (s)", "lag_s"),
     )
     fleet = rrb.Vertical(
-        _series("Fleet: spots cleared, duplicates", "fleet/spots"),
-        _series("Fleet: priority collected", "fleet/priority"),
-        *([_series("Fleet: share of the real reef's priority", "fleet/reef")] if dynamic else []),
+        _series("Real spots, duplicates" if dynamic else "Spots treated, duplicates",
+                "fleet/spots"),
+        _series("Real priority collected" if dynamic else "Priority collected",
+                "fleet/priority"),
+        *([_series("Share of the real reef", "fleet/reef")] if dynamic else []),
         _series("Acoustic messages", "fleet/messages", "fleet/drops/**"),
         _series("Acoustic bytes delivered", "fleet/bytes"),
     )

@@ -41,7 +41,8 @@ class Finds:
 @dataclass(frozen=True)
 class Vehicles:
     """Every located vehicle's position, heading and label (empty where the label is drawn
-    elsewhere: on a cluster's first vehicle, or on the station it is at)."""
+    elsewhere: on a cluster's first vehicle, or on the station it is at), and where each
+    label stands (`ground_station.labels.stack`: labels never pile up)."""
 
     t_s: float
     vids: tuple[str, ...]
@@ -49,6 +50,7 @@ class Vehicles:
     yaw_deg: np.ndarray  # (n,)
     labels: tuple[str, ...]
     colors: np.ndarray  # (n, 3) uint8
+    label_xy: np.ndarray | None = None  # (n, 2); None: at the vehicles
 
 
 @dataclass(frozen=True)
@@ -119,10 +121,13 @@ class LinkLine:
 
 @dataclass(frozen=True)
 class Links:
-    """The latest frame of every link that settled within the link time-to-live."""
+    """The latest frame of every link that settled within the link time-to-live, and where
+    each line's label stands (stacked, so labels of links between nearby vehicles do not
+    pile up; unlabelled lines' entries are unused)."""
 
     t_s: float
     lines: tuple[LinkLine, ...]
+    label_xy: np.ndarray | None = None  # (n, 2); None: at the lines' middles
 
 
 @dataclass(frozen=True)

@@ -79,21 +79,21 @@ class MapLayers:
     current: CurrentLayer | None = None
     # Dynamic scenarios: the hidden reef (`truth`), for the layer a user may switch on and the
     # fleet's share of the real priority; truth_of_spot: predicted spot id -> its truth spot.
-    truth_xy: np.ndarray = dc_field(default_factory=lambda: np.zeros((0, 2)))
+    truth_pos: np.ndarray = dc_field(default_factory=lambda: np.zeros((0, 3)))  # x, y, z
     truth_priority: np.ndarray = dc_field(default_factory=lambda: np.zeros(0))
     truth_of_spot: dict[int, int] = dc_field(default_factory=dict)
+    truth_unmapped: frozenset[int] = frozenset()  # truth spots the map missed
+    # the scenario's projection (``geo``: a projected CRS and the local origin in it), for
+    # longitude/latitude on the map (`ground_station.graticule`)
+    geo: tuple[str, tuple[float, float]] | None = None
+
+    @property
+    def truth_xy(self) -> np.ndarray:
+        return self.truth_pos[:, :2]
 
     @property
     def dynamic(self) -> bool:
         return len(self.truth_priority) > 0
-
-    def truth_near(self, xy: tuple[float, float], within_m: float) -> int | None:
-        """The truth spot nearest ``xy`` within ``within_m`` (a find's reported position)."""
-        if not self.dynamic:
-            return None
-        d = np.hypot(*(self.truth_xy - np.asarray(xy, float)).T)
-        i = int(np.argmin(d))
-        return i if d[i] <= within_m else None
 
     def spot_radius_m(self) -> np.ndarray:
         """Priority as size: linear from the smallest to the largest radius."""
@@ -210,7 +210,7 @@ def map_layers(doc: Mapping[str, Any]) -> MapLayers:
     except (KeyError, TypeError, ValueError) as exc:
         raise ScenarioError(f"scenario: {exc!r}") from None
     xy = xy.reshape(-1, 2)
-    truth_xy, truth_prio, truth_of_spot = _truth(doc.get("truth"), ids)
+    truth_pos, truth_prio, truth_of_spot, unmapped = _truth(doc.get("truth"), ids)
     forbidden = _polygons(doc.get("forbidden"), "forbidden")
     pmap = cots_map_of(doc)
     field_img = _field_image(pmap, forbidden) if pmap is not None else None
@@ -232,24 +232,44 @@ def map_layers(doc: Mapping[str, Any]) -> MapLayers:
         rendezvous=rendezvous,
         current=_current_layer(doc.get("current"), field_img.extent if field_img else bounds,
                                tuple(land)),
-        truth_xy=truth_xy,
+        truth_pos=truth_pos,
         truth_priority=truth_prio,
         truth_of_spot=truth_of_spot,
+        truth_unmapped=unmapped,
+        geo=_geo(doc.get("geo")),
     )
 
 
-def _truth(raw: Any, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict[int, int]]:
-    """The hidden reef's positions, priorities and which predicted spot each one is (``task``
-    is an index in ``tasks``, `reef_sim.truth`); empty without a ``truth`` section."""
+def _geo(raw: Any) -> tuple[str, tuple[float, float]] | None:
+    """The scenario's ``geo`` section (`cotsfleet.geo.frame`): CRS and origin, or None."""
     if not isinstance(raw, Mapping):
-        return np.zeros((0, 2)), np.zeros(0), {}
+        return None
+    try:
+        e0, n0 = (float(c) for c in raw["origin_m"])
+        crs = str(raw["crs"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ScenarioError(f"scenario: geo: {exc!r}") from None
+    if not (math.isfinite(e0) and math.isfinite(n0)):
+        raise ScenarioError("scenario: geo: origin_m must be finite")
+    return crs, (e0, n0)
+
+
+def _truth(raw: Any, ids: np.ndarray
+           ) -> tuple[np.ndarray, np.ndarray, dict[int, int], frozenset[int]]:
+    """The hidden reef's positions (x, y, z), priorities, which predicted spot each one is
+    (``task`` is an index in ``tasks``, `reef_sim.truth`) and which ones the map missed (no
+    task); empty without a ``truth`` section."""
+    if not isinstance(raw, Mapping):
+        return np.zeros((0, 3)), np.zeros(0), {}, frozenset()
     try:
         spots = list(raw.get("spots") or [])
-        xy = np.array([_xy(s["pos"], f"truth.spots[{i}].pos") for i, s in enumerate(spots)],
-                      float).reshape(-1, 2)
+        pos = np.array([(*_xy(s["pos"], f"truth.spots[{i}].pos"),
+                         float(s["pos"][2]) if len(s["pos"]) > 2 else 0.0)
+                        for i, s in enumerate(spots)], float).reshape(-1, 3)
         prio = np.array([float(s.get("priority", 0.0)) for s in spots], float)
         of_spot = {int(ids[int(s["task"])]): i for i, s in enumerate(spots)
                    if s.get("task") is not None and 0 <= int(s["task"]) < len(ids)}
+        unmapped = frozenset(i for i, s in enumerate(spots) if s.get("task") is None)
     except (KeyError, TypeError, ValueError) as exc:
         raise ScenarioError(f"scenario: truth: {exc!r}") from None
-    return xy, np.nan_to_num(prio), of_spot
+    return pos, np.nan_to_num(prio), of_spot, unmapped

@@ -72,6 +72,33 @@ GROUND_STATION_SERIES: dict[str, Rgb] = {
 _SEA_STOPS = np.array([[8, 24, 58], [18, 84, 120], [40, 150, 150], [200, 210, 150]], float)
 
 
+# Labels. The viewer writes a label in its entity's colour on a grey box of its own (Rerun's
+# `widgets.inactive.bg_fill`): measured (116, 118, 122) in the bundled web viewer (docs/img),
+# and about (44, 43, 43) in the dark desktop theme. On that grey, orange, red or green text
+# is unreadable (contrast 1.0-1.9), and no colour reaches 4.5 but white: so every label is
+# white, on an entity of its own where the geometry keeps its colour.
+LABEL_TEXT: Rgb = (255, 255, 255)
+LABEL_BACKGROUNDS: tuple[Rgb, ...] = ((116, 118, 122), (44, 43, 43))
+MIN_CONTRAST = 4.5  # WCAG 2.x, AA for normal text
+GRID: tuple[int, int, int, int] = (255, 255, 255, 70)  # grid lines: faint over the sea
+SCALE_BAR: Rgb = (255, 255, 255)
+
+
+def luminance(c: Rgb) -> float:
+    """WCAG 2.x relative luminance of an sRGB colour."""
+    def lin(v: int) -> float:
+        s = v / 255.0
+        return s / 12.92 if s <= 0.04045 else ((s + 0.055) / 1.055) ** 2.4
+    r, g, b = (lin(v) for v in c[:3])
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b
+
+
+def contrast(a: Rgb, b: Rgb) -> float:
+    """WCAG 2.x contrast ratio of two colours (1 to 21)."""
+    hi, lo = sorted((luminance(a), luminance(b)), reverse=True)
+    return (hi + 0.05) / (lo + 0.05)
+
+
 def vehicle_color(index: int) -> Rgb:
     return VEHICLE_COLORS[index % len(VEHICLE_COLORS)]
 

@@ -15,13 +15,18 @@ Entity layout (timeline ``sim_time``, seconds of simulation time)::
     map/reef                     static Points2D: the hidden reef (dynamic missions), hidden by
                                  default: switch it on to see what the fleet cannot
     map/finds                    Points2D: aggregations the map missed, from when reported
-    map/vehicles                 Points2D + Arrows2D: every vehicle's position, label, heading
-    map/vehicles/<id>/mark       red/orange cross when aborted, lost, silent or dead
+    map/grid                     static LineStrips2D + Points2D: a metre grid, or lines of
+                                 longitude and latitude when the scenario has a projection,
+                                 labelled on the bottom and left edges
+    map/scale                    static LineStrips2D + Points2D: a scale bar and its length
+    map/vehicles                 Points2D + Arrows2D: every vehicle's position and heading
+    map/vehicle_labels           Points2D: their labels (stacked where they would pile up)
+    map/vehicles/<id>/mark       red/orange cross when aborted, lost, silent or dead (+ label)
     map/trails                   LineStrips2D: each vehicle's recent stretch of trail
     map/trails/earlier           LineStrips2D: the finished stretches
     map/routes                   LineStrips2D: remaining planned routes to the rendezvous
     map/links                    LineStrips2D: the latest frame of each link (colour: SNR;
-                                 dropped: red, labelled with the reason and SNR)
+                                 dropped: red) + Points2D: a dropped one's reason and SNR
     series/<metric>              Scalars, a line per vehicle: battery_s, t_diff_s, spots_treated
     series/fleet/spots           Scalars: spots_cleared, duplicates
     series/fleet/priority        Scalars: priority_collected
@@ -31,12 +36,15 @@ Entity layout (timeline ``sim_time``, seconds of simulation time)::
     series/fleet/bytes           Scalars: bytes/delivered
     series/fleet/reef            Scalars: reef_share, the real reef's priority treated (0..1)
     series/ground_station/dropped/<why>  Scalars: samples refused (malformed), failed on (error)
-    events                       TextLog: claims, aborts, detections, takeovers, state changes
+    events                       TextLog: what happened, as sentences (`fleet_bus.event_text`)
     mission                      static TextDocument: run, scenario
     legend/...                   static swatches: vehicles, spot states, links, marks, current
+    legend/labels                static Points2D: the swatches' names
 
 What never changes on an entity (radii, draw order, label visibility) is logged once, static;
-the rows carry only what changes.
+the rows carry only what changes. Every label is white, on a point of its own (radius 0)
+where the geometry it names has a colour: the viewer writes a label in its entity's colour,
+unreadable on its grey label box (`palette.LABEL_TEXT`).
 """
 
 from __future__ import annotations
@@ -48,9 +56,20 @@ import rerun as rr
 
 from ground_station import palette
 from ground_station.drawing import (
-    Current, Drawing, Finds, Links, LogLine, Mark, Routes, SeriesRow, Spots, Stations, Trails,
+    Current,
+    Drawing,
+    Finds,
+    Links,
+    LogLine,
+    Mark,
+    Routes,
+    SeriesRow,
+    Spots,
+    Stations,
+    Trails,
     Vehicles,
 )
+from ground_station.graticule import graticule
 from ground_station.mapview import MapLayers
 
 TIMELINE = "sim_time"
@@ -67,6 +86,16 @@ CURRENT = "map/current"
 STATIONS = "map/stations"
 REEF = "map/reef"
 FINDS = "map/finds"
+VEHICLE_LABELS = "map/vehicle_labels"
+LABEL_ORDER = 60.0  # labels on top of everything
+
+
+def text_points(xy: np.ndarray | list, labels: list[str], draw_order: float = LABEL_ORDER
+                ) -> rr.Points2D:
+    """Labels alone: white text on points of no size (see the module's docstring)."""
+    return rr.Points2D(np.asarray(xy, float).reshape(-1, 2), labels=labels,
+                       colors=palette.LABEL_TEXT, radii=UI(0.0), show_labels=True,
+                       draw_order=draw_order)
 
 
 def vehicle_path(vid: str) -> str:
@@ -103,7 +132,10 @@ def log_map(rec: rr.RecordingStream, layers: MapLayers, live: bool = False) -> N
     if layers.forbidden:
         rec.log("map/forbidden", rr.LineStrips2D(
             [_closed(p) for p in layers.forbidden], colors=palette.FORBIDDEN, radii=UI(1.5),
-            labels=["forbidden"] * len(layers.forbidden), draw_order=-80.0), static=True)
+            draw_order=-80.0),
+            text_points([p.mean(axis=0) for p in layers.forbidden],
+                        ["forbidden"] * len(layers.forbidden)), static=True)
+    log_graticule(rec, layers)
     if layers.stations:
         rec.log(STATIONS, rr.Points2D.from_fields(
             positions=[s.xy for s in layers.stations], colors=palette.STATION, radii=UI(6.0),
@@ -123,6 +155,17 @@ def log_map(rec: rr.RecordingStream, layers: MapLayers, live: bool = False) -> N
                                   show_labels=False, draw_order=31.0), static=True)
 
 
+def log_graticule(rec: rr.RecordingStream, layers: MapLayers) -> None:
+    """The metre grid (or lines of longitude and latitude) and the scale bar, static."""
+    g = graticule(layers.bounds, layers.geo)
+    rec.log("map/grid", rr.LineStrips2D(list(g.lines), colors=palette.GRID, radii=UI(0.5),
+                                        draw_order=-88.0),
+            text_points(g.label_xy, list(g.labels)), static=True)
+    rec.log("map/scale", rr.LineStrips2D(list(g.scale), colors=palette.SCALE_BAR,
+                                         radii=UI(1.5), draw_order=55.0),
+            text_points(g.scale_label_xy, [g.scale_label]), static=True)
+
+
 def log_text(rec: rr.RecordingStream, markdown: str) -> None:
     rec.log("mission", rr.TextDocument(markdown, media_type="text/markdown"), static=True)
 
@@ -135,7 +178,7 @@ LEGEND_COLUMN_W = 6.0
 
 
 def legend_rows(layers: MapLayers) -> int:
-    return max(len(layers.vehicle_ids), 5, 5 + (layers.current is not None))
+    return max(len(layers.vehicle_ids), 5 + layers.dynamic, 5 + (layers.current is not None))
 
 
 def legend_bounds(layers: MapLayers) -> tuple[float, float, float, float]:
@@ -144,36 +187,44 @@ def legend_bounds(layers: MapLayers) -> tuple[float, float, float, float]:
 
 
 def log_legend(rec: rr.RecordingStream, layers: MapLayers) -> None:
+    """Swatches in the map's colours, their names in white beside them (`legend/labels`)."""
     vids = list(layers.vehicle_ids)
+    names: list[tuple[float, float, str]] = []
     rec.log("legend/vehicles", rr.Points2D(
         [[0.0, float(i)] for i in range(len(vids))],
-        colors=[palette.vehicle_color(i) for i in range(len(vids))], radii=UI(6.0),
-        labels=[f"{vid}, its planned spots" for vid in vids], show_labels=True),
+        colors=[palette.vehicle_color(i) for i in range(len(vids))], radii=UI(6.0)),
         static=True)
+    names += [(0.0, float(i), f"{vid}, its planned spots") for i, vid in enumerate(vids)]
     spots = [(palette.SPOT_PENDING, "spot (size: priority)"),
              (palette.SPOT_CLAIMED, "claimed spot"), (palette.SPOT_CLEARED, "cleared spot"),
              (palette.SPOT_ABANDONED, "abandoned spot"), (palette.STATION, "start, rendezvous")]
+    if layers.dynamic:
+        spots.insert(4, (palette.SPOT_EMPTY, "found empty"))
     rec.log("legend/spots", rr.Points2D(
         [[LEGEND_COLUMN_W, float(i)] for i in range(len(spots))], colors=[c for c, _ in spots],
-        radii=UI(6.0), labels=[n for _, n in spots], show_labels=True), static=True)
+        radii=UI(6.0)), static=True)
+    names += [(LEGEND_COLUMN_W, float(i), n) for i, (_, n) in enumerate(spots)]
     x = 2 * LEGEND_COLUMN_W
     links = [(palette.LINK_DELIVERED, f"frame, SNR {palette.LINK_SNR_STRONG_DB:.0f}+ dB"),
              (palette.LINK_WEAK, f"frame, SNR {palette.LINK_SNR_WEAK_DB:.0f} dB"),
              (palette.LINK_DROPPED, "dropped (why, SNR)")]
     rec.log("legend/links", rr.LineStrips2D(
         [[[x - 0.7, float(i)], [x + 0.7, float(i)]] for i in range(len(links))],
-        colors=[c for c, _ in links], radii=UI(2.0), labels=[n for _, n in links],
-        show_labels=True), static=True)
+        colors=[c for c, _ in links], radii=UI(2.0)), static=True)
+    names += [(x, float(i), n) for i, (_, n) in enumerate(links)]
     marks = [(palette.MARK_ABORTED, "aborted, dead, silent"), (palette.MARK_LOST, "declared lost")]
     rec.log("legend/marks", rr.LineStrips2D(
         [s for i in range(len(marks)) for s in _cross(x, 3.0 + i, 0.25)],
-        colors=[c for c, _ in marks for _ in range(2)], radii=UI(2.0),
-        labels=[n for _, n in marks for n in (n, "")], show_labels=True), static=True)
+        colors=[c for c, _ in marks for _ in range(2)], radii=UI(2.0)), static=True)
+    names += [(x, 3.0 + i, n) for i, (_, n) in enumerate(marks)]
     if layers.current is not None:
         rec.log("legend/current", rr.Arrows2D(
             origins=[[x - 0.7, 5.0]], vectors=[[1.4, 0.0]], colors=[palette.CURRENT],
-            radii=UI(1.5), labels=[f"current, up to {layers.current.peak_mps:.2f} m/s"],
-            show_labels=True), static=True)
+            radii=UI(1.5)), static=True)
+        names.append((x, 5.0, f"current, up to {layers.current.peak_mps:.2f} m/s"))
+    # the names under their swatches (the viewer writes a label below its anchor)
+    rec.log("legend/labels", text_points([[nx, ny + 0.05] for nx, ny, _ in names],
+                                         [n for _, _, n in names]), static=True)
 
 
 def _cross(x: float, y: float, s: float) -> list[list[tuple[float, float]]]:
@@ -209,15 +260,20 @@ class RerunDashboard:
             case Spots():
                 log("map/spots", rr.Points2D.from_fields(colors=d.colors))
             case Vehicles():
-                self._style(VEHICLES, rr.Points2D.from_fields(radii=UI(7.0), show_labels=True,
-                                                              draw_order=40.0),
+                self._style(VEHICLES, rr.Points2D.from_fields(radii=UI(7.0), draw_order=40.0),
                             rr.Arrows2D.from_fields(radii=UI(2.0), draw_order=41.0))
+                self._style(VEHICLE_LABELS, rr.Points2D.from_fields(
+                    radii=UI(0.0), colors=palette.LABEL_TEXT, show_labels=True,
+                    draw_order=LABEL_ORDER))
                 yaw = np.radians(d.yaw_deg)
-                log(VEHICLES, rr.Points2D.from_fields(positions=d.xy, colors=d.colors,
-                                                      labels=list(d.labels)),
+                log(VEHICLES, rr.Points2D.from_fields(positions=d.xy, colors=d.colors),
                     rr.Arrows2D.from_fields(
                         origins=d.xy, colors=d.colors,
                         vectors=self.arrow_m * np.column_stack([np.cos(yaw), np.sin(yaw)])))
+                shown = [i for i, text in enumerate(d.labels) if text]
+                where = d.xy if d.label_xy is None else d.label_xy
+                log(VEHICLE_LABELS, rr.Points2D.from_fields(
+                    positions=where[shown].reshape(-1, 2), labels=[d.labels[i] for i in shown]))
             case Finds():
                 self._style(FINDS, rr.Points2D.from_fields(radii=UI(6.0), colors=palette.FIND,
                                                            show_labels=False, draw_order=32.0))
@@ -252,15 +308,23 @@ class RerunDashboard:
             self.rec.log(path, rr.LineStrips2D.from_fields(strips=list(strips), colors=colors))
 
     def _links(self, d: Links) -> None:
-        self._style(LINKS, rr.LineStrips2D.from_fields(show_labels=True, draw_order=5.0))
+        self._style(LINKS, rr.LineStrips2D.from_fields(draw_order=5.0),
+                    rr.Points2D.from_fields(radii=UI(0.0), colors=palette.LABEL_TEXT,
+                                            show_labels=True, draw_order=LABEL_ORDER))
         if not d.lines:
             self.rec.log(LINKS, rr.Clear(recursive=False))
             return
+        labels = [line.label() for line in d.lines]
+        shown = [i for i, text in enumerate(labels) if text]
+        middles = np.array([[(a + b) / 2.0 for a, b in zip(line.a, line.b)]
+                            for line in d.lines], float).reshape(-1, 2)
+        where = middles if d.label_xy is None else np.asarray(d.label_xy, float)
         self.rec.log(LINKS, rr.LineStrips2D.from_fields(
             strips=[[line.a, line.b] for line in d.lines],
             colors=[palette.link_color(line.delivered, line.snr_db) for line in d.lines],
-            radii=[UI(1.0 if line.delivered else 1.5) for line in d.lines],
-            labels=[line.label() for line in d.lines]))
+            radii=[UI(1.0 if line.delivered else 1.5) for line in d.lines]),
+            rr.Points2D.from_fields(positions=where[shown].reshape(-1, 2),
+                                    labels=[labels[i] for i in shown]))
 
     def _current(self, d: Current) -> None:
         self._style(CURRENT, rr.Arrows2D.from_fields(colors=palette.CURRENT, radii=UI(1.0),
@@ -275,9 +339,10 @@ class RerunDashboard:
             return
         x, y = d.xy
         color = palette.MARK_LOST if d.kind == "lost" else palette.MARK_ABORTED
+        half = self.arrow_m * 0.6
         self.rec.log(path, rr.LineStrips2D(
-            _cross(x, y, self.arrow_m * 0.6), colors=color, radii=UI(3.0),
-            labels=[f"{d.vid} {d.kind.upper()}", ""], show_labels=True, draw_order=50.0))
+            _cross(x, y, half), colors=color, radii=UI(3.0), draw_order=50.0),
+            text_points([[x, y - half]], [f"{d.vid} {d.kind.upper()}"]))
 
     def _series(self, d: SeriesRow) -> None:
         path = f"{SERIES}/{d.entity}"

@@ -20,23 +20,38 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from fleet_bus.ledger import FleetLedger
+from fleet_bus.event_text import find_priority, level, sentence
+from fleet_bus.ledger import FIND_MATCH_M, FleetLedger, RealReef, SpotValues
 from fleet_bus.link import BROADCAST, LinkRecord
 from fleet_bus.telemetry import Event, Status, Truth, detail_position
 from ground_station import palette
 from ground_station.drawing import (
-    Current, Drawing, Finds, LinkLine, Links, LogLine, Mark, Routes, Scalar, SeriesRow, Spots,
-    Stations, Trails, Vehicles,
+    Current,
+    Drawing,
+    Finds,
+    LinkLine,
+    Links,
+    LogLine,
+    Mark,
+    Routes,
+    Scalar,
+    SeriesRow,
+    Spots,
+    Stations,
+    Trails,
+    Vehicles,
 )
 from ground_station.inputs import Record
+from ground_station.labels import box_of, stack
 from ground_station.mapview import MapLayers
 from ground_station.series import Policy, SeriesThinner
 from hfc_core.model.current import TIDE_STEP_S
 
 STOPPED = ("aborted", "dead")  # states in which a vehicle's route is abandoned
 FINISHED = ("home",)
-LOGGED_STATES = (*STOPPED, *FINISHED, "returning")  # transit <-> injecting would flood the log
-WARN_EVENTS = {"abort": "WARN", "lost": "WARN", "claim_lost": "WARN", "takeover": "INFO"}
+# State changes written to the log: transit <-> injecting would flood it, and an arrival is
+# the vehicle's own event ("auv1 reached its rendezvous")
+LOGGED_STATES = (*STOPPED, "returning")
 
 # How each series is thinned (`ground_station.series`): the battery falls steadily (drawn once a
 # minute), T_diff jumps at replans (drawn at once, with the corner), counts step when they
@@ -70,7 +85,6 @@ PER_VEHICLE_PLOTS = ("battery_s", "t_diff_s", "spots_treated", "lag_s")
 FLEET_PLOTS = {"spots_cleared": "fleet/spots", "duplicates": "fleet/spots",
                "priority_collected": "fleet/priority", "messages": "fleet/messages",
                "drops": "fleet/messages", "bytes": "fleet/bytes", "reef_share": "fleet/reef"}
-FIND_MATCH_M = 1.0  # a find's reported position (decimetres) names the truth spot this close
 
 
 def series_line(path: str) -> tuple[str, str]:
@@ -133,8 +147,9 @@ class FleetPicture:
         self.vehicles: dict[str, _Vehicle] = {}
         for vid in layers.vehicle_ids:
             self._vehicle(vid)
-        # what the fleet reported treating, folded as the mission report folds it
+        # what the fleet reported treating, folded and valued as the mission report does it
         self.ledger = FleetLedger()
+        self.values = spot_values(layers)
         self._spot_states: tuple[str, ...] = ()
         self.link_counts: Counter[str] = Counter()
         self._links: dict[tuple[str, str], LinkLine] = {}
@@ -156,7 +171,6 @@ class FleetPicture:
         }
         self.empty_ids: set[int] = set()  # predicted spots found empty
         self.finds: list[tuple[float, float, float]] = []  # (x, y, priority) as reported
-        self.reef_treated: set[int] = set()  # truth spots some vehicle treated
         self._plot_t: dict[str, float] = {}  # plot entity -> time of its last row
         self._station_labels: tuple[str, ...] = ()
         self._station_names: list[list[_Vehicle]] = [[] for _ in layers.stations]
@@ -232,20 +246,14 @@ class FleetPicture:
         return out
 
     def fleet_figures(self) -> dict[str, float]:
-        """Spots cleared, priority collected (each spot once) and duplicate treatments (the
-        mission report's definitions, from the same `FleetLedger`)."""
-        index = self.layers.spot_index
-        priority = sum(float(self.layers.spot_priority[index[t]]) for t in self.ledger.cleared
-                       if t in index)
-        out = {
-            "spots_cleared": float(len(self.ledger.cleared)),
-            "priority_collected": priority,
-            "duplicates": float(self.ledger.duplicates()),
-        }
+        """Spots treated, priority collected (each spot once) and duplicate treatments: the
+        mission report's figures (`FleetLedger.collected`), on the real reef in a dynamic
+        mission (with its share of the reef's priority), on the map's spots otherwise."""
+        c = self.ledger.collected(self.values)
+        out = {"spots_cleared": float(c.spots), "priority_collected": c.priority,
+               "duplicates": float(c.duplicates)}
         if self.layers.dynamic:
-            total = float(self.layers.truth_priority.sum()) or 1.0
-            out["reef_share"] = float(sum(self.layers.truth_priority[i]
-                                          for i in self.reef_treated)) / total
+            out["reef_share"] = c.priority / c.priority_of if c.priority_of > 0 else 0.0
         return out
 
     # -- records ------------------------------------------------------------------------------
@@ -304,7 +312,7 @@ class FleetPicture:
         out += self.offer(f"battery_s/{s.id}", s.t_s, s.battery_s)
         out += self.offer(f"t_diff_s/{s.id}", s.t_s, s.t_diff_s)
         out += self.offer(f"lag_s/{s.id}", s.t_s, s.lag_s)
-        self.ledger.add_treated(s.id, s.treated)  # cumulative: safe in any order
+        self.ledger.add_treated(s.id, s.treated, s.t_s)  # cumulative: safe in any order
         if v.status is not None and s.t_s < v.status.t_s:
             return out + self._treated_scalars(s.id)  # route and state: the newer status rules
         v.status = s
@@ -328,17 +336,9 @@ class FleetPicture:
 
     def _on_event(self, e: Event) -> list[Drawing]:
         v = self._vehicle(e.id)
-        text = f"{e.id} {e.kind}"
-        if e.tasks:
-            text += " spots " + ",".join(str(t) for t in e.tasks)
-        if e.peer:
-            text += f" peer {e.peer}"
-        if e.detail:
-            text += f": {e.detail}"
-        out: list[Drawing] = [LogLine(e.t_s, text, WARN_EVENTS.get(e.kind, "INFO"))]
+        out: list[Drawing] = [LogLine(e.t_s, sentence(e), level(e))]
+        self.ledger.add_event(e)  # treatments, find positions, empty spots
         if e.kind == "cleared":
-            self.ledger.add_treated(e.id, e.tasks)
-            self._reef_treated(e)
             out.append(self._spots())
             out += self._treated_scalars(e.id)
         elif e.kind == "empty":
@@ -347,7 +347,7 @@ class FleetPicture:
         elif e.kind == "found":
             out.append(self._found(e))
         elif e.kind == "abort":
-            out += self._set_state(v, "aborted", e.t_s)
+            out += self._set_state(v, "aborted", e.t_s, log=False)  # the event said it
         elif e.kind in ("lost", "revived") and e.peer:
             peer = self._vehicle(e.peer)
             if e.kind == "lost":
@@ -357,25 +357,13 @@ class FleetPicture:
             out += self._update_mark(peer, e.t_s)
         return out
 
-    def _reef_treated(self, e: Event) -> None:
-        """Which real spots a ``cleared`` event treated: a predicted spot by its truth, a
-        find by its reported position."""
-        for tid in e.tasks:
-            i = self.layers.truth_of_spot.get(tid)
-            if i is None and tid not in self.layers.spot_index:
-                xy = _fix(e.detail)
-                i = None if xy is None else self.layers.truth_near(xy, FIND_MATCH_M)
-            if i is not None:
-                self.reef_treated.add(i)
-
     def _found(self, e: Event) -> Finds | None:
         """A reported find joins the layer (the same aggregation reported twice: once)."""
         xy = _fix(e.detail)
         if xy is None or any(math.dist(xy, f[:2]) <= FIND_MATCH_M for f in self.finds):
             return None
-        words = e.detail.split()
-        rho = float(words[2]) if len(words) >= 3 and words[1] == "rho" else 0.0
-        self.finds.append((xy[0], xy[1], rho))
+        rho = find_priority(e.detail)
+        self.finds.append((xy[0], xy[1], 0.0 if rho is None else rho))
         arr = np.array(self.finds, float).reshape(-1, 3)
         return Finds(self.now_s, arr[:, :2], arr[:, 2],
                      tuple(f"find (priority {p:.0f})" for p in arr[:, 2].tolist()))
@@ -407,14 +395,14 @@ class FleetPicture:
 
     # -- derived ------------------------------------------------------------------------------
 
-    def _set_state(self, v: _Vehicle, state: str, t: float) -> list[Drawing]:
+    def _set_state(self, v: _Vehicle, state: str, t: float, log: bool = True) -> list[Drawing]:
         if state == v.state or (v.state in STOPPED and state not in STOPPED):
             return []  # an aborted vehicle stays aborted whatever a late sample says
         first = not v.state
         v.state = state
         self._dirty.add("vehicles")  # the state is in its label
         out: list[Drawing] = []
-        if state in LOGGED_STATES and (not first or state in STOPPED):
+        if log and state in LOGGED_STATES and (not first or state in STOPPED):
             level = "WARN" if state in STOPPED else "INFO"
             out.append(LogLine(t, f"{v.vid} is {state}", level))
         if state in STOPPED or state in FINISHED:
@@ -493,11 +481,17 @@ class FleetPicture:
     def _vehicles(self) -> Vehicles:
         located = [v for v in self.vehicles.values() if v.xy is not None]
         labels, self._station_names = self._labels(located)
+        xy = np.array([v.xy for v in located], float).reshape(-1, 2)
+        shown = [i for i, text in enumerate(labels) if text]
+        label_xy = xy.copy()
+        label_xy[shown] = stack(xy[shown], self._label_box())
         return Vehicles(
-            self.now_s, tuple(v.vid for v in located),
-            np.array([v.xy for v in located], float).reshape(-1, 2),
+            self.now_s, tuple(v.vid for v in located), xy,
             np.array([v.yaw_deg for v in located], float), labels,
-            np.array([v.color for v in located], np.uint8).reshape(-1, 3))
+            np.array([v.color for v in located], np.uint8).reshape(-1, 3), label_xy)
+
+    def _label_box(self) -> tuple[float, float]:
+        return box_of(self.layers.bounds, self.tuning.label_box)
 
     def _labels(self, located: list[_Vehicle]) -> tuple[tuple[str, ...], list[list[_Vehicle]]]:
         """One label per group of vehicles whose labels would overlap, on the group's first
@@ -599,7 +593,12 @@ class FleetPicture:
             return []
         self._links_changed = False
         self._links_next_s = now + self.tuning.link_window_s
-        return [Links(now, tuple(self._links[k] for k in sorted(self._links)))]
+        lines = tuple(self._links[k] for k in sorted(self._links))
+        middles = np.array([[(a + b) / 2.0 for a, b in zip(line.a, line.b)] for line in lines],
+                           float).reshape(-1, 2)
+        shown = [i for i, line in enumerate(lines) if line.label()]
+        middles[shown] = stack(middles[shown], self._label_box())
+        return [Links(now, lines, middles)]
 
     def _current(self, now: float, force: bool = False) -> list[Drawing]:
         """The water current: once when steady; a tidal one at the picture's time, redrawn
@@ -616,6 +615,19 @@ class FleetPicture:
             return []
         self._current_uv = uv
         return [Current(now, xy, uv, layer.scale_s, steady)]
+
+
+def spot_values(layers: MapLayers) -> SpotValues:
+    """What a treatment is worth on this map (`fleet_bus.ledger`): the map's priorities and,
+    in a dynamic mission, the real reef, so the dashboard's figures are the report's."""
+    predicted = {int(t): float(p) for t, p in zip(layers.spot_ids.tolist(),
+                                                  layers.spot_priority.tolist())}
+    if not layers.dynamic:
+        return SpotValues(predicted)
+    return SpotValues(predicted, RealReef(
+        priority=tuple(float(p) for p in layers.truth_priority.tolist()),
+        positions=tuple(tuple(float(c) for c in p) for p in layers.truth_pos.tolist()),
+        of_task=dict(layers.truth_of_spot), unmapped=frozenset(layers.truth_unmapped)))
 
 
 def _fix(detail: str) -> tuple[float, float] | None:

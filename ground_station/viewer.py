@@ -42,10 +42,41 @@ class SinkError(RuntimeError):
     says why in one line, for the operator."""
 
 
+def has_display() -> bool:
+    """Whether a desktop window can open here (an X11 or Wayland display is named)."""
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
 def default_viewer() -> str:
     """The desktop viewer when there is a display to show it on, else the web viewer."""
-    has_display = bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
-    return "native" if has_display and shutil.which("rerun") else "web"
+    return "native" if has_display() and shutil.which("rerun") else "web"
+
+
+def resolve_viewer(requested: str | None) -> tuple[str, str | None]:
+    """The viewer to open for ``requested`` (None: the default) and, when it differs from what
+    was asked, one line saying why: the native viewer needs a display and the ``rerun``
+    binary, and without them the web viewer is served instead (a dashboard in a browser
+    rather than none at all)."""
+    if requested is None:
+        return default_viewer(), None
+    if requested == "native" and not has_display():
+        return "web", ("no display (neither DISPLAY nor WAYLAND_DISPLAY is set): the native "
+                       "viewer cannot open a window, serving the web viewer instead")
+    if requested == "native" and not shutil.which("rerun"):
+        return "web", ("the native viewer needs the rerun binary of rerun-sdk, not on PATH: "
+                       "serving the web viewer instead")
+    return requested, None
+
+
+def check_rrd(path: Path | None) -> None:
+    """An ``.rrd`` goes into a directory that exists (SinkError otherwise, in one line): a
+    typo in the path is not a request to create directories."""
+    if path is None:
+        return
+    if path.is_dir():
+        raise SinkError(f"--rrd {path}: is a directory, not a file")
+    if not path.parent.is_dir():
+        raise SinkError(f"--rrd {path}: no such directory {str(path.parent)!r}")
 
 
 def free_port(host: str = "127.0.0.1") -> int:
@@ -244,7 +275,7 @@ def _open_sinks(out: Sinks, opts: ViewerOptions) -> None:
         rr.spawn(port=grpc_port, connect=False, hide_welcome_screen=True)
         sinks.append(rr.GrpcSink(grpc_uri("127.0.0.1", grpc_port)))
     if opts.rrd is not None:
-        opts.rrd.parent.mkdir(parents=True, exist_ok=True)
+        check_rrd(opts.rrd)
         sinks.append(rr.FileSink(opts.rrd))
     rec.set_sinks(*sinks, default_blueprint=out.blueprint)
     if opts.viewer == "web":

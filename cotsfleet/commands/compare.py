@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from cotsfleet.commands.checks import require_spots
 from cotsfleet.errors import UsageError
 from cotsfleet.io import read_scenario
 from cotsfleet.reporting.progress import Progress
@@ -103,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--best-time-limit must be a positive number of seconds, got {limit}")
     if args.scenario is not None:
         problem, _ = read_scenario(args.scenario)
+        require_spots(problem, args.scenario)
         print(f"{problem.name}: {problem.n_tasks} COTS spots, {problem.n_vehicles} AUVs")
     else:
         problem = problem_from_dict(paper_preset_doc(args.seed))

@@ -14,10 +14,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from cotsfleet.commands.checks import output_dir
 from cotsfleet.commands.mission_args import scenario_doc
 from cotsfleet.errors import UsageError
-from fleet_bus.credentials import (DEFAULT_VALID_DAYS, ROUTER_ID, CredentialsError,
-                                   linked_router_id, write_run_credentials)
+from fleet_bus.credentials import (
+    DEFAULT_VALID_DAYS,
+    ROUTER_ID,
+    CredentialsError,
+    linked_router_id,
+    write_run_credentials,
+)
 
 HELP = "make a mission's credentials beforehand (for --remote agents on other hosts)"
 
@@ -37,6 +43,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.dir.exists():
         raise UsageError(f"{args.dir} exists; credentials are made fresh for each mission")
+    output_dir(args.dir, "DIR")
     doc = scenario_doc(args.scenario, args.vehicles, args.seed)
     ids = [str(v["id"]) for v in doc.get("vehicles", []) if isinstance(v, dict)]
     try:

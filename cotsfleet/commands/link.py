@@ -19,6 +19,7 @@ from typing import Any
 
 from comms_sim.acoustics.budget import crossing_range_m
 from comms_sim.config import PRESETS, ChannelConfig, load_config
+from cotsfleet.commands.checks import output_file
 from cotsfleet.errors import UsageError
 
 HELP = "acoustic link budget of a modem: SNR and delivery at a range, or against range"
@@ -127,6 +128,7 @@ def summary_ranges(config: ChannelConfig, nbytes: int) -> dict[str, float]:
 
 
 def run(args: argparse.Namespace) -> int:
+    output_file(args.plot, "--plot")
     config = channel_from_args(args)
     name = str(args.config) if args.config is not None else args.modem
     nbytes = frame_bytes(args, config)

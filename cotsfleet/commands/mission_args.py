@@ -10,8 +10,9 @@ import json
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
+from cotsfleet.commands.checks import require_spots
 from cotsfleet.errors import UsageError
 from cotsfleet.mission.faults import Fault, FaultError, check_schedule, parse_faults
 from cotsfleet.mission.runner import horizon_of
@@ -23,6 +24,9 @@ from hfc_core.model.errors import ScenarioError
 from hfc_core.model.problem import Problem
 from reef_sim.truth import Reef, reef_from_doc
 
+if TYPE_CHECKING:
+    from cotsfleet.mission.report_model import MissionReport
+
 # The acoustic wire's limit (one byte of sender index) is the only cap on a fleet's size.
 MAX_PRESET_VEHICLES = MAX_VEHICLES
 
@@ -30,7 +34,8 @@ MAX_PRESET_VEHICLES = MAX_VEHICLES
 def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> None:
     p.add_argument("--scenario", type=Path,
                    help=f"scenario JSON or TOP file (default: {scenario_default})")
-    p.add_argument("--vehicles", type=int, help="fleet size of the default scenario")
+    p.add_argument("--vehicles", type=int, help="fleet size of the default scenario (a "
+                   "scenario file fixes its own: not with --scenario)")
     p.add_argument("--seed", type=int, default=0, help="mission seed (plans, channel)")
     p.add_argument("--loss", type=float, default=0.0, help="extra uniform link loss 0..1")
     p.add_argument("--config", type=Path, help="agent settings TOML (fleet_agent.config)")
@@ -70,7 +75,12 @@ class MissionArgs:
 
 def scenario_doc(path: Path | None, vehicles: int | None, seed: int) -> dict[str, Any]:
     """The mission's scenario document: a file (JSON scenario or TOP instance), else the
-    paper preset drawn with ``seed`` (``vehicles`` changes its fleet size)."""
+    paper preset drawn with ``seed`` (``vehicles`` changes its fleet size; a file's fleet is
+    the file's, so ``vehicles`` with a file is refused rather than silently ignored)."""
+    if path is not None and vehicles is not None:
+        raise UsageError(f"--vehicles {vehicles}: not with --scenario {path} (a scenario file "
+                         f"names its own vehicles; make one with cotsfleet scenario "
+                         f"--vehicles {vehicles})")
     if path is not None:
         from cotsfleet.io import read_scenario
         from hfc_core.formats.scenario import problem_to_dict
@@ -121,6 +131,7 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
     try:
         doc = scenario_doc(args.scenario, args.vehicles, seed)
         problem = problem_from_dict(doc)
+        require_spots(problem, args.scenario or "the scenario")
         reef = reef_from_doc(doc, problem)
         check_wire_limits(problem)
         faults = parse_faults(aborts=args.abort, kills=args.kill, restarts=args.restart,
@@ -140,26 +151,28 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
     return MissionArgs(problem, doc, seed, config, tuple(faults), args.loss, reef)
 
 
-def write_reports(report: dict[str, Any], path: Path, events: Sequence[Event],
+def write_reports(report: "MissionReport", path: Path, events: Sequence[Event],
                   scenario: dict[str, Any] | None) -> None:
-    """``report.json`` at ``path`` and, beside it, ``report.md`` with its figures; the summary
-    and its warnings on the terminal."""
-    from cotsfleet.mission.report import format_report
+    """``report.json`` at ``path`` and, beside it, its Markdown and figures named after it
+    (``r.json``: ``r.md``, ``r-*.png``); the summary, its notable events and its warnings
+    on the terminal."""
     from cotsfleet.reporting import write_report_bundle
     from cotsfleet.reporting.markdown import warnings
+    from cotsfleet.reporting.terminal import format_report
 
-    print(format_report(report))  # first: the terminal keeps it whatever the disk does
-    for line in warnings(report):
+    print(format_report(report, list(events)))  # first: the terminal keeps it whatever
+    for line in warnings(report):  # the disk does
         print(f"warning: {line}")
     try:  # a full disk: report.json first (the whole record), the figures after
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(report, indent=2), encoding="utf-8")
+        path.parent.mkdir(parents=True, exist_ok=True)  # checked by the command, or ours
+        path.write_text(json.dumps(report.to_dict(), indent=2), encoding="utf-8")
     except OSError as exc:
         print(f"report: {path} could not be written ({exc}); the summary above is what was "
               "saved", file=sys.stderr)
         return
     try:
-        bundle = write_report_bundle(report, path.parent, list(events), scenario)
+        bundle = write_report_bundle(report, path.parent, list(events), scenario,
+                                     stem=path.stem)
     except OSError as exc:
         print(f"report: {path}; report.md and its figures could not be written ({exc})",
               file=sys.stderr)

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from cotsfleet.commands.checks import output_file, require_spots
 from cotsfleet.errors import UsageError
 from cotsfleet.io import read_scenario
 from hfc_core.model.check import check_routes
@@ -183,17 +184,6 @@ def plan_document(problem: Problem, result: SolveResult) -> dict[str, Any]:
     return doc
 
 
-def check_output(path: str | None, flag: str) -> None:
-    """Fail before planning, not after, when an output file cannot be written."""
-    if path is None:
-        return
-    target = Path(path)
-    if target.is_dir():
-        raise UsageError(f"{flag} {path}: is a directory")
-    if not target.parent.is_dir():
-        raise UsageError(f"{flag} {path}: no such directory {str(target.parent)!r}")
-
-
 def write_json(path: str, doc: Any) -> None:
     try:
         Path(path).write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
@@ -203,9 +193,10 @@ def write_json(path: str, doc: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     for path, flag in ((args.json, "--json"), (args.geojson, "--geojson"), (args.rrd, "--rrd")):
-        check_output(path, flag)
+        output_file(path, flag)  # fail before planning, not after
     try:
         problem, doc = read_scenario(args.scenario)
+        require_spots(problem, args.scenario)
         problem = select_vehicles(problem, args.vehicles)
     except NotImplementedError as exc:  # e.g. land polygons before the land metric exists
         raise UsageError(f"{args.scenario}: {exc}") from None

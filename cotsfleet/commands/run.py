@@ -9,9 +9,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from cotsfleet.commands.checks import json_output, output_dir, output_file
 from cotsfleet.commands.mission_args import add_mission_arguments, mission_args, write_reports
 from cotsfleet.errors import UsageError
 from cotsfleet.mission.faults import FaultError
+from cotsfleet.mission.report_model import Clock, MissionReport
 
 HELP = "run an emulated mission: router, link emulator, one agent process per AUV, dashboard"
 
@@ -20,10 +22,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_mission_arguments(p, "the paper preset drawn with --seed")
     p.add_argument("--warp", type=float, default=60.0, help="simulated seconds per wall second")
     p.add_argument("--viewer", choices=("web", "native", "none"),
-                   help="Rerun viewer (default: native with a display, else web)")
+                   help="Rerun viewer (default: native with a display, else web; native "
+                   "without a display falls back to web, saying so)")
     p.add_argument("--rrd", type=Path, help="also record the mission to this .rrd file")
     p.add_argument("--web-port", type=int, default=9090, help="web viewer port")
-    p.add_argument("--report", type=Path, help="mission report JSON (default: in the run dir)")
+    p.add_argument("--report", type=Path, help="mission report JSON, R.json: R.md and R-*.png "
+                   "beside it (default: report.json in the run dir)")
     p.add_argument("--run-dir", type=Path, help="journals, logs, report (default: a new "
                    "directory under $TMPDIR/cotsfleet-runs)")
     p.add_argument("--listen", metavar="ENDPOINT", help="router endpoint, e.g. 0.0.0.0:7447 "
@@ -43,7 +47,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "size, 90 s up to 6 vehicles, 146 s for 12, 406 s for 24)")
     p.add_argument("--hold-viewer", action=argparse.BooleanOptionalAction,
                    help="keep the web dashboard up after the mission until Ctrl-C "
-                   "(default: yes for --viewer web in an interactive terminal)")
+                   "(default: yes for the web viewer when stdin is a terminal; a native "
+                   "viewer is a window of its own and stays until closed)")
 
 
 def _interrupt(*_: Any) -> None:
@@ -68,12 +73,14 @@ def _check_listen(endpoint: str) -> None:
 def run(args: argparse.Namespace) -> int:
     from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
     from cotsfleet.mission.runner import run_mission
+    from ground_station.viewer import resolve_viewer
 
-    viewer = args.viewer
-    if viewer is None:
-        from ground_station.viewer import default_viewer
-
-        viewer = default_viewer()
+    output_file(args.rrd, "--rrd")
+    json_output(args.report, "--report")
+    output_dir(args.run_dir, "--run-dir")
+    viewer, note = resolve_viewer(args.viewer)
+    if note:
+        print(f"cotsfleet run: {note}", file=sys.stderr)
     hold = args.hold_viewer
     if hold is None:
         hold = viewer == "web" and sys.stdin.isatty()
@@ -105,50 +112,88 @@ def run(args: argparse.Namespace) -> int:
     report = outcome.report
     path = args.report or backend.run_dir / "report.json"
     write_reports(report, path, backend.ledger.events, m.scenario)
-    if report.get("failure"):
-        print(f"cotsfleet run: the mission ended early: {report['failure']}", file=sys.stderr)
+    if report.failure:
+        print(f"cotsfleet run: the mission ended early: {report.failure}", file=sys.stderr)
     for line in run_warnings(report):
         print(f"cotsfleet run: warning: {line}", file=sys.stderr)
     backend.hold_viewer()
-    if report.get("interrupted"):
+    if report.interrupted:
         return 130
-    return 1 if report.get("failure") else 0
+    return 1 if report.failure else 0
 
 
-def run_warnings(report: dict) -> list[str]:
+def _number(value: object) -> float | None:
+    """A clock figure, or None where the report has none (absent, or null)."""
+    return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
+        else None
+
+
+def run_warnings(report: MissionReport) -> list[str]:
     """What an operator must not miss in a finished run: false alarms (a vehicle declared
     lost that was alive: its spots were taken, maybe twice), a clock that had to slow
     down (the machine could not keep up with the warp asked for), hosts whose wall clock
     stepped, holds that ran out, processes that died and what was done, and an event log
     a full disk cut short."""
     out = []
-    false = report.get("fleet", {}).get("false_alarms", 0)
+    false = report.fleet.false_alarms
     if false:
         out.append(f"{false} false alarm(s): a vehicle was declared lost while alive "
-                   f"({report['fleet'].get('duplicate_treatments', 0)} duplicate treatment(s))")
-    clock = report.get("clock") or {}
-    if clock.get("slowdowns"):
-        slowest = min(s["warp"] for s in clock["slowdowns"])
-        back = (f", back up to {clock['final_warp']:g} once every host kept up"
-                if clock.get("speedups") else "")
-        out.append(f"the machine could not keep up with warp {clock['warp']:g}: the clock "
-                   f"slowed to {slowest:g}{back} (effective {clock['effective_warp']}); "
-                   f"worst lag {clock['max_lag_s']} s")
-    for step_host, steps in (clock.get("wall_steps") or {}).items():
-        out.append(f"the wall clock of {step_host}'s host stepped {steps} time(s); mission "
-                   "time runs on the monotonic clock and did not move")
-    if clock.get("holds_expired"):
-        out.append(f"planning holds ran out of their allowance: {clock['holds_expired']} "
-                   f"(busy flags refused meanwhile: {clock.get('holds_refused', {})})")
+                   f"({report.collected.duplicates} duplicate treatment(s))")
+    clock = report.clock
+    if clock is not None:
+        out += _clock_warnings(clock)
     done = {"restart": "started again", "vehicle": "its vehicle was lost to the fleet",
             "report": "not started again", "end": "the mission ended"}
-    for c in report.get("crashes") or ():
-        out.append(f"t={c['t_s']:g} s: {c['why']} ({done.get(c['action'], c['action'])})")
-    saved = report.get("saved") or {}
-    if saved.get("events_error"):
-        out.append(f"events.jsonl holds {saved['events']} of {saved['events_total']} events: "
-                   f"{saved['events_error']}")
-    if clock.get("slots_late"):
-        out.append(f"{clock['slots_late']} frame(s) left a host after their TDMA slot; they "
+    for c in report.crashes or ():
+        out.append(f"t={c.t_s:g} s: {c.why} ({done.get(c.action, c.action)})")
+    saved = report.saved
+    if saved is not None and isinstance(saved.events_error, str):
+        out.append(f"events.jsonl holds {saved.events} of {saved.events_total} events: "
+                   f"{saved.events_error}")
+    if clock is not None and isinstance(clock.slots_late, int) and clock.slots_late:
+        out.append(f"{clock.slots_late} frame(s) left a host after their TDMA slot; they "
+                   "were dated at the slot and the relay placed them there")
+    return out
+
+
+def _clock_warnings(clock: Clock) -> list[str]:
+    out = []
+    if isinstance(clock.slowdowns, list) and clock.slowdowns:
+        slowest = min(s.warp for s in clock.slowdowns)
+        final = _number(clock.final_warp)
+        back = (f", back up to {final:g} once every host kept up"
+                if isinstance(clock.speedups, list) and clock.speedups and final is not None
+                else "")
+        out.append(f"the machine could not keep up with warp {clock.warp:g}: the clock "
+                   f"slowed to {slowest:g}{back} (effective {_number(clock.effective_warp)}); "
+                   f"worst lag {_number(clock.max_lag_s)} s")
+    for step_host, steps in (clock.wall_steps if isinstance(clock.wall_steps, dict)
+                             else {}).items():
+        out.append(f"the wall clock of {step_host}'s host stepped {steps} time(s); mission "
+                   "time runs on the monotonic clock and did not move")
+    if isinstance(clock.holds_expired, dict) and clock.holds_expired:
+        refused = clock.holds_refused if isinstance(clock.holds_refused, dict) else {}
+        out.append(f"planning holds ran out of their allowance: {clock.holds_expired} "
+                   f"(busy flags refused meanwhile: {refused})")
+    return out
+    if isinstance(clock.slowdowns, list) and clock.slowdowns:
+        slowest = min(s.warp for s in clock.slowdowns)
+        final = _number(clock.final_warp)
+        back = (f", back up to {final:g} once every host kept up"
+                if isinstance(clock.speedups, list) and clock.speedups and final is not None
+                else "")
+        out.append(f"the machine could not keep up with warp {clock.warp:g}: the clock "
+                   f"slowed to {slowest:g}{back} (effective {_number(clock.effective_warp)}); "
+                   f"worst lag {_number(clock.max_lag_s)} s")
+    for step_host, steps in (clock.wall_steps if isinstance(clock.wall_steps, dict)
+                             else {}).items():
+        out.append(f"the wall clock of {step_host}'s host stepped {steps} time(s); mission "
+                   "time runs on the monotonic clock and did not move")
+    if isinstance(clock.holds_expired, dict) and clock.holds_expired:
+        refused = clock.holds_refused if isinstance(clock.holds_refused, dict) else {}
+        out.append(f"planning holds ran out of their allowance: {clock.holds_expired} "
+                   f"(busy flags refused meanwhile: {refused})")
+    if isinstance(clock.slots_late, int) and clock.slots_late:
+        out.append(f"{clock.slots_late} frame(s) left a host after their TDMA slot; they "
                    "were dated at the slot and the relay placed them there")
     return out

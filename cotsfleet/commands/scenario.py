@@ -16,12 +16,12 @@ import numpy as np
 
 from cotsfleet.errors import UsageError
 from fleet_agent.wire import MAX_VEHICLES
+from hfc_core.formats.scenario import problem_from_dict
+from hfc_core.model.errors import ScenarioError
+from hfc_core.model.problem import Problem
 from reef_sim.scenarios.area import AreaParams, generate_area_doc, out_of_reach
 from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
 from reef_sim.scenarios.field import PAPER_PRESET, GeneratorParams, generate_doc
-from hfc_core.model.errors import ScenarioError
-from hfc_core.model.problem import Problem
-from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.truth import reef_from_doc
 
 if TYPE_CHECKING:
@@ -325,6 +325,12 @@ def check_dynamic_flags(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from cotsfleet.commands.checks import output_file
+
+    output_file(args.output, "-o")
+    if args.tasks is not None and args.tasks < 1:
+        raise UsageError(f"--tasks must be at least 1 (a scenario without a COTS spot has "
+                         f"nothing to plan), got {args.tasks}")
     check_dynamic_flags(args)
     if args.vehicles is not None and not 1 <= args.vehicles <= MAX_VEHICLES:
         raise UsageError(f"--vehicles must be 1..{MAX_VEHICLES} (the acoustic wire's limit: "

@@ -3,14 +3,20 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 import time
 from pathlib import Path
-from typing import Any, Callable, TextIO
+from typing import Any, Callable, Sequence, TextIO
 
+import msgspec
+
+from cotsfleet.commands.checks import json_output, output_dir
 from cotsfleet.commands.mission_args import add_mission_arguments, mission_args, write_reports
 from cotsfleet.errors import UsageError
+from cotsfleet.mission.report_model import FailedRun
+from fleet_bus.telemetry import Event
 
 HELP = "simulate missions in-process (deterministic, seeded; --runs N for Monte Carlo)"
 
@@ -26,10 +32,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="run the sweep on a Dask cluster: tcp://HOST:8786 names one; alone "
                         "(or 'local') starts a local cluster for the sweep (needs the "
                         "'cluster' extra)")
-    p.add_argument("--report", type=Path, help="report JSON (default: report.json, or "
-                   "runs.json for several runs, in --out)")
-    p.add_argument("--out", type=Path, help="where report.md, figures and JSON go (default: a "
-                   "new directory under $TMPDIR/cotsfleet-runs)")
+    p.add_argument("--report", type=Path, help="report JSON, R.json: R.md and R-*.png beside it "
+                   "(default: report.json, or sweep.json for several runs, in --out)")
+    p.add_argument("--out", type=Path, help="where the JSON, Markdown and figures go unless "
+                   "--report says (default: a new directory under $TMPDIR/cotsfleet-runs)")
 
 
 def _out_dir(args: argparse.Namespace) -> Path:
@@ -44,6 +50,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.runs < 1:
         raise UsageError("--runs must be >= 1")
+    json_output(args.report, "--report")
+    output_dir(args.out, "--out")
     out = _out_dir(args)
     if args.runs == 1:
         if args.jobs is not None or args.scheduler is not None:
@@ -56,8 +64,10 @@ def run(args: argparse.Namespace) -> int:
         result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
                           reef=m.reef, progress=progress)
         progress.close()
-        report = {**result.report, "wall_s": round(result.wall_s, 3)}
-        write_reports(report, args.report or out / "report.json", result.events, m.scenario)
+        report = msgspec.structs.replace(result.report, wall_s=round(result.wall_s, 3))
+        path = args.report or out / "report.json"
+        write_reports(report, path, result.events, m.scenario)
+        save_inputs(path, result.events, m.scenario)
         print(f"wall {result.wall_s:.2f} s")
         return 0
     return sweep(args, out)
@@ -110,6 +120,16 @@ def _clock(s: float) -> str:
     return f"{m}:{s:02d}"
 
 
+def save_inputs(path: Path, events: Sequence[Event], scenario: dict[str, Any]) -> None:
+    """``R-events.jsonl`` and ``R-scenario.json`` beside ``R.json``: what `cotsfleet report`
+    needs to draw the report again (a run keeps them in its run directory)."""
+    stem = path.parent / path.stem
+    with open(f"{stem}-events.jsonl", "w", encoding="utf-8") as fh:
+        for e in events:
+            fh.write(json.dumps(e.to_dict()) + "\n")
+    Path(f"{stem}-scenario.json").write_text(json.dumps(scenario), encoding="utf-8")
+
+
 def sweep(args: argparse.Namespace, out: Path) -> int:
     """``--runs N``: seeds seed..seed+N-1 here, on local workers or on a Dask cluster; one
     JSON and sweep.md, the same for the same seeds whatever ran them (docs/sweeps.md).
@@ -126,11 +146,11 @@ def sweep(args: argparse.Namespace, out: Path) -> int:
     outcome = run_sweep(spec, seeds, executor_for(args.runs, args.jobs, args.scheduler))
     if outcome.results:
         print(summary_table(outcome.results))
-        path = args.report or out / "runs.json"
+        path = args.report or out / "sweep.json"
         summary = write_outputs(outcome.results, path)
         print(f"reports: {path} and {summary}")
     print(f"{len(outcome.results)} of {outcome.seeds} run(s) in {outcome.wall_s:.1f} s wall "
           f"on {outcome.where}" + (" (interrupted)" if outcome.interrupted else ""))
     if outcome.interrupted:
         return 130
-    return 1 if any("error" in r for r in outcome.results) else 0
+    return 1 if any(isinstance(r, FailedRun) for r in outcome.results) else 0

@@ -24,6 +24,7 @@ from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault
 from cotsfleet.mission.intruder import NODE as INTRUDER
 from cotsfleet.mission.intruder import Intruder, intruder_rng
+from cotsfleet.mission.report_model import MissionReport, Oracle
 from cotsfleet.mission.runner import Outcome, horizon_of, run_mission
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
@@ -351,7 +352,7 @@ def mac_of(channel: ChannelConfig, fleet: Fleet, problem: Problem) -> ChannelCon
 
 @dataclass
 class SimResult:
-    report: dict[str, Any]
+    report: MissionReport
     wall_s: float
     backend: InProcessBackend
     ledger: FleetLedger = field(repr=False, default_factory=FleetLedger)
@@ -369,8 +370,8 @@ class SimResult:
         return {vid: s.agent for vid, s in self.backend.seats.items()}
 
     @property
-    def oracle(self) -> dict[str, Any]:
-        return self.report.get("oracle", {})
+    def oracle(self) -> Oracle | None:
+        return self.report.oracle
 
 
 def simulate(problem: Problem, config: AgentConfig | None = None, *,

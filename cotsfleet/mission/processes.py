@@ -58,7 +58,9 @@ from cotsfleet.mission.clock_control import ClockControl
 from cotsfleet.mission.disk import DiskReserve, cut_to_whole_lines
 from cotsfleet.mission.intake import Intake
 from cotsfleet.mission.intruder import Intruder, intruder_rng
+from cotsfleet.mission.report import values_of
 from cotsfleet.mission.transport import choose_transport
+from cotsfleet.reporting.terminal import progress_line
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_agent.radio import LATE_SHARE
 from fleet_bus import keys
@@ -75,6 +77,7 @@ from fleet_bus.query_limits import QueryGate, gate_queryable
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
 from fleet_agent.beliefs import find_ids
 from hfc_core.model.problem import Problem
+from reef_sim.truth import reef_from_doc
 
 POLL_WALL_S = 0.05
 ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
@@ -149,6 +152,7 @@ class ProcessBackend:
 
     def __init__(self, problem: Problem, scenario: dict[str, Any], seed: int,
                  opts: ProcessOptions, out: Callable[[str], None] = print) -> None:
+        self._values = values_of(problem, reef_from_doc(scenario, problem))
         self.problem, self.scenario, self.seed, self.opts, self.out = (
             problem, scenario, seed, opts, out)
         self.ids = [v.id for v in problem.vehicles]
@@ -627,15 +631,12 @@ class ProcessBackend:
             return
         self._next_progress = time.monotonic() + self.opts.progress_every_s
         now = self.now()
-        with self.intake.lock:
+        with self.intake.lock:  # the report's figures (`FleetLedger.collected`), so far
             statuses = dict(self.ledger.statuses)
-            cleared = set(self.ledger.cleared)
-        index = self.problem.task_index
-        prio = sum(self.problem.tasks[index[t]].priority for t in cleared if t in index)
+            collected = self.ledger.collected(self._values)
         parts = []
         for vid in self.ids:
             s = statuses.get(vid)
             state = "dead" if vid in self.dead else (s.state if s else "starting")
             parts.append(f"{vid} {state} {len(s.treated) if s else 0}")
-        self.out(f"t={now:6.0f} s  cleared {len(cleared)}/{self.problem.n_tasks}  "
-                 f"priority {prio:.0f}  | " + " | ".join(parts))
+        self.out(progress_line(now, collected, parts))

@@ -17,6 +17,7 @@ from typing import Any, Callable, Protocol, Sequence
 from comms_sim.stats import LinkCounts
 from cotsfleet.mission.faults import Fault, check_schedule
 from cotsfleet.mission.report import build_report
+from cotsfleet.mission.report_model import MissionReport
 from fleet_bus.ledger import FleetLedger
 from hfc_core.model.problem import Problem
 from reef_sim.truth import Reef
@@ -67,7 +68,7 @@ class Backend(Protocol):
 
 @dataclass
 class Outcome:
-    report: dict[str, Any]
+    report: MissionReport
     wall_s: float
 
 

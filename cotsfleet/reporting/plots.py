@@ -12,6 +12,7 @@ from typing import Any, Mapping, Sequence
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
+from cotsfleet.mission.report_model import FaultRow, Messages, MissionReport
 from cotsfleet.reporting.timeline import ACTIVITIES, Collected, Segment
 
 COLOURS = {"transit": "#9ecae1", "inspect": "#fdae6b", "inject": "#31a354", "idle": "#d9d9d9",
@@ -26,45 +27,53 @@ def _minutes(seconds: Sequence[float]) -> list[float]:
     return [s / 60.0 for s in seconds]
 
 
-def _fault_lines(ax: Any, faults: Sequence[Mapping[str, Any]]) -> None:
+def _fault_lines(ax: Any, faults: Sequence[FaultRow]) -> None:
     for f in faults:
-        if f.get("kind") in FAULT_MARKERS and f.get("t_s") is not None:
-            colour = FAULT_MARKERS[f["kind"]][1]
-            ax.axvline(float(f["t_s"]) / 60.0, color=colour, lw=0.8, ls=":")
-            ax.annotate(f"{f['kind']} {f.get('vid', '')}", (float(f["t_s"]) / 60.0, 1.0),
+        if f.kind in FAULT_MARKERS:
+            colour = FAULT_MARKERS[f.kind][1]
+            ax.axvline(f.t_s / 60.0, color=colour, lw=0.8, ls=":")
+            ax.annotate(f"{f.kind} {f.vid}", (f.t_s / 60.0, 1.0),
                         xycoords=("data", "axes fraction"), rotation=90, va="top", ha="right",
                         fontsize=7, color=colour)
 
 
-def priority_over_time(collected: Collected, report: Mapping[str, Any], path: Path) -> None:
-    """Cumulative priority (or spots, without a scenario) of the fleet and of each vehicle."""
+def priority_over_time(collected: Collected, report: MissionReport, path: Path) -> None:
+    """Cumulative priority (or spots, without a scenario) of the fleet and of each vehicle:
+    the report's figures (`MissionReport.collected`) step by step."""
     fig = Figure(figsize=(8, 4), dpi=DPI, layout="constrained")
     ax = fig.add_subplot()
-    fleet = report.get("fleet", {})
-    if collected.priority is not None:
-        series, what, total = collected.priority, "priority collected", fleet.get(
-            "priority_total")
+    c = report.collected
+    if collected.priority:
+        what = "real priority collected" if collected.on_reef else "priority collected"
+        total, total_name = c.priority_of, ("the real reef's total" if collected.on_reef
+                                            else "the scenario's total")
     else:
-        series, what, total = collected.spots, "spots cleared", fleet.get("spots_total")
-    ax.step(_minutes(collected.t_s), series, where="post", color="black", lw=2, label="fleet")
+        what, total, total_name = "spots treated", float(c.spots_of), "the scenario's spots"
+    end = max(report.end_s, collected.t_s[-1], 1.0)
+
+    def to_end(times: Sequence[float], values: Sequence[float]) -> tuple[list, list]:
+        # a step series holds its last value to the end (else its last step is a spike)
+        return _minutes([*times, end]), [*values, values[-1]]
+
+    ax.step(*to_end(collected.t_s, collected.values), where="post", color="black", lw=2,
+            label="fleet (each spot once)")
     for vid, (times, values) in sorted(collected.by_vehicle.items()):
-        ax.step(_minutes(times), values, where="post", lw=1, label=vid)
-    end = float(report.get("end_s", 0.0) or 0.0)
-    ax.set_xlim(0.0, max(end, collected.t_s[-1], 1.0) / 60.0)
+        ax.step(*to_end(times, values), where="post", lw=1, label=vid)
+    ax.set_xlim(0.0, end / 60.0)
     if total:
         ax.axhline(float(total), color="grey", ls="--", lw=1)
-        ax.annotate(f"scenario total {float(total):,.0f}", (0.99, float(total)), fontsize=8,
-                    color="grey", va="top", xycoords=("axes fraction", "data"), ha="right")
-    _fault_lines(ax, report.get("faults", []))
+        ax.annotate(f"{total_name} {float(total):,.0f}", (0.99, float(total)), fontsize=8,
+                    color="dimgrey", va="top", xycoords=("axes fraction", "data"), ha="right")
+    _fault_lines(ax, report.faults)
     ax.set_xlabel("mission time (min)")
     ax.set_ylabel(what)
-    ax.set_title(f"{what.capitalize()} over time (distinct spots, first clear)")
-    ax.legend(loc="lower right", fontsize=8)
+    ax.set_title(f"{what.capitalize()} over time")
+    ax.legend(loc="upper left", fontsize=8)
     ax.grid(alpha=0.3)
     fig.savefig(path)
 
 
-def vehicle_timeline(segments: Mapping[str, Sequence[Segment]], report: Mapping[str, Any],
+def vehicle_timeline(segments: Mapping[str, Sequence[Segment]], report: MissionReport,
                      path: Path) -> None:
     """One row per vehicle: what it was doing when, and the faults injected into it."""
     vids = list(segments)
@@ -80,14 +89,14 @@ def vehicle_timeline(segments: Mapping[str, Sequence[Segment]], report: Mapping[
                 ax.broken_barh(bars, (row - 0.35, 0.7), facecolors=COLOURS[activity],
                                edgecolors="white", linewidth=0.4)
                 present += [activity] if activity not in present else []
-    for f in report.get("faults", []):
-        if f.get("vid") in vids and f.get("kind") in FAULT_MARKERS:
-            marker, colour = FAULT_MARKERS[f["kind"]]
-            ax.plot(float(f["t_s"]) / 60.0, vids.index(f["vid"]), marker=marker, color=colour,
+    for f in report.faults:
+        if f.vid in vids and f.kind in FAULT_MARKERS:
+            marker, colour = FAULT_MARKERS[f.kind]
+            ax.plot(f.t_s / 60.0, vids.index(f.vid), marker=marker, color=colour,
                     markersize=9, markeredgewidth=2, ls="none")
     ax.set_yticks(range(len(vids)), vids)
     ax.set_ylim(len(vids) - 0.5, -0.5)
-    ax.set_xlim(0.0, max(float(report.get("end_s", 0.0) or 0.0), 1.0) / 60.0)
+    ax.set_xlim(0.0, max(report.end_s, 1.0) / 60.0)
     ax.set_xlabel("mission time (min)")
     ax.set_title("What each vehicle did (x kill, v abort, o restart)")
     shown = [a for a in ACTIVITIES if a in present]
@@ -104,16 +113,13 @@ def drop_reasons(counts: Mapping[str, Any]) -> dict[str, int]:
             if k not in ("sent", "delivered", "bytes") and isinstance(v, (int, float))}
 
 
-def link_deliveries(messages: Mapping[str, Any], link_timeline: Any, path: Path) -> None:
-    """Receptions per sender: delivered and dropped by reason; plus the ``link_timeline``
-    series when the report carries one (see `timeline_series`)."""
-    by_sender = dict(messages.get("link_by_sender") or {})
-    if not by_sender and messages.get("link"):
-        by_sender = {"all": messages["link"]}
-    series = timeline_series(link_timeline)
-    rows = 2 if series else 1
-    fig = Figure(figsize=(8, 3.2 * rows), dpi=DPI, layout="constrained")
-    ax = fig.add_subplot(rows, 1, 1)
+def link_deliveries(messages: Messages, path: Path) -> None:
+    """Receptions per sender: delivered and dropped by reason."""
+    by_sender = dict(messages.link_by_sender)
+    if not by_sender and messages.link:
+        by_sender = {"all": messages.link}
+    fig = Figure(figsize=(8, 3.2), dpi=DPI, layout="constrained")
+    ax = fig.add_subplot()
     senders = sorted(by_sender)
     reasons = sorted({r for row in by_sender.values() for r, n in drop_reasons(row).items()
                       if n})
@@ -129,28 +135,4 @@ def link_deliveries(messages: Mapping[str, Any], link_timeline: Any, path: Path)
     ax.set_title("Acoustic link: deliveries and drops by sender")
     ax.legend(fontsize=8, loc="lower right")
     ax.invert_yaxis()
-    if series:
-        ax2 = fig.add_subplot(rows, 1, 2)
-        t = _minutes(series.pop("t_s"))
-        for name, values in series.items():
-            ax2.plot(t, values, label=name, lw=1)
-        ax2.set_xlabel("mission time (min)")
-        ax2.set_title("Link over time")
-        ax2.legend(fontsize=8)
-        ax2.grid(alpha=0.3)
     fig.savefig(path)
-
-
-def timeline_series(raw: Any) -> dict[str, list[float]] | None:
-    """A ``link_timeline`` as ``{"t_s": [...], name: [...], ...}``: accepted either in that
-    columnar form or as a list of rows ``[{"t_s": ..., name: ...}, ...]``; None when absent
-    or unusable (non-numeric columns are left out)."""
-    if isinstance(raw, list) and raw and all(isinstance(r, Mapping) for r in raw):
-        keys = [k for k in raw[0] if all(isinstance(r.get(k), (int, float)) for r in raw)]
-        raw = {k: [float(r[k]) for r in raw] for k in keys}
-    if not isinstance(raw, Mapping) or not isinstance(raw.get("t_s"), list):
-        return None
-    n = len(raw["t_s"])
-    out = {k: [float(x) for x in v] for k, v in raw.items()
-           if isinstance(v, list) and len(v) == n and all(isinstance(x, (int, float)) for x in v)}
-    return out if "t_s" in out and len(out) > 1 and n else None

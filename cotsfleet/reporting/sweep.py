@@ -1,8 +1,10 @@
 """``sweep.md`` (and ``sweep.csv``): many missions summarised by medians and quartiles, with
 one row per seed, failed runs included.
 
-A run that failed is a dict with its ``seed`` and an ``error`` (and no ``fleet``); it is
-counted, listed with its error, and left out of the statistics.
+A run that failed is a `FailedRun` (its seed and error): it is counted, listed with its
+error, and left out of the statistics. The Markdown shows each run's wall time (the only
+figure that depends on the machine: `machine_free` leaves it out); the CSV holds only what
+depends on the seed, so the same seeds give the same CSV whatever ran them.
 """
 
 from __future__ import annotations
@@ -11,68 +13,62 @@ import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from cotsfleet.mission.report_model import FailedRun, MissionReport, RunResult
 from cotsfleet.reporting.plots import drop_reasons
 
 
-def _ratio(a: Any, b: Any) -> float:
-    try:
-        a, b = float(a), float(b)
-    except (TypeError, ValueError):
+def _ratio(a: float | None, b: float | None) -> float:
+    if a is None or b is None or not b > 0:
         return math.nan
-    return a / b if b > 0 else math.nan
+    return float(a) / float(b)
 
 
-def _slowest_detection(r: Mapping[str, Any]) -> float:
-    rows = (r.get("fleet", {}).get("detection_delay_s") or {}).values()
-    delays = [d for row in rows for d in row.values() if d is not None]
-    return max(delays) if delays else math.nan
+def _value(x: float | int | None) -> float:
+    return math.nan if x is None else float(x)
 
 
-def _get(*path: str) -> Callable[[Mapping[str, Any]], float]:
-    def get(r: Mapping[str, Any]) -> float:
-        value: Any = r
-        for key in path:
-            value = value.get(key) if isinstance(value, Mapping) else None
-        return float(value) if isinstance(value, (int, float)) else math.nan
-    return get
+def _link(r: MissionReport, key: str) -> float | None:
+    return None if r.messages.link is None else r.messages.link.get(key)
 
 
 @dataclass(frozen=True)
 class Metric:
     key: str
     label: str  # says what a ratio is a ratio to
-    value: Callable[[Mapping[str, Any]], float]
+    value: Callable[[MissionReport], float]
     digits: int = 0
 
 
 METRICS = (
-    Metric("spots_cleared", "spots cleared", _get("fleet", "spots_cleared")),
-    Metric("spots_share", "spots cleared / the scenario's spots",
-           lambda r: _ratio(_get("fleet", "spots_cleared")(r), _get("fleet", "spots_total")(r)),
-           3),
-    Metric("priority", "priority collected", _get("fleet", "priority"), 1),
-    Metric("priority_share", "priority collected / the scenario's total priority",
-           lambda r: _ratio(_get("fleet", "priority")(r), _get("fleet", "priority_total")(r)),
-           3),
+    Metric("spots_cleared", "spots treated (real spots in a dynamic mission)",
+           lambda r: float(r.collected.spots)),
+    Metric("spots_share", "spots treated / the scenario's spots (the real reef's)",
+           lambda r: _ratio(r.collected.spots, r.collected.spots_of), 3),
+    Metric("priority", "priority collected (real in a dynamic mission)",
+           lambda r: r.collected.priority, 1),
+    Metric("priority_share", "priority collected / the scenario's total (the real reef's)",
+           lambda r: _ratio(r.collected.priority, r.collected.priority_of), 3),
     Metric("duplicates", "duplicate treatments (spots injected twice)",
-           _get("fleet", "duplicate_treatments")),
-    Metric("vehicles_home", "vehicles home", _get("fleet", "vehicles_home")),
-    Metric("detect_s", "slowest detection of a lost vehicle, s", _slowest_detection, 1),
+           lambda r: float(r.collected.duplicates)),
+    Metric("vehicles_home", "vehicles home", lambda r: float(r.fleet.vehicles_home)),
+    Metric("detect_s", "slowest detection of a lost vehicle, s",
+           lambda r: _value(r.slowest_detection_s), 1),
     Metric("false_alarms", "false alarms (live vehicles declared lost)",
-           _get("fleet", "false_alarms")),
+           lambda r: float(r.fleet.false_alarms)),
     Metric("bytes_per_vehicle_minute", "bytes sent per vehicle per minute",
-           _get("messages", "bytes_per_vehicle_minute")),
+           lambda r: r.messages.bytes_per_vehicle_minute),
     Metric("delivered_share", "link deliveries / receptions",
-           lambda r: _ratio(_get("messages", "link", "delivered")(r),
-                            _get("messages", "link", "sent")(r)), 3),
+           lambda r: _ratio(_link(r, "delivered"), _link(r, "sent")), 3),
     Metric("oracle_ratio", "survivors' priority after a kill / a perfect-information "
-           "replan's (note 1)", _get("oracle", "ratio"), 3),
-    Metric("wall_s", "wall time, s", _get("wall_s"), 2),
+           "replan's (note 1)", lambda r: _value(r.oracle.ratio if r.oracle else None), 3),
+    Metric("wall_s", "wall time of the mission on this machine, s",
+           lambda r: _value(r.wall_s), 2),
 )
+MACHINE_METRICS = ("wall_s",)  # what depends on the machine, not on the seed
 
 
 ORACLE_NOTE = (
@@ -83,15 +79,15 @@ ORACLE_NOTE = (
     "its routes can beat it: ratios above 1 are possible and not an error.")
 
 
-def failed(report: Mapping[str, Any]) -> bool:
-    return "error" in report or not isinstance(report.get("fleet"), Mapping)
+def failed(run: RunResult) -> bool:
+    return isinstance(run, FailedRun)
 
 
 def _fmt(value: float, digits: int) -> str:
     return "-" if math.isnan(value) else f"{value:,.{digits}f}"
 
 
-def statistics_rows(reports: Sequence[Mapping[str, Any]]) -> list[list[str]]:
+def statistics_rows(reports: Sequence[MissionReport]) -> list[list[str]]:
     """Per metric: median, quartiles, min-max and how many runs had a value."""
     rows = []
     for m in METRICS:
@@ -111,10 +107,6 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[Any]]) -> list[str]:
     return out + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows] + [""]
 
 
-def _seed(r: Mapping[str, Any]) -> Any:
-    return r.get("seed", "-")
-
-
 def _seed_list(seeds: Sequence[Any]) -> str:
     return ", ".join(map(str, seeds)) if len(seeds) <= 12 else f"{seeds[0]} .. {seeds[-1]}"
 
@@ -125,58 +117,61 @@ def _csv_value(value: float) -> Any:
     return int(value) if float(value).is_integer() else value
 
 
-def write_sweep_summary(reports: Sequence[Mapping[str, Any]], out_dir: Path) -> Path:
-    """Write ``sweep.md`` and ``sweep.csv`` into ``out_dir``; return the Markdown's path."""
+def write_sweep_summary(runs: Sequence[RunResult], out_dir: Path, stem: str = "sweep") -> Path:
+    """Write ``stem.md`` and ``stem.csv`` into ``out_dir``; return the Markdown's path."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    ok = [r for r in reports if not failed(r)]
-    bad = [r for r in reports if failed(r)]
-    scenarios = sorted({str(r.get("scenario")) for r in ok if r.get("scenario")})
-    modes = sorted({str(r.get("mode")) for r in ok if r.get("mode")})
-    seeds = [_seed(r) for r in reports]
-    lines = [f"# Sweep: {len(reports)} run(s)", "",
+    ok = [r for r in runs if isinstance(r, MissionReport)]
+    bad = [r for r in runs if isinstance(r, FailedRun)]
+    scenarios = sorted({r.scenario for r in ok})
+    modes = sorted({r.mode for r in ok})
+    lines = [f"# Sweep: {len(runs)} run(s)", "",
              f"- **Scenarios:** {', '.join(scenarios) or '-'}; mode {', '.join(modes) or '-'}",
-             f"- **Seeds:** {_seed_list(seeds)}",
-             f"- **Failed runs:** {len(bad)} of {len(reports)}"]
-    faults = {(f.get("kind"), f.get("vid"), f.get("t_s")) for r in ok for f in r.get("faults", [])}
+             f"- **Seeds:** {_seed_list([r.seed for r in runs])}",
+             f"- **Failed runs:** {len(bad)} of {len(runs)}"]
+    faults = {(f.kind, f.vid, f.t_s) for r in ok for f in r.faults}
     if faults:
-        lines.append("- **Faults:** " + ", ".join(f"{k} {v or ''}@{t:g}".replace(" @", "@")
+        lines.append("- **Faults:** " + ", ".join(f"{k} {v}@{t:g}".replace(" @", "@")
                                                   for k, v, t in sorted(faults, key=str)))
     lines.append("")
     lines += [f"## Over the {len(ok)} successful run(s)", ""]
     if ok:
         lines += ["Median, interquartile range (25th - 75th percentile) and range; the last "
                   "column counts the runs that had the figure (a detection delay needs a lost "
-                  "vehicle, the oracle ratio a kill).", ""]
+                  "vehicle, the oracle ratio a kill, a wall time a run that measured it).", ""]
         lines += _table(["figure", "median", "quartiles", "min - max", "runs"],
                         statistics_rows(ok))
-        if any(not math.isnan(_get("oracle", "ratio")(r)) for r in ok):
+        if any(r.oracle is not None for r in ok):
             lines += [ORACLE_NOTE, ""]
     else:
         lines += ["No run succeeded.", ""]
     lines += ["## Per seed", ""]
-    rows = [_row(r) for r in reports]
-    header = ["seed", "cleared", "priority", "dup", "home", "detect s", "false alarms",
+    rows = [_row(r) for r in runs]
+    header = ["seed", "treated", "priority", "dup", "home", "detect s", "false alarms",
               "B/veh/min", "delivered", "oracle", "wall s", "error"]
     lines += _table(header, [[row[h] for h in header] for row in rows])
-    lines += ["Columns: cleared = spots cleared of the scenario's; priority = collected "
-              "(share of the scenario's total); delivered = link deliveries / receptions; "
-              "oracle = survivors' priority after a kill / a perfect-information replan's.", ""]
-    md = out_dir / "sweep.md"
+    lines += ["Columns: treated = spots treated of the scenario's (real spots of the real reef "
+              "in a dynamic mission); priority = collected (share of the total); delivered = "
+              "link deliveries / receptions; oracle = survivors' priority after a kill / a "
+              "perfect-information replan's; wall s = the mission's wall time on the machine "
+              "that ran it (the only figure that depends on the machine).", ""]
+    md = out_dir / f"{stem}.md"
     md.write_text("\n".join(lines), encoding="utf-8")
-    _write_csv(out_dir / "sweep.csv", reports)
+    _write_csv(out_dir / f"{stem}.csv", runs)
     return md
 
 
-def _row(r: Mapping[str, Any]) -> dict[str, str]:
-    if failed(r):
-        blank = dict.fromkeys(["cleared", "priority", "dup", "home", "detect s", "false alarms",
-                               "B/veh/min", "delivered", "oracle", "wall s"], "-")
-        error = str(r.get("error", "no fleet figures in the report")).replace("|", "/")
-        return {"seed": str(_seed(r)), **blank, "error": error.splitlines()[0][:160]}
+def _row(r: RunResult) -> dict[str, str]:
+    if isinstance(r, FailedRun):
+        blank = dict.fromkeys(["treated", "priority", "dup", "home", "detect s",
+                               "false alarms", "B/veh/min", "delivered", "oracle"], "-")
+        error = r.error.replace("|", "/")
+        return {"seed": str(r.seed), **blank, "wall s": "-",
+                "error": (error.splitlines() or [""])[0][:160]}
     v = {m.key: m.value(r) for m in METRICS}
-    return {"seed": str(_seed(r)),
-            "cleared": f"{_fmt(v['spots_cleared'], 0)}/{_fmt(_get('fleet', 'spots_total')(r), 0)}",
+    c = r.collected
+    return {"seed": str(r.seed),
+            "treated": f"{c.spots}/{c.spots_of}" + (" real" if c.on_reef else ""),
             "priority": f"{_fmt(v['priority'], 0)} ({_fmt(100 * v['priority_share'], 0)} %)",
             "dup": _fmt(v["duplicates"], 0), "home": _fmt(v["vehicles_home"], 0),
             "detect s": _fmt(v["detect_s"], 1), "false alarms": _fmt(v["false_alarms"], 0),
@@ -185,16 +180,37 @@ def _row(r: Mapping[str, Any]) -> dict[str, str]:
             "wall s": _fmt(v["wall_s"], 2), "error": ""}
 
 
-def _write_csv(path: Path, reports: Sequence[Mapping[str, Any]]) -> None:
+def _write_csv(path: Path, runs: Sequence[RunResult]) -> None:
+    metrics = [m for m in METRICS if m.key not in MACHINE_METRICS]
     with open(path, "w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
-        writer.writerow(["seed", "scenario", *[m.key for m in METRICS], "drops", "error"])
-        for r in reports:
-            if failed(r):
-                writer.writerow([_seed(r), r.get("scenario", ""), *[""] * len(METRICS), "",
-                                 r.get("error", "")])
+        writer.writerow(["seed", "scenario", *[m.key for m in metrics], "drops", "error"])
+        for r in runs:
+            if isinstance(r, FailedRun):
+                writer.writerow([r.seed, "", *[""] * len(metrics), "", r.error])
                 continue
-            drops = drop_reasons(r.get("messages", {}).get("link") or {})
-            writer.writerow([_seed(r), r.get("scenario", ""),
-                             *[_csv_value(m.value(r)) for m in METRICS],
+            drops = drop_reasons(r.messages.link or {})
+            writer.writerow([r.seed, r.scenario, *[_csv_value(m.value(r)) for m in metrics],
                              ";".join(f"{k}={n}" for k, n in drops.items() if n), ""])
+
+
+def machine_free(markdown: str) -> str:
+    """A summary's Markdown without what depends on the machine (the wall-time row of the
+    statistics and the ``wall s`` column of the per-seed table): the same for the same seeds
+    whatever ran them."""
+    wall = next(m.label for m in METRICS if m.key == "wall_s")
+    out, column = [], None
+    for line in markdown.splitlines():
+        if line.startswith(f"| {wall} |"):
+            continue
+        cells = line.split(" | ")
+        if line.startswith("| seed |") and "wall s" in cells:
+            column = cells.index("wall s")
+        if column is not None and line.startswith("|---"):
+            line = line.replace("---|", "", 1)
+        elif column is not None and line.startswith("|"):
+            line = " | ".join(cells[:column] + cells[column + 1:])
+        elif not line.startswith("|"):
+            column = None
+        out.append(line)
+    return "\n".join(out)

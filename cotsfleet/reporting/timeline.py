@@ -1,16 +1,22 @@
 """What the event log says happened when: pure functions over a report and its events.
 
-Events are dicts with ``t_s, id, kind, tasks, peer, detail`` (`fleet_bus.telemetry.Event`).
-A ``cleared`` event is stamped when an injection ends, so the injection began ``service_s``
+Events are `fleet_bus.telemetry.Event` records (``events.jsonl`` holds one per line). A
+``cleared`` event is stamped when an injection ends, so the injection began ``service_s``
 earlier; a ``replan`` event with detail ``home`` marks the arrival at the rendezvous; kills and
 restarts come from the report's ``faults``. Spot priorities and injection times come from the
 scenario when it is given; without it, injections are assumed to last `DEFAULT_SERVICE_S`.
+What the fleet collected over time is `fleet_bus.ledger.cumulative`: the figures of the
+report, step by step.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, Mapping, Sequence
+
+from cotsfleet.mission.report_model import FaultRow, MissionReport, VehicleRow
+from fleet_bus.ledger import FleetLedger, SpotValues, cumulative
+from fleet_bus.telemetry import Event
 
 ACTIVITIES = ("transit", "inspect", "inject", "idle", "down")
 DEFAULT_SERVICE_S = 75.0  # the middle of the paper's U(60, 90) s (eq. 2)
@@ -19,31 +25,36 @@ DEFAULT_INSPECT_S = 20.0
 
 @dataclass(frozen=True)
 class Spots:
-    """Priority and injection time per scenario task id (empty without a scenario)."""
+    """Per scenario task id its injection time, each vehicle's battery, the inspection time
+    and what each treatment is worth (`values`; None without a scenario)."""
 
-    priority: Mapping[int, float] = field(default_factory=dict)
     service_s: Mapping[int, float] = field(default_factory=dict)
     battery_s: Mapping[str, float] = field(default_factory=dict)
     inspect_s: float = DEFAULT_INSPECT_S
+    values: SpotValues | None = None
 
     @property
     def known(self) -> bool:
-        return bool(self.priority)
+        return self.values is not None
 
     @staticmethod
     def of_scenario(doc: Mapping[str, Any] | None) -> "Spots":
+        """The figures of a scenario document (raises `ScenarioError` for a bad one)."""
         if not isinstance(doc, Mapping):
             return Spots()
-        tasks = [t for t in doc.get("tasks", []) if isinstance(t, Mapping) and "id" in t]
-        truth = doc.get("truth") if isinstance(doc.get("truth"), Mapping) else {}
+        from cotsfleet.mission.report import values_of
+        from hfc_core.formats.scenario import problem_from_dict
+        from reef_sim.truth import reef_from_doc
+
+        problem = problem_from_dict(doc)
+        reef = reef_from_doc(doc, problem)
         return Spots(
-            priority={t["id"]: float(t.get("priority", 0.0)) for t in tasks},
-            service_s={t["id"]: float(t.get("service_s", DEFAULT_SERVICE_S)) for t in tasks},
-            battery_s={v["id"]: float(v["battery_s"]) for v in doc.get("vehicles", [])
-                       if isinstance(v, Mapping) and "id" in v and "battery_s" in v},
+            service_s={t.id: float(t.service_s) for t in problem.tasks},
+            battery_s={v.id: float(v.battery_s) for v in problem.vehicles},
             # Without a truth section the map is exact and nothing is inspected
             # (`reef_sim.truth.exact_reef`); with one, its camera's figure.
-            inspect_s=float(truth.get("inspect_s", DEFAULT_INSPECT_S)) if truth else 0.0,
+            inspect_s=float(reef.inspect_s) if reef is not None else 0.0,
+            values=values_of(problem, reef),
         )
 
 
@@ -58,60 +69,53 @@ class Segment:
         return self.end_s - self.start_s
 
 
-def _events_of(events: Iterable[Mapping[str, Any]], vid: str, kind: str) -> list[Mapping]:
-    return sorted((e for e in events if e.get("id") == vid and e.get("kind") == kind),
-                  key=lambda e: float(e.get("t_s", 0.0)))
+def _events_of(events: Sequence[Event], vid: str, kind: str) -> list[Event]:
+    return sorted((e for e in events if e.id == vid and e.kind == kind), key=lambda e: e.t_s)
 
 
-def down_intervals(report: Mapping[str, Any], vid: str, end_s: float) -> list[tuple[float, float]]:
+def down_intervals(faults: Sequence[FaultRow], vid: str, end_s: float
+                   ) -> list[tuple[float, float]]:
     """When ``vid``'s agent was dead: from each kill to the next restart (or the end)."""
-    faults = sorted((f for f in report.get("faults", []) if f.get("vid") == vid),
-                    key=lambda f: float(f.get("t_s", 0.0)))
     out, since = [], None
-    for f in faults:
-        t = float(f.get("t_s", 0.0))
-        if f.get("kind") == "kill" and since is None:
-            since = t
-        elif f.get("kind") == "restart" and since is not None and t > since:
-            out.append((since, min(t, end_s)))
+    for f in sorted((f for f in faults if f.vid == vid), key=lambda f: f.t_s):
+        if f.kind == "kill" and since is None:
+            since = f.t_s
+        elif f.kind == "restart" and since is not None and f.t_s > since:
+            out.append((since, min(f.t_s, end_s)))
             since = None
     if since is not None and since < end_s:
         out.append((since, end_s))
     return out
 
 
-def home_time(report: Mapping[str, Any], events: Sequence[Mapping[str, Any]],
-              vehicle: Mapping[str, Any]) -> float | None:
+def home_time(events: Sequence[Event], vehicle: VehicleRow) -> float | None:
     """When the vehicle reached its rendezvous: its ``home`` event, else (for a vehicle the
     report says is home) its battery use, which stops at recovery."""
-    homes = [e for e in _events_of(events, vehicle.get("id"), "replan")
-             if e.get("detail") == "home"]
+    homes = [e for e in _events_of(events, vehicle.id, "replan") if e.detail == "home"]
     if homes:
-        return float(homes[-1]["t_s"])
-    if vehicle.get("home") and vehicle.get("battery_used_s") is not None:
-        return float(vehicle["battery_used_s"])
+        return homes[-1].t_s
+    if vehicle.home:
+        return vehicle.battery_used_s
     return None
 
 
-def vehicle_segments(report: Mapping[str, Any], events: Sequence[Mapping[str, Any]],
+def vehicle_segments(report: MissionReport, events: Sequence[Event],
                      spots: Spots) -> dict[str, list[Segment]]:
     """Per vehicle, ``[0, end_s]`` cut into transit, inspect, inject, idle and down."""
-    end_s = float(report.get("end_s", 0.0) or 0.0)
+    end_s = report.end_s
     out: dict[str, list[Segment]] = {}
-    for vehicle in report.get("vehicles", []):
-        vid = vehicle.get("id")
-        busy: list[Segment] = [Segment(a, b, "down") for a, b in down_intervals(report, vid,
-                                                                                 end_s)]
+    for vehicle in report.vehicles:
+        vid = vehicle.id
+        busy: list[Segment] = [Segment(a, b, "down")
+                               for a, b in down_intervals(report.faults, vid, end_s)]
         for e in _events_of(events, vid, "cleared"):
-            t = float(e["t_s"])
-            for task in e.get("tasks", []) or []:
+            for task in e.tasks:
                 service = spots.service_s.get(task, DEFAULT_SERVICE_S)
-                busy.append(Segment(max(0.0, t - service), t, "inject"))
-        for e in (x for x in events if x.get("id") == vid
-                  and (str(x.get("kind", "")).startswith("inspect") or x.get("kind") == "empty")):
-            t = float(e["t_s"])
-            busy.append(Segment(max(0.0, t - spots.inspect_s), t, "inspect"))
-        home = home_time(report, events, vehicle)
+                busy.append(Segment(max(0.0, e.t_s - service), e.t_s, "inject"))
+        for e in (x for x in events if x.id == vid
+                  and (x.kind.startswith("inspect") or x.kind == "empty")):
+            busy.append(Segment(max(0.0, e.t_s - spots.inspect_s), e.t_s, "inspect"))
+        home = home_time(events, vehicle)
         if home is not None and home < end_s:
             busy.append(Segment(home, end_s, "idle"))
         out[vid] = _fill(busy, end_s)
@@ -148,33 +152,25 @@ def time_shares(segments: Sequence[Segment]) -> dict[str, float]:
 
 @dataclass(frozen=True)
 class Collected:
-    """The fleet's cumulative collection: at ``t_s[i]`` it had cleared ``spots[i]`` distinct
-    spots worth ``priority[i]`` (None without a scenario), and ``by_vehicle`` the same per
-    vehicle (first clear of a spot counts, so the sum over vehicles is the fleet's)."""
+    """The fleet's cumulative collection, step by step: at ``t_s[i]`` it had collected
+    ``values[i]`` (priority with a scenario, else distinct spots treated), and ``by_vehicle``
+    the same per vehicle. The last values are the report's (`FleetLedger.collected`)."""
 
     t_s: list[float]
-    spots: list[int]
-    priority: list[float] | None
+    values: list[float]
     by_vehicle: dict[str, tuple[list[float], list[float]]]
+    priority: bool  # values are priorities (else spot counts)
+    on_reef: bool  # on the real reef (else the map's)
 
 
-def collected_over_time(events: Sequence[Mapping[str, Any]], spots: Spots) -> Collected:
-    cleared = sorted((e for e in events if e.get("kind") == "cleared"),
-                     key=lambda e: float(e.get("t_s", 0.0)))
-    seen: set[int] = set()
-    t_s, count, priority = [0.0], [0], [0.0]
-    by_vehicle: dict[str, tuple[list[float], list[float]]] = {}
-    for e in cleared:
-        for task in e.get("tasks", []) or []:
-            if task in seen:
-                continue  # a duplicate treatment collects nothing
-            seen.add(task)
-            value = spots.priority.get(task, 0.0)
-            t = float(e["t_s"])
-            t_s.append(t)
-            count.append(count[-1] + 1)
-            priority.append(priority[-1] + value)
-            times, values = by_vehicle.setdefault(e.get("id", "?"), ([0.0], [0.0]))
-            times.append(t)
-            values.append(values[-1] + (value if spots.known else 1.0))
-    return Collected(t_s, count, priority if spots.known else None, by_vehicle)
+def collected_over_time(events: Sequence[Event], spots: Spots) -> Collected:
+    """The treatments of the event log, folded as the report folds them."""
+    ledger = FleetLedger()
+    for e in events:
+        ledger.add_event(e)
+    if spots.values is not None:
+        t_s, total, per = cumulative(ledger.treatments_of(spots.values), spots.values)
+        return Collected(t_s, total, per, True, spots.values.reef is not None)
+    counting = SpotValues(dict.fromkeys(ledger.cleared, 1.0))  # no scenario: spots count
+    t_s, total, per = cumulative(ledger.treatments_of(counting), counting)
+    return Collected(t_s, total, per, False, False)

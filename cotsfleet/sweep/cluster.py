@@ -21,6 +21,7 @@ from importlib import metadata
 from typing import Any, Iterator, Sequence
 
 from cotsfleet.errors import UsageError
+from cotsfleet.mission.report_model import FailedRun, RunResult
 from cotsfleet.sweep.spec import SweepSpec
 from cotsfleet.sweep.task import run_seed
 
@@ -107,7 +108,7 @@ class DaskPool:
             raise UsageError(f"Dask workers differ from this machine ({here}), so a seed "
                              f"would not give the same mission: {'; '.join(wrong)}")
 
-    def results(self, spec: SweepSpec, seeds: Sequence[int]) -> Iterator[dict[str, Any]]:
+    def results(self, spec: SweepSpec, seeds: Sequence[int]) -> Iterator[RunResult]:
         from distributed import as_completed
 
         client = self._client
@@ -124,8 +125,8 @@ class DaskPool:
             if future.status == "finished":
                 result = future.result()
             else:  # run_seed catches what a run raises: this is the worker or the cluster
-                result = {"seed": seed, "error": f"the Dask task of this seed failed: "
-                                                 f"{future.exception()!r}"}
+                result = FailedRun(seed=seed, error="the Dask task of this seed failed: "
+                                   f"{future.exception()!r}")
             future.release()  # the result is ours now; free the worker's copy
             yield result
 

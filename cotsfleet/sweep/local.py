@@ -28,6 +28,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any, Iterator, Sequence
 
+from cotsfleet.mission.report_model import FailedRun, RunResult
 from cotsfleet.sweep.spec import SweepSpec
 
 STOP_GRACE_S = 5.0  # a told-to-stop worker finishes within this, else it is terminated
@@ -119,7 +120,7 @@ class LocalPool:
     def where(self) -> str:
         return f"{self.jobs} local worker process{'es' if self.jobs > 1 else ''}"
 
-    def results(self, spec: SweepSpec, seeds: Sequence[int]) -> Iterator[dict[str, Any]]:
+    def results(self, spec: SweepSpec, seeds: Sequence[int]) -> Iterator[RunResult]:
         todo = deque(seeds)
         for i, w in enumerate(self._workers):
             self._workers[i] = self._hand(w, spec)
@@ -143,8 +144,9 @@ class LocalPool:
                 seed, result = w.seed, self._receive(w)
                 w.seed = None
                 if result is None:  # the worker died with this seed: the seed's row says so
-                    result = {"seed": seed, "error": "the worker process running this seed "
-                              f"died: {describe_exit(self._bury(w))}"}
+                    assert seed is not None
+                    result = FailedRun(seed=seed, error="the worker process running this "
+                                       f"seed died: {describe_exit(self._bury(w))}")
                     i = self._workers.index(w)
                     if todo:
                         self._workers[i] = self._hand(self._start(), spec)
@@ -153,7 +155,7 @@ class LocalPool:
                 yield result
 
     @staticmethod
-    def _receive(w: _Worker) -> dict[str, Any] | None:
+    def _receive(w: _Worker) -> RunResult | None:
         try:
             if w.conn.poll():
                 return w.conn.recv()

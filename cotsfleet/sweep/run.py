@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import IO, Any, Iterator, Protocol, Sequence
 
 from cotsfleet.errors import UsageError
+from cotsfleet.mission.report_model import FailedRun, RunResult
 from cotsfleet.sweep.aggregate import by_seed
 from cotsfleet.sweep.spec import SweepSpec
 
@@ -57,18 +58,18 @@ def executor_for(runs: int, jobs: int | None, scheduler: str | None) -> Executor
 
 @dataclass
 class SweepOutcome:
-    results: list[dict[str, Any]]  # sorted by seed
+    results: list[RunResult]  # sorted by seed
     seeds: int  # how many were asked for
     where: str
     wall_s: float
     interrupted: bool = False
 
 
-def _note(result: dict[str, Any]) -> str:
-    if "error" in result:
-        return f"failed: {result['error'][:60]}"
-    f = result["fleet"]
-    return f"{f['spots_cleared']}/{f['spots_total']} spots"
+def _note(result: RunResult) -> str:
+    if isinstance(result, FailedRun):
+        return f"failed: {result.error[:60]}"
+    c = result.collected
+    return f"{c.spots}/{c.spots_of} {c.spot_word}, priority {c.priority:.0f}"
 
 
 @contextmanager
@@ -95,7 +96,7 @@ def run_sweep(spec: SweepSpec, seeds: Sequence[int], executor: Executor,
     from cotsfleet.reporting.progress import Progress
 
     t0 = time.perf_counter()
-    results: list[dict[str, Any]] = []
+    results: list[RunResult] = []
     interrupted = False
     where = "?"
     try:
@@ -105,7 +106,7 @@ def run_sweep(spec: SweepSpec, seeds: Sequence[int], executor: Executor,
                 progress.start(f"{len(seeds)} seeds on {where}")
                 for result in executor.results(spec, seeds):
                     results.append(result)
-                    progress.done(f"seed {result['seed']}", _note(result))
+                    progress.done(f"seed {result.seed}", _note(result))
     except KeyboardInterrupt:
         interrupted = True
     return SweepOutcome(by_seed(results), len(seeds), where, time.perf_counter() - t0,

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from typing import Any, Iterator, Sequence
+from typing import Iterator, Sequence
 
+from cotsfleet.mission.report_model import RunResult
 from cotsfleet.sweep.spec import SweepSpec
 from cotsfleet.sweep.task import run_seed
 
@@ -14,7 +15,7 @@ class Serial:
     workers = 1
     where = "this process"
 
-    def results(self, spec: SweepSpec, seeds: Sequence[int]) -> Iterator[dict[str, Any]]:
+    def results(self, spec: SweepSpec, seeds: Sequence[int]) -> Iterator[RunResult]:
         for seed in seeds:
             yield run_seed(spec, seed)
 

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import time
 import traceback
-from typing import Any
 
+import msgspec
+
+from cotsfleet.mission.report_model import FailedRun, RunResult
 from cotsfleet.sweep.spec import SweepSpec
 
 TRACEBACK_CHARS = 4000  # enough for the innermost frames; a sweep's JSON must stay readable
@@ -16,11 +18,11 @@ TRACEBACK_CHARS = 4000  # enough for the innermost frames; a sweep's JSON must s
 MACHINE_FIELDS = ("wall_s", "run_s", "traceback")
 
 
-def run_seed(spec: SweepSpec, seed: int) -> dict[str, Any]:
+def run_seed(spec: SweepSpec, seed: int) -> RunResult:
     """The report of ``seed``'s mission with its ``wall_s`` (the mission, as a single `sim`
     reports it) and ``run_s`` (the whole run: scenario, every agent's initial plan, mission),
-    or, if anything in the run raised, ``{"seed": seed, "error": repr(exc), "traceback": ...,
-    "run_s": ...}``: one failed run is a row of the sweep, never its end."""
+    or, if anything in the run raised, a `FailedRun` with the error, its traceback and
+    ``run_s``: one failed run is a row of the sweep, never its end."""
     t0 = time.perf_counter()
     try:
         from cotsfleet.mission.inprocess import simulate
@@ -31,7 +33,7 @@ def run_seed(spec: SweepSpec, seed: int) -> dict[str, Any]:
                           reef=m.reef)
     except Exception as exc:  # noqa: BLE001 - whatever a run raises is that run's result
         text = "".join(traceback.format_exception(exc))
-        return {"seed": seed, "error": repr(exc), "traceback": text[-TRACEBACK_CHARS:],
-                "run_s": round(time.perf_counter() - t0, 3)}
-    return {**result.report, "wall_s": round(result.wall_s, 3),
-            "run_s": round(time.perf_counter() - t0, 3)}
+        return FailedRun(seed=seed, error=repr(exc), traceback=text[-TRACEBACK_CHARS:],
+                         run_s=round(time.perf_counter() - t0, 3))
+    return msgspec.structs.replace(result.report, wall_s=round(result.wall_s, 3),
+                                   run_s=round(time.perf_counter() - t0, 3))

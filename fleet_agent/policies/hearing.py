@@ -1,9 +1,11 @@
 """What a frame from a peer changes, and what to answer.
 
-A frame that passed the agent's checks (authentic, fresh, not our own) is evidence first:
-its sender is alive, and its heard codes say whom the sender heard, which may revive a peer
-declared lost or confirm a suspect's silence (`fleet_agent.membership`; a confirmed silence
-is a takeover). Then its content: a pose (where the peer is, and whether its cleared set
+A frame whose fleet MAC checked is evidence of life at once (`alive`): its sender, and the
+peers its heard codes say it heard, may be revived; forged, such evidence only keeps a silent
+vehicle in the fleet longer, never takes its work (silence is not death). Everything else
+waits until the frame is proven its sender's (`fleet_bus.tesla`: a cycle later): the heard
+codes that confirm a suspect's silence (`confirmed`: a takeover), then the content
+(`content`): a pose (where the peer is, and whether its cleared set
 may lack something of ours), a segment of the cleared set (merged: a grow-only set), a claim
 or a release (the one conflict rule of `fleet_agent.negotiation`; a claim on a spot we hold
 by an earlier claim, or know cleared, is answered at once), a find (`policies.discovery`),
@@ -13,19 +15,19 @@ or news of an abort.
 from __future__ import annotations
 
 from fleet_agent import membership as mb
+from fleet_agent import witness
 from fleet_agent.config import AgentConfig
-from fleet_agent.intents import Count, Intent, Note, Owe, SeekWork, Tell
+from fleet_agent.intents import Count, Intent, LastWords, Note, Owe, SeekWork, Tell
 from fleet_agent.knowledge import Knowledge, PeerPose
 from fleet_agent.outbox import AbortNews, Holding, Owed
-from fleet_agent.policies import discovery
+from fleet_agent.policies import discovery, plausible
 from fleet_agent.policies.takeover import takeover
 from fleet_agent.records import Clear, Hold, PeerState
 from fleet_agent.wire import Abort, Claim, ClearedSegment, Found, Message, Pose, Release
 
 
-def evidence(know: Knowledge, config: AgentConfig, msg: Message, now: float,
-             active: bool) -> list[Intent]:
-    """What the frame says of who is alive: revivals, and silences it confirms."""
+def alive(know: Knowledge, msg: Message, now: float) -> list[Intent]:
+    """What the frame says of who is alive: its sender and the peers it heard (revivals)."""
     v, members = msg.sender, know.members
     revived = [v] if members.heard(v, float(msg.seq), now) else []
     revived += members.take_heard(v, msg.heard, float(msg.seq), now)
@@ -36,7 +38,14 @@ def evidence(know: Knowledge, config: AgentConfig, msg: Message, now: float,
         know.touch()
         out += [SeekWork(), Tell(now, "revived", peer=know.vid(u)),
                 Note(PeerState(u, mb.ALIVE, now))]
-    for u in members.confirm(v, msg.heard, float(msg.seq), now):
+    return out
+
+
+def confirmed(know: Knowledge, config: AgentConfig, msg: Message, now: float,
+              active: bool) -> list[Intent]:
+    """The silences the (proven) frame's heard codes confirm: those peers are lost."""
+    out: list[Intent] = []
+    for u in know.members.confirm(msg.sender, msg.heard, float(msg.seq), now):
         out += lost(know, config, u, now, active)
     return out
 
@@ -47,29 +56,57 @@ def content(know: Knowledge, config: AgentConfig, msg: Message, now: float,
     if isinstance(msg, Pose):
         return _pose(know, config, msg, now, active)
     if isinstance(msg, ClearedSegment):
-        out: list[Intent] = []
-        new = know.merge_segment(msg.segment, msg.bits)
-        if new:
-            out.append(Note(Clear(now, tuple(new), own=False)))
-            out += discovery.fold_aliases(know, now)
-        if know.cleared.missing_from(msg.segment, msg.bits):
-            out.append(Owe(Owed.LACKS, msg.sender))
-        return out
+        return _cleared(know, msg, now)
     if isinstance(msg, (Claim, Release)):
         return _holding(know, msg, now)
     if isinstance(msg, Found):
-        return discovery.on_found(know, msg, now)
+        verdict = plausible.find(know, msg.sender, msg.slot, msg.pos, msg.priority,
+                                 msg.service_s, now)
+        if verdict == plausible.REFUSE:
+            return _suspect(know, msg.sender, "find")
+        return discovery.on_found(know, msg, now) if verdict == plausible.TAKE else \
+            [Count("find_waiting")]
     if isinstance(msg, Abort) and msg.who != know.index:
+        if not plausible.abort_news(know, msg.sender, msg.who):
+            return [Count("abort_waiting")]  # one peer's word about another: wait for two
         news, out = gone(know, config, msg.who, mb.ABORTED, now, active, msg.t_s)
         return out + ([Count("abort_relayed_in")] if news and msg.who != msg.sender else [])
     return []
+
+
+def _suspect(know: Knowledge, v: int, what: str, n: int = 1) -> list[Intent]:
+    """``v`` said ``n`` thing(s) of kind ``what`` that could not be: refused, and counted
+    against it (the report's suspects)."""
+    know.suspicion[v] += n
+    return [Count(f"implausible_{what}", n)]
+
+
+def _cleared(know: Knowledge, msg: ClearedSegment, now: float) -> list[Intent]:
+    """A segment of a peer's cleared set: what it is news of and plausible is taken (a
+    grow-only set), the rest waits for a second word; a peer that lacks some of ours is owed
+    a push."""
+    lo = msg.segment * know.cleared.segment_bits
+    bits = int.from_bytes(msg.bits, "little")
+    news = [lo + i for i in range(bits.bit_length()) if bits >> i & 1
+            and lo + i < know.problem.n_tasks and lo + i not in know.cleared]
+    out: list[Intent] = []
+    take, waiting = plausible.cleared(know, msg.sender, news)
+    new = know.clear(take)
+    if new:
+        out.append(Note(Clear(now, tuple(new), own=False)))
+        out += discovery.fold_aliases(know, now)
+    if waiting:
+        out.append(Count("cleared_waiting", waiting))
+    if know.cleared.missing_from(msg.segment, msg.bits):
+        out.append(Owe(Owed.LACKS, msg.sender))
+    return out
 
 
 def lost(know: Knowledge, config: AgentConfig, v: int, now: float,
          active: bool) -> list[Intent]:
     """Another vehicle confirmed ``v``'s silence: its work is taken over."""
     know.touch()
-    out: list[Intent] = [Note(PeerState(v, mb.LOST, now)),
+    out: list[Intent] = [Note(PeerState(v, mb.LOST, now)), LastWords(v),
                          Tell(now, "lost", peer=know.vid(v), detail="silent")]
     if active:
         out += takeover(know, config, v, now, doubt=know.members.doubt(now))
@@ -85,7 +122,7 @@ def gone(know: Knowledge, config: AgentConfig, v: int, status: str, now: float,
     know.touch()
     out: list[Intent] = [Note(PeerState(v, status, now))]
     if status == mb.ABORTED:
-        out.append(Tell(now, "lost", peer=know.vid(v), detail="aborted"))
+        out += [LastWords(v), Tell(now, "lost", peer=know.vid(v), detail="aborted")]
         if active:
             # Pass the news on once: a peer that missed every announcement learns it from us
             # instead of waiting for the silence to be noticed.
@@ -95,11 +132,30 @@ def gone(know: Knowledge, config: AgentConfig, v: int, status: str, now: float,
     return True, out
 
 
+def last_words(know: Knowledge, v: int, msgs: list[Message], now: float) -> list[Intent]:
+    """A gone peer's unproven last frames: its own spots it says are cleared (a lie there
+    costs only its own work; a duplicate of its last treatments costs everyone)."""
+    own = {t for t in range(know.problem.n_tasks) if know.holdings.claim_time(t, v) is not None
+           or t in know.fleet.base_routes[v]}
+    out: list[Intent] = []
+    for msg in msgs:
+        if isinstance(msg, ClearedSegment):
+            lo = msg.segment * know.cleared.segment_bits
+            bits = int.from_bytes(msg.bits, "little")
+            said = [lo + i for i in range(bits.bit_length()) if bits >> i & 1]
+            new = know.clear(t for t in said if t in own and t < know.problem.n_tasks)
+            if new:
+                out += [Count("last_words"), Note(Clear(now, tuple(new), own=False))]
+    return out
+
+
 def _pose(know: Knowledge, config: AgentConfig, msg: Pose, now: float,
           active: bool) -> list[Intent]:
     v = msg.sender
     know.peer_pose[v] = PeerPose(msg.pos, float(msg.seq), msg.state)
     know.peer_digest[v] = msg.digest
+    start = know.problem.vehicles[v].start
+    witness.extend(know.tracks.setdefault(v, witness.new_track(start)), float(msg.seq), msg.pos)
     mine = know.cleared.digest()
     # Push only if the peer may lack something we have: equal sizes with different hashes,
     # or a smaller set (sizes are mod 128; a larger set will push to us instead).
@@ -108,7 +164,9 @@ def _pose(know: Knowledge, config: AgentConfig, msg: Pose, now: float,
     out: list[Intent] = []
     if working and msg.digest != mine and (behind == 0 or behind < 64):
         out.append(Owe(Owed.LACKS, v))
-    if msg.state == "home":
+    if msg.state == "home" and not plausible.home(know, v, msg.pos):
+        out += _suspect(know, v, "home")
+    elif msg.state == "home":
         out += gone(know, config, v, mb.HOME, now, active)[1]
     elif msg.state == "aborted":
         out += gone(know, config, v, mb.ABORTED, now, active)[1]
@@ -118,8 +176,11 @@ def _pose(know: Knowledge, config: AgentConfig, msg: Pose, now: float,
 def _holding(know: Knowledge, msg: Claim | Release, now: float) -> list[Intent]:
     is_claim, own = isinstance(msg, Claim), know.own
     mine_before = set(own.route)
-    changed = know.hold(msg.sender, msg.t_s, msg.tasks, is_claim)
+    tasks = plausible.claims(know, msg.sender, msg.tasks) if is_claim else msg.tasks
+    changed = know.hold(msg.sender, msg.t_s, tasks, is_claim)
     out = _contest(know, msg.tasks) if is_claim else []
+    if len(tasks) < len(msg.tasks):
+        out += _suspect(know, msg.sender, "claim", len(msg.tasks) - len(tasks))
     if changed:
         out.append(Note(Hold(msg.sender, msg.t_s, tuple(changed), is_claim)))
         lost_spots = [t for t in changed if t in mine_before and know.holder(t) != know.index

@@ -69,5 +69,5 @@ def test_a_sweep_over_a_dynamic_scenario_works_the_real_reef(scenario, tmp_path)
     out = tmp_path / "sweep"
     assert main(["sim", "--scenario", str(scenario), "--runs", "2", "--jobs", "1",
                  "--out", str(out)]) == 0
-    runs = json.loads((out / "runs.json").read_text())
+    runs = json.loads((out / "sweep.json").read_text())
     assert len(runs) == 2 and all("dynamic" in r and r["dynamic"]["treated"] for r in runs)

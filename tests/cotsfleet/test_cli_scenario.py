@@ -180,8 +180,8 @@ def test_a_large_area_mission_plans_and_flies(tmp_path, assert_feasible):
     p = problem_from_dict(json.loads(out.read_text()))
     solve(p, "best", max_iterations=30, seed=0)  # checked feasible by the autouse fixture
     report = simulate(p, seed=3).report
-    assert report["fleet"]["spots_cleared"] > 0 and report["fleet"]["duplicate_treatments"] == 0
-    assert report["fleet"]["vehicles_home"] == 5
+    assert report.fleet.spots_cleared > 0 and report.fleet.duplicate_treatments == 0
+    assert report.fleet.vehicles_home == 5
 
 
 # -- dynamic missions (--dynamic): the map and the hidden reef it predicts ----------------------

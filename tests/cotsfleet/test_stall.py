@@ -72,9 +72,9 @@ def stalled():
 
 def test_a_stalled_host_is_not_a_silent_vehicle(stalled) -> None:
     calm, stall = stalled
-    starved = next(v for v in stall["vehicles"] if v["id"] == "auv1")
-    assert starved["counters"].get("slots_late", 0) > 10  # it did run late, slot after slot
-    f = stall["fleet"]
-    assert f["false_alarms"] == 0 and f["duplicate_treatments"] == 0
-    assert f["vehicles_home"] == 3
-    assert f["priority"] >= 0.97 * calm["fleet"]["priority"]
+    starved = next(v for v in stall.vehicles if v.id == "auv1")
+    assert starved.counters.get("slots_late", 0) > 10  # it did run late, slot after slot
+    f = stall.fleet
+    assert f.false_alarms == 0 and f.duplicate_treatments == 0
+    assert f.vehicles_home == 3
+    assert f.priority >= 0.97 * calm.fleet.priority

@@ -9,12 +9,15 @@ import os
 import signal
 from pathlib import Path
 
+import msgspec
 import numpy as np
 import pytest
 
 from cotsfleet.cli import main
 from cotsfleet.commands.mission_args import mission_args
 from cotsfleet.mission.faults import Fault
+from cotsfleet.mission.report_model import FailedRun, MissionReport, RunResult, runs_from_list
+from cotsfleet.reporting.sweep import machine_free
 from cotsfleet.sweep import SweepSpec, build_mission, run_seed
 from cotsfleet.sweep.aggregate import by_seed, comparable, summary_table, write_outputs
 from cotsfleet.sweep.local import LocalPool, describe_exit
@@ -59,12 +62,12 @@ def spec(small_scenario: Path) -> SweepSpec:
 
 
 @pytest.fixture(scope="module")
-def serial_results(spec: SweepSpec) -> list[dict]:
+def serial_results(spec: SweepSpec) -> list[RunResult]:
     with Serial() as ex:
         return by_seed(ex.results(spec, SEEDS))
 
 
-def assert_same_aggregate(a: list[dict], b: list[dict]) -> None:
+def assert_same_aggregate(a: list[RunResult], b: list[RunResult]) -> None:
     assert [comparable(r) for r in by_seed(a)] == [comparable(r) for r in by_seed(b)]
 
 
@@ -109,29 +112,32 @@ def test_bad_arguments_stop_the_sweep_before_any_run(capsys: pytest.CaptureFixtu
 
 
 def test_a_run_gives_its_report_with_seed_and_wall_time(spec: SweepSpec,
-                                                        serial_results: list[dict]) -> None:
+                                                        serial_results: list[RunResult]) -> None:
     r = serial_results[0]
-    assert r["seed"] == SEEDS[0] and 0 < r["wall_s"] <= r["run_s"] and "error" not in r
-    assert r["oracle"]["vid"] == "auv2"  # the kill happened: the spec's faults reached it
+    assert isinstance(r, MissionReport)
+    assert r.seed == SEEDS[0] and r.wall_s is not None and r.run_s is not None
+    assert 0 < r.wall_s <= r.run_s
+    assert r.oracle is not None and r.oracle.vid == "auv2"  # the spec's faults reached it
     assert comparable(run_seed(spec, SEEDS[0])) == comparable(r)  # deterministic
 
 
 def test_a_run_that_raises_is_a_row_with_its_seed(spec: SweepSpec) -> None:
     bad = SweepSpec(spec.scenario, None, 0.0, AgentConfig(), (Fault("kill", 100.0, "auv9"),))
     r = run_seed(bad, 11)
-    assert r["seed"] == 11 and "auv9" in r["error"] and "FaultError" in r["traceback"]
-    assert "fleet" not in r
+    assert isinstance(r, FailedRun)
+    assert r.seed == 11 and "auv9" in r.error and r.traceback and "FaultError" in r.traceback
+    assert "fleet" not in r.to_dict()
 
 
 # -- executors: the same aggregate, failures as rows, nothing left behind ---------------------
 
 
 def test_local_workers_give_the_aggregate_of_one_process(spec: SweepSpec,
-                                                         serial_results: list[dict]) -> None:
+                                                         serial_results: list[RunResult]) -> None:
     with LocalPool(2) as pool:
         got = list(pool.results(spec, SEEDS))
         assert len(pool.pids) == 2 and all(alive(p) for p in pool.pids)
-    assert sorted(r["seed"] for r in got) == list(SEEDS)
+    assert sorted(r.seed for r in got) == list(SEEDS)
     assert_same_aggregate(got, serial_results)
     assert not any(alive(p) for p in pool.pids)
 
@@ -155,16 +161,18 @@ def _fail_some(monkeypatch: pytest.MonkeyPatch, raise_on: int, kill_on: int) -> 
 
 @pytest.mark.skipif(not os.path.exists("/proc/self/stat"), reason="needs Linux (fork, /proc)")
 def test_a_failed_run_and_a_dead_worker_cost_their_seed_only(
-        spec: SweepSpec, serial_results: list[dict], monkeypatch: pytest.MonkeyPatch) -> None:
+        spec: SweepSpec, serial_results: list[RunResult],
+        monkeypatch: pytest.MonkeyPatch) -> None:
     _fail_some(monkeypatch, raise_on=4, kill_on=5)
     with LocalPool(2) as pool:
-        got = by_seed(pool.results(spec, SEEDS))
-    assert [r["seed"] for r in got] == list(SEEDS)
-    assert got[1]["error"] == "RuntimeError('boom 4')"
-    assert "died: killed by signal 9 SIGKILL" in got[2]["error"]
+        got = by_seed(list(pool.results(spec, SEEDS)))
+    assert [r.seed for r in got] == list(SEEDS)
+    assert isinstance(got[1], FailedRun) and got[1].error == "RuntimeError('boom 4')"
+    assert isinstance(got[2], FailedRun)
+    assert "died: killed by signal 9 SIGKILL" in got[2].error
     assert len(pool.pids) == 3  # a fresh worker took the dead one's place
-    ok = [r for r in got if "error" not in r]
-    assert_same_aggregate(ok, [r for r in serial_results if r["seed"] in (3, 6)])
+    ok = [r for r in got if isinstance(r, MissionReport)]
+    assert_same_aggregate(ok, [r for r in serial_results if r.seed in (3, 6)])
     assert not any(alive(p) for p in pool.pids)
 
 
@@ -193,29 +201,36 @@ def test_executor_choice() -> None:
 # -- outputs ---------------------------------------------------------------------------------
 
 
-def test_outputs_sorted_by_seed_and_free_of_wall_time(serial_results: list[dict],
-                                                      tmp_path: Path) -> None:
-    failed = {"seed": 2, "error": "RuntimeError('x')", "traceback": "..."}
+def test_outputs_sorted_by_seed_and_only_wall_times_depend_on_the_machine(
+        serial_results: list[RunResult], tmp_path: Path) -> None:
+    failed = FailedRun(seed=2, error="RuntimeError('x')", traceback="...")
     shuffled = [serial_results[2], failed, *serial_results[:2], serial_results[3]]
-    md = write_outputs(shuffled, tmp_path / "a" / "runs.json")
-    runs = json.loads((tmp_path / "a" / "runs.json").read_text())
+    md = write_outputs(shuffled, tmp_path / "a" / "mine.json")
+    assert md == tmp_path / "a" / "mine.md" and (tmp_path / "a" / "mine.csv").is_file()
+    runs = json.loads((tmp_path / "a" / "mine.json").read_text())
     assert [r["seed"] for r in runs] == [2, 3, 4, 5, 6]
     assert all("wall_s" in r for r in runs[1:])  # the JSON keeps the machine's figures
+    assert runs_from_list(runs) == by_seed(shuffled)  # and reads back as it was
     text = md.read_text()
-    assert "Failed runs:** 1 of 5" in text and "wall time" not in text
-    # Other wall times, the same summary: nothing in it depends on the machine.
-    slower = [{**r, "wall_s": r.get("wall_s", 0) * 7 + 1} for r in shuffled]
-    md2 = write_outputs(slower[::-1], tmp_path / "b" / "runs.json")
-    assert md2.read_text() == text
-    assert (tmp_path / "a" / "sweep.csv").read_text() == (tmp_path / "b" / "sweep.csv").read_text()
+    assert "Failed runs:** 1 of 5" in text
+    for r in serial_results:  # the wall s column is filled (it was always "-")
+        assert f"| {r.wall_s:,.2f} |" in text
+    # Other wall times: the same summary but for them, the same CSV.
+    slower = [r if isinstance(r, FailedRun) else msgspec.structs.replace(
+        r, wall_s=r.wall_s * 7 + 1) for r in shuffled]
+    md2 = write_outputs(slower[::-1], tmp_path / "b" / "mine.json")
+    assert md2.read_text() != text
+    assert machine_free(md2.read_text()) == machine_free(text)
+    assert "wall" not in machine_free(text).split("## Per seed")[1].split("Columns:")[0]
+    assert (tmp_path / "a" / "mine.csv").read_text() == (tmp_path / "b" / "mine.csv").read_text()
 
 
-def test_terminal_table_has_quartiles_and_failures(serial_results: list[dict]) -> None:
-    table = summary_table([*serial_results, {"seed": 99, "error": "ValueError('v')"}])
+def test_terminal_table_has_quartiles_and_failures(serial_results: list[RunResult]) -> None:
+    table = summary_table([*serial_results, FailedRun(seed=99, error="ValueError('v')")])
     lines = table.splitlines()
     assert [line.split()[0] for line in lines[1:7]] == ["median", "q1", "q3", "mean", "min",
                                                         "max"]
-    prios = sorted(r["fleet"]["priority"] for r in serial_results)
+    prios = sorted(r.fleet.priority for r in serial_results)
     median = float(lines[1].split()[2])
     assert median == pytest.approx(float(np.median(prios)), rel=1e-3)
     assert lines[-1].startswith("failed: 1 of 5") and "seed 99" in lines[-1]
@@ -229,12 +244,14 @@ def test_cli_sweep_same_files_with_one_or_two_jobs(small_scenario: Path, tmp_pat
     assert main([*base, "--jobs", "2", "--out", str(tmp_path / "two")]) == 0
     out = capsys.readouterr().out
     assert "on this process" in out and "on 2 local worker processes" in out
-    for name in ("sweep.md", "sweep.csv"):
-        assert (tmp_path / "one" / name).read_text() == (tmp_path / "two" / name).read_text()
-    one = json.loads((tmp_path / "one" / "runs.json").read_text())
-    two = json.loads((tmp_path / "two" / "runs.json").read_text())
-    assert [r["seed"] for r in two] == [1, 2, 3]
-    assert [comparable(r) for r in one] == [comparable(r) for r in two]
+    one, two = tmp_path / "one", tmp_path / "two"
+    assert (one / "sweep.csv").read_text() == (two / "sweep.csv").read_text()
+    assert machine_free((one / "sweep.md").read_text()) == \
+        machine_free((two / "sweep.md").read_text())
+    runs_one = runs_from_list(json.loads((one / "sweep.json").read_text()))
+    runs_two = runs_from_list(json.loads((two / "sweep.json").read_text()))
+    assert [r.seed for r in runs_two] == [1, 2, 3]
+    assert [comparable(r) for r in runs_one] == [comparable(r) for r in runs_two]
 
 
 def test_run_sweep_keeps_what_finished_when_interrupted(spec: SweepSpec) -> None:
@@ -244,5 +261,5 @@ def test_run_sweep_keeps_what_finished_when_interrupted(spec: SweepSpec) -> None
             raise KeyboardInterrupt
 
     outcome = run_sweep(spec, range(10, 15), Interrupting())
-    assert outcome.interrupted and [r["seed"] for r in outcome.results] == [10, 11]
+    assert outcome.interrupted and [r.seed for r in outcome.results] == [10, 11]
     assert outcome.seeds == 5

@@ -11,6 +11,8 @@ from pathlib import Path
 import pytest
 
 from cotsfleet.cli import main
+from cotsfleet.mission.report_model import MissionReport, runs_from_list
+from cotsfleet.reporting.sweep import machine_free
 from cotsfleet.sweep.aggregate import comparable
 
 pytest.importorskip("distributed")
@@ -69,13 +71,16 @@ def test_a_local_cluster_gives_the_aggregate_of_one_process(scenario: Path, tmp_
     assert sweep(scenario, tmp_path / "one") == 0
     out = capsys.readouterr().out
     assert "on a local Dask cluster (2 workers)" in out and "on this process" in out
-    for name in ("sweep.md", "sweep.csv"):
-        assert (tmp_path / "dask" / name).read_text() == (tmp_path / "one" / name).read_text()
-    dask = json.loads((tmp_path / "dask" / "runs.json").read_text())
-    one = json.loads((tmp_path / "one" / "runs.json").read_text())
-    assert [r["seed"] for r in dask] == [2, 3, 4, 5]
+    assert (tmp_path / "dask" / "sweep.csv").read_text() == \
+        (tmp_path / "one" / "sweep.csv").read_text()
+    assert machine_free((tmp_path / "dask" / "sweep.md").read_text()) == \
+        machine_free((tmp_path / "one" / "sweep.md").read_text())
+    dask = runs_from_list(json.loads((tmp_path / "dask" / "sweep.json").read_text()))
+    one = runs_from_list(json.loads((tmp_path / "one" / "sweep.json").read_text()))
+    assert [r.seed for r in dask] == [2, 3, 4, 5]
     assert [comparable(r) for r in dask] == [comparable(r) for r in one]
-    assert all("error" not in r and r["oracle"]["vid"] == "auv2" for r in dask)
+    assert all(isinstance(r, MissionReport) and r.oracle is not None and r.oracle.vid == "auv2"
+               for r in dask)
 
 
 def test_a_named_cluster_runs_the_sweep_and_stays(scenario: Path, tmp_path: Path,
@@ -93,7 +98,7 @@ def test_a_named_cluster_runs_the_sweep_and_stays(scenario: Path, tmp_path: Path
     captured = capsys.readouterr()
     assert f"on Dask at {cluster.scheduler_address} (1 worker)" in captured.out
     assert "--jobs sizes a local pool" in captured.err
-    runs = json.loads((tmp_path / "named" / "runs.json").read_text())
+    runs = json.loads((tmp_path / "named" / "sweep.json").read_text())
     assert [r["seed"] for r in runs] == [2, 3, 4, 5] and not any("error" in r for r in runs)
 
 
@@ -143,7 +148,7 @@ def test_a_seed_that_kills_its_worker_is_a_row_and_the_sweep_goes_on(
         assert sweep(scenario, tmp_path / "out", "--scheduler", "--jobs", "2",
                      "--runs", "8") == 1
     assert descendants(os.getpid()) - before == set()
-    runs = json.loads((tmp_path / "out" / "runs.json").read_text())
+    runs = json.loads((tmp_path / "out" / "sweep.json").read_text())
     assert [r["seed"] for r in runs] == list(range(2, 10))
     assert "KilledWorker" in runs[1]["error"] and "fleet" not in runs[1]
     assert all("error" not in r for r in (runs[0], *runs[2:]))

@@ -105,7 +105,7 @@ def run_and_stop(scenario: Path, out: Path, how: str, *extra: str) -> None:
     assert proc.returncode == 130, stderr[-3000:]
     assert "Traceback" not in stderr, stderr[-3000:]
     assert "(interrupted)" in stdout
-    runs = json.loads((out / "runs.json").read_text())
+    runs = json.loads((out / "sweep.json").read_text())
     assert 2 <= len(runs) < RUNS and [r["seed"] for r in runs] == sorted(r["seed"] for r in runs)
     assert (out / "sweep.md").is_file()
 

@@ -185,8 +185,9 @@ def test_find_gossip_loses_nothing_under_loss_duplication_and_reordering(
         fleet, seed, loss, dup, max_delay_s, n_finds):
     mates = [Mate(fleet, i) for i in range(3)]
     rng = np.random.default_rng(seed)
-    for k in range(n_finds):  # finds by several vehicles, at once
-        mates[k % 2 * 2].sees(0.0, [Sighted(0.0, off_map(fleet, k), 20.0 + k, 60.0)])
+    for k in range(n_finds):  # finds by several vehicles, at once, where they start
+        here = (20.0 + 6.0 * k, 20.0, -3.0)  # off the map, in camera reach of the start
+        mates[k % 2 * 2].sees(0.0, [Sighted(0.0, here, 20.0 + k, 60.0)])
     exchange(mates, 0.0, 120.0, rng, loss, dup, max_delay_s)  # hostile water
     exchange(mates, 120.0, 420.0, rng, 0.0, 0.0, 0.0)  # then it calms down
     finds = [m.agent.know.beliefs.finds for m in mates]
@@ -214,8 +215,8 @@ def test_three_vehicles_seeing_one_aggregation_at_once_treat_it_once():
     found_by = {e.id for e in r.events if e.kind == "found"
                 and e.detail.startswith(f"{start[0] + 10.0:.1f},")}
     assert found_by == {"auv1", "auv2", "auv3"}  # three finds of one aggregation
-    assert [d["spot"] for d in r.report["dynamic"]["treated"]].count(new) == 1
-    assert r.report["fleet"]["duplicate_treatments"] == 0
+    assert [d.spot for d in r.report.dynamic.treated].count(new) == 1
+    assert r.report.fleet.duplicate_treatments == 0
 
 
 @pytest.mark.parametrize("seed", [2, 10])
@@ -230,8 +231,8 @@ def test_two_vehicles_claiming_one_find_seconds_apart_treat_it_once(seed):
     problem = problem_from_dict(doc)
     reef = reef_from_doc(doc, problem)
     r = simulate(problem, AgentConfig(), seed=seed, reef=reef)
-    treated = [d["spot"] for d in r.report["dynamic"]["treated"]]
-    assert r.report["fleet"]["duplicate_treatments"] == 0 and len(treated) == len(set(treated))
+    treated = [d.spot for d in r.report.dynamic.treated]
+    assert r.report.fleet.duplicate_treatments == 0 and len(treated) == len(set(treated))
     assert any(e.kind == "claim" for e in r.events)  # the race's ingredients are there
 
 
@@ -247,10 +248,10 @@ def test_a_rich_find_is_taken_even_by_vehicles_without_spare_battery():
     reef = reef_from_doc(doc, problem)
     r = simulate(problem, AgentConfig(coop_min_slack_s=1e9), seed=2, reef=reef)
     new = len(reef.spots) - 1
-    assert [d["spot"] for d in r.report["dynamic"]["treated"]].count(new) == 1
+    assert [d.spot for d in r.report.dynamic.treated].count(new) == 1
     first = next(e for e in r.events if e.kind == "claim")
     assert first.t_s < 60.0  # at the first look after the find settled, not once slack frees
-    assert r.report["fleet"]["duplicate_treatments"] == 0
+    assert r.report.fleet.duplicate_treatments == 0
 
 
 def test_a_new_claim_goes_out_first_and_its_repeats_before_the_find_repeats(fleet):

@@ -13,7 +13,8 @@ import pytest
 from comms_sim.config import ChannelConfig
 from cotsfleet.mission.inprocess import InProcessBackend
 from fleet_agent.config import AgentConfig
-from fleet_agent.wire import (MAC_BYTES, MAX_LEAD_S, MAX_SEQ, Claim, Codec, Digest, Kind, Pose,
+from fleet_agent.wire import (FLEET_MAC_BYTES, KEY_BYTES, MAX_LEAD_S, MAX_SEQ, Claim, Codec,
+                              Digest, Kind, Pose,
                               WireError, sender_key)
 from reef_sim.scenarios.field import paper_preset_doc
 from hfc_core.formats.scenario import problem_from_dict
@@ -44,12 +45,12 @@ def test_a_claim_dated_after_its_frame_is_refused() -> None:
     with pytest.raises(ValueError):
         codec.encode(Claim(0, 100, 101, (1, 2)))
     good = codec.encode(Claim(0, 100, 100, (1, 2)))
-    # Same frame with the claim time moved past the seq and a valid MAC (an insider's).
-    data = bytearray(good[:-MAC_BYTES])
-    head = 7 + codec.code_bytes
+    # Same frame with the claim time moved past the seq and a valid fleet MAC (an insider's).
+    data = bytearray(good[:-FLEET_MAC_BYTES])
+    head = 7 + codec.code_bytes + KEY_BYTES
     data[head:head + 4] = struct.pack(">I", 10**6)
     forged = bytes(data) + hmac.new(sender_key(KEY, "run", 0), bytes(data),
-                                    hashlib.sha256).digest()[:MAC_BYTES]
+                                    hashlib.sha256).digest()[:FLEET_MAC_BYTES]
     assert forged[0] & 0x0F == Kind.CLAIM
     with pytest.raises(WireError) as err:
         codec.decode(forged)

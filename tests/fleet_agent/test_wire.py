@@ -12,7 +12,8 @@ import msgpack
 import numpy as np
 import pytest
 
-from fleet_agent.wire import (HEADER_BYTES, HEARD_NEVER, HEARD_WINDOW, MAC_BYTES,
+from fleet_agent.wire import (FLEET_MAC_BYTES, HEADER_BYTES, HEARD_NEVER, HEARD_WINDOW,
+                              KEY_BYTES, MAC_BYTES, TAG_BYTES,
                               MAX_FRAME_BYTES, MAX_POSE_BYTES, MAX_VEHICLES, VERSION, Abort,
                               Claim, ClearedSegment, Codec, Digest, Heard, Kind, Pose, Release,
                               WireError, WireSizeError, heard_offset, heard_window, sender_key)
@@ -72,7 +73,8 @@ def test_round_trip_of_every_kind(n: int) -> None:
     msgs = [
         Pose(top, 1234, (512.3, 77.7, -12.4), -45, "injecting", Digest(17, 0xBEEF),
              Heard(top, window)),
-        ClearedSegment(0, 99, Digest(3, 7), 2, bytes(7) + b"\x03", Heard(0, window[:2])),
+        ClearedSegment(0, 99, Digest(3, 7), 2, bytes(codec._segment_bytes(2) - 1) + b"\x03",
+                       Heard(0, window[:2])),
         Claim(top, 5, 4, (1, 2, 699), Heard(n // 2, window)),
         Release(0, 6, 5, (699,)),
         Abort(top, 1200, 1199, Heard(1 % n, (0,))),
@@ -92,7 +94,7 @@ def test_typical_pose_is_well_under_the_limit() -> None:
     codec = Codec(KEY, RUN, 3, 90, (-100.0, -100.0))
     frame = codec.encode(Pose(2, 3599, (999.9, 999.9, -18.0), 179, "transit",
                               Digest(90, 65535), Heard(0, (0, 1, 3))))
-    assert len(frame) <= 27
+    assert len(frame) <= 27  # a pose discloses no key: it has no room for one
 
 
 def test_forged_frame_fails_the_mac() -> None:
@@ -139,11 +141,14 @@ def test_every_flipped_bit_is_caught() -> None:
 
 def _signed(codec: Codec, body: bytes, kind: Kind = Kind.POSE, sender: int = 0,
             seq: int = 1, offset: int = 0, codes: bytes | None = None) -> bytes:
-    """A frame with a valid MAC around whatever header fields and body we ask for."""
+    """A frame with a valid fleet MAC around whatever header fields and body we ask for (a
+    disclosed key of zeros and a tag of zeros where the layout has them)."""
     codes = b"\xff" * codec.code_bytes if codes is None else codes
-    data = struct.pack(">BBIB", VERSION << 4 | int(kind), sender, seq, offset) + codes + body
-    mac = hmac.new(sender_key(KEY, RUN, sender), data, hashlib.sha256).digest()[:MAC_BYTES]
-    return data + mac
+    key = b"" if kind == Kind.POSE else bytes(KEY_BYTES)
+    data = struct.pack(">BBIB", VERSION << 4 | int(kind), sender, seq, offset) + codes + key
+    data += body + bytes(TAG_BYTES)
+    mac = hmac.new(sender_key(KEY, RUN, sender), data, hashlib.sha256).digest()
+    return data + mac[:FLEET_MAC_BYTES]
 
 
 POSE_OK = struct.pack(">HHhHBH", 1, 2, -3, 180 << 3 | 1, 5, 6)
@@ -160,7 +165,7 @@ POSE_OK = struct.pack(">HHhHBH", 1, 2, -3, 180 << 3 | 1, 5, 6)
     (Kind.CLEARED, struct.pack(">BHB", 1, 2, 0) + bytes(11), {}),  # segment one byte short
     (Kind.CLEARED, struct.pack(">BHB", 1, 2, 1) + bytes(12), {}),  # no such segment
     (Kind.CLAIM, struct.pack(">I", 7) + bytes([90]), {}),  # unknown spot
-    (Kind.CLAIM, struct.pack(">I", 7) + bytes(42), {}),  # more ids than a claim may hold
+    (Kind.CLAIM, struct.pack(">I", 7) + bytes(34), {}),  # more ids than a claim may hold
     (Kind.ABORT, struct.pack(">IB", 7, 3), {}),  # subject outside the roster
     (Kind.ABORT, struct.pack(">IB", 7, 1) + b"\x00", {}),  # trailing data
 ])
@@ -170,9 +175,12 @@ def test_authentic_but_malformed_bodies_are_refused(kind: Kind, body: bytes, ext
     with pytest.raises(WireError) as err:
         codec.decode(_signed(codec, body, kind, **extra))
     assert err.value.reason == "malformed"
-    with pytest.raises(WireError) as err:  # a release of no spot is below any body's size
+    with pytest.raises(WireError) as err:  # a release of no spot
         codec.decode(_signed(codec, struct.pack(">I", 7), Kind.RELEASE))
-    assert err.value.reason == "short"
+    assert err.value.reason == "malformed"
+    with pytest.raises(WireError) as err:  # a key frame with a body
+        codec.decode(_signed(codec, b"\x00", Kind.KEY))
+    assert err.value.reason == "malformed"
 
 
 def test_a_version_1_frame_is_refused_as_such() -> None:
@@ -187,11 +195,11 @@ def test_a_version_1_frame_is_refused_as_such() -> None:
 
 
 @pytest.mark.parametrize("frame,reason", [
-    (b"", "short"), (b"\x21", "short"), (bytes([0x21, 0]) + bytes(14), "short"),
+    (b"", "short"), (b"\x31", "short"), (bytes([0x31, 0]) + bytes(13), "short"),
     (bytes(65), "long"), (bytes([0x15, 0]), "version"),
-    (bytes([0x11, 0]) + bytes(20), "version"), (bytes([0x31, 0]) + bytes(20), "version"),
-    (bytes([0x29, 0]) + bytes(20), "kind"), (bytes([0x21, 3]) + bytes(20), "sender"),
-    (bytes([0x21, 0]) + bytes(20), "mac"),
+    (bytes([0x11, 0]) + bytes(20), "version"), (bytes([0x21, 0]) + bytes(20), "version"),
+    (bytes([0x39, 0]) + bytes(20), "kind"), (bytes([0x31, 3]) + bytes(20), "sender"),
+    (bytes([0x31, 0]) + bytes(20), "mac"),
 ])
 def test_header_checks_name_their_reason(frame: bytes, reason: str) -> None:
     with pytest.raises(WireError) as err:
@@ -235,23 +243,24 @@ def test_header_layout_is_what_docs_say() -> None:
     assert frame[0] == VERSION << 4 | int(Kind.ABORT) and frame[1] == 7
     assert frame[2:6] == bytes([1, 2, 3, 4]) and frame[6] == 9
     assert frame[HEADER_BYTES] == 0b11100100  # codes 0, 1, 2, never: 2 bits each, low first
-    assert len(frame) == HEADER_BYTES + 4 + 5 + MAC_BYTES
+    assert frame[HEADER_BYTES + 4:HEADER_BYTES + 4 + KEY_BYTES] == bytes(KEY_BYTES)  # disclosed
+    assert len(frame) == HEADER_BYTES + 4 + KEY_BYTES + 5 + MAC_BYTES
 
 
 def test_the_frame_budget_is_the_modems() -> None:
     """A modem with larger frames carries more ids per claim and more spots per segment; one
     whose frames cannot carry what the mission needs is refused when the codec is made."""
     wide = Codec(KEY, "run", 3, 1000, max_frame_bytes=256)
-    assert wide.max_ids == (256 - 23) // 2 and wide.segment_bits == 8 * (256 - 24)
+    assert wide.max_ids == (256 - 31) // 2 and wide.segment_bits == 8 * (256 - 32)
     assert max(wide.max_size(k) for k in Kind) <= 256 and wide.max_size(Kind.POSE) <= 32
-    small = Codec(KEY, "run", 3, 90, max_frame_bytes=32)  # Micro-Modem rate 0, static
-    assert small.max_size(Kind.CLAIM) <= 32 and small.segment_bits == 64
-    assert Codec(KEY, "run", 3, 200, found_from=90, max_frame_bytes=32).max_size(
-        Kind.FOUND) <= 32  # 3 vehicles: one byte of heard codes, a find fits 31 bytes
-    with pytest.raises(ValueError, match="FOUND"):  # 20 vehicles: four bytes, 34 in all
-        Codec(KEY, "run", 20, 200, found_from=90, max_frame_bytes=32)
-    with pytest.raises(ValueError, match="needs frames"):
-        Codec(KEY, "run", 3, 90, max_frame_bytes=16)
+    small = Codec(KEY, "run", 3, 90, max_frame_bytes=40)  # the smallest the wire takes
+    assert small.max_size(Kind.CLAIM) <= 40 and small.segment_bits == 64
+    assert Codec(KEY, "run", 3, 200, found_from=90, max_frame_bytes=40).max_size(
+        Kind.FOUND) <= 40  # 3 vehicles: one byte of heard codes, a find fits 39 bytes
+    with pytest.raises(ValueError, match="FOUND"):  # 20 vehicles: four bytes, 42 in all
+        Codec(KEY, "run", 20, 200, found_from=90, max_frame_bytes=40)
+    with pytest.raises(ValueError, match="needs frames"):  # rate 0: no room for a segment
+        Codec(KEY, "run", 3, 90, max_frame_bytes=32)
     big = wide.encode(Claim(0, 5, 5, tuple(range(wide.max_ids))))
     with pytest.raises(WireError, match="long"):
         Codec(KEY, "run", 3, 1000).decode(big)  # the water's 64-byte codec refuses it

@@ -4,13 +4,19 @@ process. Injected monotonic and wall clocks throughout: deterministic."""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import msgpack
 import pytest
 
 from cotsfleet.commands.run import run_warnings
+from cotsfleet.mission.report_model import MissionReport
 from fleet_bus.clock import MissionClock, OffsetFilter, WallWatch, WarpClock, time_sample
 from fleet_bus.mission import ClockAnswer, ClockRecord, answer_clock
 from fleet_bus.telemetry import decode_busy, encode_busy
+
+REPORTS = Path(__file__).parents[1] / "cotsfleet" / "data" / "reports"
 
 
 class Wall:
@@ -56,17 +62,25 @@ def test_the_clock_record_carries_its_sequence_and_refuses_nonsense() -> None:
         ClockRecord(12.5, 30.0, -2)
 
 
+def _report(false_alarms: int, clock: dict):
+    """A run's report (tests/cotsfleet/data) with these false alarms and this clock."""
+    from cotsfleet.mission.report_model import MissionReport
+
+    doc = json.loads((REPORTS / "run7-kill.report.json").read_text())
+    doc["fleet"]["false_alarms"] = false_alarms
+    return MissionReport.from_dict({**doc, "clock": clock})
+
+
 def test_the_launcher_warns_of_false_alarms_and_a_slowed_clock() -> None:
-    quiet = {"fleet": {"false_alarms": 0}, "clock": {"warp": 60.0, "slowdowns": []}}
+    quiet = _report(0, {"warp": 60.0, "slowdowns": []})
     assert run_warnings(quiet) == []
-    loud = {"fleet": {"false_alarms": 2, "duplicate_treatments": 0},
-            "clock": {"warp": 240.0, "final_warp": 117.6, "effective_warp": 131.2,
-                      "max_lag_s": 9.5, "slowdowns": [{"t_s": 300.0, "warp": 168.0},
-                                                       {"t_s": 330.0, "warp": 117.6}]}}
-    lines = run_warnings(loud)
+    loud_clock = {"warp": 240.0, "final_warp": 117.6, "effective_warp": 131.2,
+                  "max_lag_s": 9.5, "slowdowns": [{"t_s": 300.0, "warp": 168.0},
+                                                  {"t_s": 330.0, "warp": 117.6}]}
+    lines = run_warnings(_report(2, loud_clock))
     assert len(lines) == 2 and "2 false alarm" in lines[0] and "slowed to 117.6" in lines[1]
-    eased = {"clock": {**loud["clock"], "final_warp": 240.0,
-                       "speedups": [{"t_s": 500.0, "warp": 240.0}], "slots_late": 3}}
+    eased = _report(0, {**loud_clock, "final_warp": 240.0,
+                        "speedups": [{"t_s": 500.0, "warp": 240.0}], "slots_late": 3})
     lines = run_warnings(eased)
     assert "slowed to 117.6, back up to 240" in lines[0] and "3 frame(s)" in lines[1]
 
@@ -208,12 +222,15 @@ def test_a_clock_answer_carries_the_record_and_the_exchange_times() -> None:
 
 
 def test_the_launcher_names_stepped_hosts_expired_holds_and_crashes() -> None:
-    report = {"clock": {"warp": 60.0, "wall_steps": {"auv2": 2},
-                        "holds_expired": {"auv3": 1}, "holds_refused": {"auv3": 8}},
-              "crashes": [{"name": "ground_station", "t_s": 600.0, "action": "restart",
-                           "why": "ground_station exited with -9: "}],
-              "saved": {"events": 3, "events_total": 9, "events_error": "[Errno 28]"}}
-    lines = run_warnings(report)
+    doc = json.loads((Path(__file__).parents[1] / "cotsfleet" / "data" / "reports" /
+                      "run7-kill.report.json").read_text())
+    doc["clock"] = {"warp": 60.0, "wall_steps": {"auv2": 2},
+                    "holds_expired": {"auv3": 1}, "holds_refused": {"auv3": 8}}
+    doc["fleet"]["false_alarms"] = 0
+    doc["crashes"] = [{"name": "ground_station", "t_s": 600.0, "action": "restart",
+                       "why": "ground_station exited with -9: ", "code": -9}]
+    doc["saved"] = {"events": 3, "events_total": 9, "events_error": "[Errno 28]"}
+    lines = run_warnings(MissionReport.from_dict(doc))
     assert "auv2's host stepped 2 time(s)" in lines[0] and "{'auv3': 1}" in lines[1]
     assert lines[2] == "t=600 s: ground_station exited with -9:  (started again)"
     assert "3 of 9 events" in lines[3] and len(lines) == 4

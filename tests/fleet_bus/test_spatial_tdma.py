@@ -1,6 +1,7 @@
 """The spatial TDMA schedule (`fleet_bus.tdma.SpatialSchedule`): plain TDMA as its degenerate
 case, slots shared only by vehicles the plan keeps apart, parked vehicles taking turns, and
-one vehicle's openings the same whichever way they are asked for (next, latest, counted)."""
+one vehicle's openings the same whichever way they are asked for (next, latest, counted, the
+n-th)."""
 
 from __future__ import annotations
 
@@ -41,13 +42,23 @@ def test_without_reuse_it_is_the_plain_schedule() -> None:
 
 
 def test_vehicles_far_apart_share_slots_near_ones_do_not() -> None:
-    # Two pairs 10 km apart; within a pair 1 km apart.
-    tracks = [still(0, 0), still(1000, 0), still(10_000, 0), still(11_000, 0)]
+    # Two trios 10 km apart; within a trio 1 km apart.
+    tracks = [still(x0 + dx, 0) for x0 in (0, 10_000) for dx in (0, 1000, 2000)]
     s = SpatialSchedule(tracks, SLOT_S, reuse_m=3500.0, margin_m=500.0)
     e = s.epoch(0.0)
-    assert e.n_slots == 2
-    assert e.slot[0] != e.slot[1] and e.slot[2] != e.slot[3]
-    assert s.cycle_s(0.0) == 2 * SLOT_S  # a turn every 5 s, not every 10 s
+    assert e.n_slots == 3
+    assert len({e.slot[v] for v in (0, 1, 2)}) == 3 and len({e.slot[v] for v in (3, 4, 5)}) == 3
+    assert s.cycle_s(0.0) == 3 * SLOT_S  # a turn every 7.5 s, not every 15 s
+
+
+def test_a_cycle_has_at_least_three_slots() -> None:
+    """However far apart, a cycle is 3 slots: a frame is heard before its sender's next turn
+    discloses its key (`fleet_bus.tesla`)."""
+    tracks = [still(0, 0), still(1000, 0), still(10_000, 0), still(11_000, 0)]
+    s = SpatialSchedule(tracks, SLOT_S, reuse_m=3500.0, margin_m=500.0)
+    assert s.epoch(0.0).n_slots == 3 and s.epoch(0.0).slot[0] != s.epoch(0.0).slot[1]
+    assert SpatialSchedule([still(0, 0), still(9000, 0)], SLOT_S, 3500.0).cycle_s(0.0) \
+        == 2 * SLOT_S  # never more slots than vehicles
 
 
 def test_the_schedule_follows_the_plan_as_vehicles_move_apart() -> None:
@@ -55,7 +66,8 @@ def test_the_schedule_follows_the_plan_as_vehicles_move_apart() -> None:
     tracks = [still(0, 0), moving((0, 0), (20_000, 0), 20_000.0)]
     s = SpatialSchedule(tracks, SLOT_S, reuse_m=3500.0, margin_m=500.0, epoch_s=600.0)
     assert s.epoch(0.0).n_slots == 2  # together: a slot each
-    assert s.epoch(10_000.0).n_slots == 1  # 10 km apart: one slot shared
+    far = s.epoch(10_000.0)
+    assert far.slot[0] == far.slot[1]  # 10 km apart: one slot shared (the cycle keeps its floor)
     # No instant at which both own a slot while the plan has them closer than reuse_m.
     for t in openings(s, 0, 20_000.0):
         e = s.epoch(t)
@@ -94,6 +106,7 @@ def test_next_latest_and_counts_agree_across_epochs(seed: int) -> None:
         assert opens == sorted(opens) and len(opens) > 10
         for i, t in enumerate(opens):
             assert s.turns_before(v, t - 0.05 * SLOT_S) == i
+            assert s.nth_opening(v, i, 0.05) == pytest.approx(t)  # its inverse
             assert s.latest(v, t + 1.0, 0.05) == pytest.approx(t)
         assert s.latest(v, opens[0] - 1e-3, 0.05) is None
         # The water's MAC puts a frame inside the vehicle's slot.

@@ -114,8 +114,9 @@ def _step(a: _Auv, tasks: dict, t: float, dt: float, out: list) -> None:
         if a.route:
             a.state = "injecting"
             a.busy_until = t + tasks[a.route[0]]["service_s"]
-        else:
+        else:  # an agent announces its arrival (fleet_agent.agent: replan, home)
             a.state = "home"
+            out.append((bus.event_key(a.vid), Event(t, a.vid, "replan", detail="home").encode()))
         return
     a.yaw_deg = math.degrees(math.atan2(goal[1] - a.xy[1], goal[0] - a.xy[0]))
     a.xy = (a.xy[0] + dt * (goal[0] - a.xy[0]) / d, a.xy[1] + dt * (goal[1] - a.xy[1]) / d)

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from gs_scripted import mission_of, scripted_mission, small_scenario
 from rerun.chunk import RrdReader
 
 from fleet_bus.telemetry import Status, Truth
-from gs_scripted import mission_of, scripted_mission, small_scenario
 from ground_station import palette
 from ground_station.blueprint import live_blueprint
 from ground_station.recording_reader import read_recording
@@ -68,26 +68,44 @@ def test_static_map_mission_card_and_legend(recorded):
     card = ents["/mission"].static["TextDocument:text"][0]
     assert "test-run" in card and "rgb" not in card  # colours are swatches in the legend
     legend = ents["/legend/vehicles"].static
-    assert legend["Points2D:labels"][0].startswith("auv1")
     assert legend["Points2D:colors"][0] == rgba(palette.vehicle_color(0))
     assert ents["/legend/links"].static["LineStrips2D:colors"][2] == rgba(palette.LINK_DROPPED)
+    names = ents["/legend/labels"].static
+    assert names["Points2D:labels"][0] == "auv1, its planned spots"
+    assert "abandoned spot" in names["Points2D:labels"]
+    assert set(names["Points2D:colors"]) == {rgba(palette.LABEL_TEXT)}  # readable on grey
     assert RrdReader(rrd).blueprints(), "the layout travels with the recording"
+
+
+def test_the_map_has_a_grid_and_a_scale_bar(recorded):
+    _, _, _, ents, _ = recorded
+    grid = ents["/map/grid"].static
+    assert len(grid["LineStrips2D:strips"]) >= 4
+    assert grid["Points2D:labels"] and all(label.endswith(" m")
+                                           for label in grid["Points2D:labels"])
+    scale = ents["/map/scale"].static
+    assert len(scale["LineStrips2D:strips"]) == 3  # the bar and its two end ticks
+    (a, b), = [s for s in scale["LineStrips2D:strips"] if s[0][1] == s[1][1]]
+    assert scale["Points2D:labels"] == [f"{abs(b[0] - a[0]):g} m"]
 
 
 def test_vehicles_start_together_without_piling_their_labels(recorded):
     _, _, _, ents, _ = recorded
-    at_start = [row["Points2D:labels"] for t, row in ents["/map/vehicles"].sorted_rows()
-                if t == 0.0]
-    assert at_start[-1] == ["", "", ""]  # the station's label names them instead
+    labels = ents["/map/vehicle_labels"]
+    at_start = [row.get("Points2D:labels") for t, row in labels.sorted_rows() if t == 0.0]
+    assert at_start[-1] in ([], None)  # the station's label names them instead
     stations = [row["Points2D:labels"] for t, row in ents["/map/stations"].sorted_rows()
                 if t == 0.0]
     assert stations[0] == ["start", "rendezvous"]
     assert stations[-1] == ["start: auv1 auv2 auv3 transit", "rendezvous"]
-    rows = [row["Points2D:labels"] for _, row in ents["/map/vehicles"].sorted_rows()]
-    assert any(sum(bool(label) for label in labels) >= 2 for labels in rows)  # apart
-    for labels in rows:  # a label only on its own vehicle (or the first of a group)
-        assert all(not label or label.startswith(f"auv{i + 1}")
-                   for i, label in enumerate(labels))
+    rows = [row for _, row in labels.sorted_rows() if row.get("Points2D:labels")]
+    assert any(len(row["Points2D:labels"]) >= 2 for row in rows)  # apart
+    for row in rows:  # a label per vehicle (or group), never two on one spot
+        xy = row["Points2D:positions"]
+        assert len(xy) == len(row["Points2D:labels"])
+        assert len({tuple(p) for p in xy}) == len(xy)
+    assert labels.static["Points2D:colors"] == [rgba(palette.LABEL_TEXT)]
+    assert "Points2D:labels" not in (ents["/map/vehicles"].latest("Points2D:labels") or {})
 
 
 def test_series_end_where_the_last_statuses_do(recorded):
@@ -114,13 +132,17 @@ def test_spot_colours_vehicle_marks_and_event_log(recorded):
     colors = ents["/map/spots"].latest("Points2D:colors")
     assert [c == rgba(palette.SPOT_CLEARED) for c in colors] == [True, True, False, True, True,
                                                                  True]
-    assert ents["/map/vehicles/auv2/mark"].latest("LineStrips2D:labels")[0] == "auv2 ABORTED"
+    mark = ents["/map/vehicles/auv2/mark"]
+    assert mark.latest("Points2D:labels") == ["auv2 ABORTED"]
+    assert mark.latest("Points2D:colors") == [rgba(palette.LABEL_TEXT)]
     assert "/map/vehicles/auv1/mark" not in ents
     texts = [row["TextLog:text"][0] for _, row in ents["/events"].sorted_rows()]
-    assert "auv2 abort: fault" in texts
-    assert "auv1 takeover spots 13,14 peer auv2" in texts or \
-        "auv1 takeover spots 14 peer auv2" in texts
-    assert "auv2 is aborted" in texts and "auv1 is home" in texts
+    assert "auv2 aborted its mission" in texts
+    assert "auv1 took over spots 13 and 14 from auv2" in texts or \
+        "auv1 took over spot 14 from auv2" in texts
+    assert "auv1 treated spot 10" in texts and "auv1 reached its rendezvous" in texts
+    assert "auv1 is home" not in texts  # its arrival says it once
+    assert "auv2 is aborted" not in texts  # its abort says it once
 
 
 def test_links_are_one_layer_drawn_then_cleared(recorded):
@@ -131,8 +153,8 @@ def test_links_are_one_layer_drawn_then_cleared(recorded):
     cleared = [t for t, r in rows if r.get("Clear:is_recursive") is not None]
     assert drawn and cleared  # frames every 30 s, each shown for 20 s
     assert max(len(r["LineStrips2D:strips"]) for _, r in drawn) <= 6  # the latest per link
-    labels = {label for _, r in drawn for label in r["LineStrips2D:labels"]}
-    assert "" in labels and any(label.startswith("collision SNR ") for label in labels)
+    labels = {label for _, r in drawn for label in r.get("Points2D:labels") or []}
+    assert labels and all(label.startswith("collision SNR ") for label in labels)
     colors = {c for _, r in drawn for c in r["LineStrips2D:colors"]}
     assert rgba(palette.LINK_DROPPED) in colors and len(colors) >= 3  # SNR as colour
     assert all(b - a <= 5.0 + 30.0 for a, b in zip([t for t, _ in rows], [t for t, _ in rows][1:]))

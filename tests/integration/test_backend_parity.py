@@ -54,4 +54,4 @@ def test_the_same_seed_makes_the_same_decisions_in_both_backends(tmp_path) -> No
     assert in_process["treated"], "the in-process fleet treated nothing"
     assert processes == in_process
     for key in ("spots_cleared", "duplicate_treatments", "vehicles_home", "spots_taken_over"):
-        assert run.report["fleet"][key] == sim.report["fleet"][key], key
+        assert getattr(run.report.fleet, key) == getattr(sim.report.fleet, key), key

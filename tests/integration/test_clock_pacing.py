@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from cotsfleet.commands.run import run_warnings
+from cotsfleet.mission.report_model import MissionReport
 from cotsfleet.mission.processes import ProcessBackend, ProcessOptions
 from cotsfleet.mission.runner import run_mission
 from reef_sim.scenarios.field import GeneratorParams, generate_doc
@@ -39,7 +40,7 @@ def paced(tmp_path_factory):
                               out=lambda line: None)
     result: dict = {}
     thread = threading.Thread(target=lambda: result.update(report=run_mission(
-        problem, launcher, (), seed=5, step_s=25.0).report), daemon=True)
+        problem, launcher, (), seed=5, step_s=25.0).report.to_dict()), daemon=True)
     thread.start()
     try:
         assert launcher.started.wait(120), "mission never started"
@@ -69,7 +70,7 @@ def test_the_lagging_process_slowed_the_clock(paced):
     assert clock["max_lag_s"] > 2.0  # the starved agent said how far behind it ran
     assert clock["slowdowns"] and min(s["warp"] for s in clock["slowdowns"]) < WARP
     assert clock["effective_warp"] < WARP
-    assert any("slowed" in line for line in run_warnings(paced))
+    assert any("slowed" in line for line in run_warnings(MissionReport.from_dict(paced)))
 
 
 def test_every_process_followed_the_slower_clock(paced):

@@ -61,7 +61,7 @@ def mission(run_dir: Path, child_env: dict) -> dict:
         kill_children(backend)
     assert not thread.is_alive(), "the launcher did not finish"
     assert all(c.popen.poll() is not None for c in backend.children.values())
-    report = result["report"]
+    report = result["report"].to_dict()
     report["_statuses"] = {vid: s.counters for vid, s in backend.ledger.statuses.items()}
     report["_treated"] = {vid: list(s.treated) for vid, s in backend.ledger.statuses.items()}
     return report

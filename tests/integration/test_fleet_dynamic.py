@@ -44,7 +44,7 @@ def mission(tmp_path_factory):
                               out=lambda line: None)
     result: dict = {}
     thread = threading.Thread(target=lambda: result.update(report=run_mission(
-        problem, launcher, faults, seed=2, step_s=25.0, reef=reef).report), daemon=True)
+        problem, launcher, faults, seed=2, step_s=25.0, reef=reef).report.to_dict()), daemon=True)
     thread.start()
     try:
         thread.join(timeout=240)

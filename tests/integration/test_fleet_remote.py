@@ -75,7 +75,7 @@ def test_agent_behind_a_second_router_joins_the_mission(tmp_path: Path) -> None:
                               startup_timeout_s=60, credentials=creds)
         problem = problem_from_dict(doc)
         backend = ProcessBackend(problem, doc, 2, opts, out=lambda line: None)
-        report = run_mission(problem, backend, (), seed=2, step_s=25.0).report
+        report = run_mission(problem, backend, (), seed=2, step_s=25.0).report.to_dict()
         assert agent.wait(timeout=30) == 0, "the launcher's stop command ends the remote agent"
     finally:
         for p in procs:

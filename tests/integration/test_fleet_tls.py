@@ -189,9 +189,10 @@ def test_the_documented_procedure_runs_over_tls_and_nothing_crosses_in_clear(
     # of another vehicle or of the operator, no password.
     assert _files(hosts.b.cwd) == {
         "fleet.toml", "scenario.json", *(f"auv3/{f}" for f in (
-            "ca.pem", "ring.json", "signing.key", "tls.key", "tls.pem")),
+            "ca.pem", "frames.key", "ring.json", "signing.key", "tls.key", "tls.pem")),
         *(f"router-auv3/{f}" for f in ("ca.pem", "ring.json", "tls.key", "tls.pem"))}
-    for secret in ("auv3/signing.key", "auv3/tls.key", "router-auv3/tls.key", "fleet.toml"):
+    for secret in ("auv3/signing.key", "auv3/frames.key", "auv3/tls.key", "router-auv3/tls.key",
+                   "fleet.toml"):
         assert (hosts.b.cwd / secret).stat().st_mode & 0o077 == 0, secret
     run_id = json.loads((hosts.a.cwd / "creds" / "ring.json").read_text())["run_id"]
 

@@ -73,7 +73,7 @@ def test_a_killed_agent_is_marked_and_the_station_keeps_going(mission):
     # the mission goes on long after the kill, so the station's own silence verdict (120 sim s
     # without telemetry) outranks the peers' "lost"
     assert ents["/series/battery_s"].line("auv1")[-1][0] > 1600 + 150
-    assert ents["/map/vehicles/auv3/mark"].latest("LineStrips2D:labels")[0] == "auv3 SILENT"
+    assert ents["/map/vehicles/auv3/mark"].latest("Points2D:labels") == ["auv3 SILENT"]
     texts = [row["TextLog:text"][0] for _, row in ents["/events"].sorted_rows()]
     assert any(t.startswith("auv3 silent since") for t in texts)
 
@@ -84,7 +84,7 @@ def test_map_abort_mark_and_event_log(mission):
     assert "Image:buffer" in ents["/map/field"].static
     texts = [row["TextLog:text"][0] for _, row in ents["/events"].sorted_rows()]
     assert "auv2 abort" in " ".join(texts)
-    assert ents["/map/vehicles/auv2/mark"].latest("LineStrips2D:labels")[0] == "auv2 ABORTED"
+    assert ents["/map/vehicles/auv2/mark"].latest("Points2D:labels") == ["auv2 ABORTED"]
     trails = [len(row["LineStrips2D:strips"]) for _, row in ents["/map/trails"].sorted_rows()
               if row.get("LineStrips2D:strips")]
     assert max(trails) == len(report["vehicles"]), "every vehicle leaves a trail"

@@ -68,7 +68,7 @@ def test_a_query_flood_is_rationed_per_identity_and_counted(tmp_path: Path) -> N
         if thread.is_alive():
             kill_children(backend)
     assert not thread.is_alive()
-    report = result["report"]
+    report = result["report"].to_dict()
     asked = report["queries"]["operator"]
     unsigned_cap = UNSIGNED_BURST + UNSIGNED_RATE_PER_S * (FLOOD_S + 1)
     assert 0 < got["station"] <= unsigned_cap and asked["limited"]["unsigned"] > 100
