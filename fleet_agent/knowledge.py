@@ -27,7 +27,7 @@ from fleet_agent.plans import Planner
 from fleet_agent.reckoning import position_along
 from fleet_agent.replay import ReplayWindow
 from fleet_agent.wire import Digest
-from fleet_agent.witness import Track, Witness
+from fleet_agent.witness import Track, Witness, position_on
 from hfc_core.model.problem import Problem
 
 Point3 = tuple[float, float, float]
@@ -215,7 +215,8 @@ class Knowledge:
     def whereabouts(self, v: int, t_s: float) -> Point3:
         """Where vehicle ``v`` is believed to be at ``t_s`` if alive: this vehicle where it
         was then (`OwnVehicle.position_at`: a silence is judged where it began, and a judge
-        that has moved on since was within reach then); a peer dead-reckoned from its last pose along the route it is believed to fly
+        that has moved on since was within reach then); a peer heard since ``t_s`` where its
+        poses put it then; a peer dead-reckoned from its last pose along the route it is believed to fly
         (`replans.live_peer`'s estimate), or where the fleet plan puts it when none was
         heard (`fleet.tracks`)."""
         if v == self.index:
@@ -227,6 +228,11 @@ class Knowledge:
                 return self.problem.vehicles[v].start
             x, y = tracks[v].at(t_s)
             return (x, y, 0.0)
+        if t_s < pose.t_s:  # heard since: where its poses put it then (`witness.Track`)
+            track = self.tracks.get(v)
+            at = position_on(track, t_s) if track else None
+            if at is not None:
+                return at
         dt = max(0.0, t_s - pose.t_s)
         # Cheap bound first: a vehicle moves at most its speed; most peers are far away.
         far = self.hear_range_m + self.problem.vehicles[v].speed_mps * dt
