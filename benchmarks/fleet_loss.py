@@ -73,7 +73,8 @@ def main(runs: int, quick: bool) -> None:
         ["condition", "runs", "spots cleared", "priority", "duplicates", "dup % of treated",
          "detection mean s", "detection worst s", "false alarms/run", "B/vehicle/min",
          "vs perfect-info replan"], rows)
-    body = (f"In-process simulation (`cotsfleet.mission.inprocess`), paper preset drawn with seeds 0..{runs - 1}"
+    body = ("In-process simulation (`cotsfleet.mission.inprocess`), paper preset drawn with "
+            f"seeds 0..{runs - 1}"
             f" (one scenario per seed), default agent and channel (psk_1k) settings; extra loss "
             f"is uniform on top of the range model. Heartbeat period = TDMA cycle = "
             f"{cycle:g} s; detection target 5 periods = {5 * cycle:g} s. Detection: from the "

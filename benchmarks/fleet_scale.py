@@ -364,7 +364,8 @@ def main(seed: int, quick: bool) -> int:
             f"survivor that no vehicle runs, left out: {last['oracle_cpu_s']:.0f} s at "
             f"{last['k']}), and "
             f"{growth:.2f} x its wall time, {last['wall_s']:.0f} s (wall time counts the "
-            f"other processes of a shared machine too: see the load).\n\n{markdown_table(head, table)}\n")
+            f"other processes of a shared machine too: see the load).\n\n"
+            f"{markdown_table(head, table)}\n")
     ok_b = True
     if b is not None:
         gone = not b["left"] and not b["left_in_session"]

@@ -130,7 +130,8 @@ def main(runs: int, time_limit_s: float, parallel: int, write: bool, base: int =
             f"`python -m benchmarks.paper_best`: `best` and PyVRP {time_limit_s:g} s each, "
             f"PyVRP also {long_s:g} s (`pyvrp20`), HFC 150 iterations, GA 200 generations; one "
             f"pinned process per run ({parallel} at a time). Priority collected and spots "
-            "treated; every plan checked by `hfc_core.model.check`. `best`'s parameters were tuned on "
+            "treated; every plan checked by `hfc_core.model.check`. `best`'s parameters were "
+            "tuned on "
             "other scenarios (`paper_preset_doc(5000 + i)`), not these.\n\n"
             "Paper preset (`paper_preset_doc(0)`, planner seed 0):\n\n"
             + markdown_table(head_preset, preset_rows)

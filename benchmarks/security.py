@@ -1,6 +1,9 @@
 """Attack figures: what an intruder on the bus achieves, and what a flood costs the fleet.
 
-``python -m benchmarks.security [--quick] [--seed N] [--warp W]``
+``python -m benchmarks.security [--quick] [--seed N] [--warp W] [--insiders]``
+
+(``--insiders``: only part 3, `benchmarks.insider_attacks`: every insider attack of issue 31
+against an unattacked run, in process and as real processes.)
 
 1. Per-message cost of the checks, in-process with real keys: sealing, opening a genuine
    envelope, refusing garbage and refusing a forged envelope (one Ed25519 verification), and
@@ -184,5 +187,12 @@ if __name__ == "__main__":
     parser.add_argument("--quick", action="store_true", help="short flood, writes nothing")
     parser.add_argument("--seed", type=int, default=9)
     parser.add_argument("--warp", type=float, default=25.0)
+    parser.add_argument("--insiders", action="store_true",
+                        help="only the insider attacks (benchmarks.insider_attacks)")
     args = parser.parse_args()
-    main(args.seed, args.warp, args.quick)
+    if args.insiders:
+        from benchmarks import insider_attacks
+
+        insider_attacks.main(args.warp, args.quick)
+    else:
+        main(args.seed, args.warp, args.quick)

@@ -134,7 +134,8 @@ def main(time_limit_s: float, names: list[str] | None, solvers: list[str], seed:
         per_seed = [[gaps["best"][j] for j in shared]]
         for k in range(1, best_seeds):
             per_seed.append([gap_pct(score(problems[chosen[j].name],
-                                           raw_more[("best", chosen[j].name, seed + k)]["routes"])[0],
+                                           raw_more[("best", chosen[j].name, seed + k)]["routes"]
+                                           )[0],
                                      chosen[j].bks) for j in shared])
         means = [mean(g) for g in per_seed]
         runs = [x for g in per_seed for x in g]

@@ -112,7 +112,8 @@ class Channel:
         self._root_seed = int(rng.integers(0, 2**63))
         self._link_rngs: dict[tuple[str, str], np.random.Generator] = {}
         self._nodes: dict[str, _Node] = {}
-        self._heap: list[tuple[float, int, int, object]] = []
+        # (time, sequence, kind, what): a node's name to wake, or a reception to settle
+        self._heap: list[tuple[float, int, int, str | _Reception]] = []
         self._seq = itertools.count()
         self._now_s = -math.inf
         self._extra_loss = config.extra_loss
@@ -150,7 +151,7 @@ class Channel:
             raise ValueError(f"position must be 3 finite numbers, got {pos_xyz!r}")
         self._catch_up(t_s)
         self._now_s = max(self._now_s, t_s)
-        self._node(node).pos = pos  # type: ignore[assignment]
+        self._node(node).pos = pos
 
     def position(self, node: str) -> tuple[float, float, float] | None:
         n = self._nodes.get(node)
@@ -236,7 +237,7 @@ class Channel:
             return self._settled[0].t_s
         while self._heap:
             t, seq, kind, obj = self._heap[0]
-            if kind == _WAKE and self._nodes[obj].wake_seq != seq:  # type: ignore[index]
+            if isinstance(obj, str) and self._nodes[obj].wake_seq != seq:
                 heapq.heappop(self._heap)  # superseded wake-up
                 continue
             return t
@@ -272,13 +273,13 @@ class Channel:
         while self._heap and due(self._heap[0][0]):
             t, seq, kind, obj = heapq.heappop(self._heap)
             self._now_s = max(self._now_s, t)
-            if kind == _RX:
-                self._settled.append(self._settle(obj))  # type: ignore[arg-type]
-            else:
-                node = self._nodes[obj]  # type: ignore[index]
+            if isinstance(obj, _Reception):  # kind _RX
+                self._settled.append(self._settle(obj))
+            else:  # kind _WAKE: a node's name
+                node = self._nodes[obj]
                 if node.wake_seq == seq:
                     node.wake_seq = None
-                    self._try_start(obj, node, t)  # type: ignore[arg-type]
+                    self._try_start(obj, node, t)
 
     def _node(self, name: str) -> _Node:
         node = self._nodes.get(name)

@@ -122,7 +122,7 @@ class ChannelConfig:
         # The water and the link budget validate themselves (and fail here, not mid-run).
         SeaState(self.wind_mps, self.shipping, self.shrimp_db)
         if self.model == "physical":
-            self.budget  # noqa: B018 - computes (and caches) the budget, raising if invalid
+            self.budget  # computes (and caches) the budget, raising if invalid
         if self.tdma is not None:
             longest = self.airtime_s(self.max_frame_bytes) + self.tdma.guard_s
             if self.tdma.slot_s < longest:

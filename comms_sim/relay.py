@@ -38,7 +38,7 @@ from comms_sim.water import SimClock, Water
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, Refused, seal
 from fleet_bus.clock import MissionClock
-from fleet_bus.link import INTRUDER, LinkControl, LinkRecord, TxTag, encode_stats
+from fleet_bus.link import LinkControl, LinkRecord, TxTag, encode_stats
 from fleet_bus.mission import ClockRecord, ClockSync, fetch_mission
 from fleet_bus.process import RELAY_READY, ready
 from fleet_bus.query_limits import QueryGate, gate_queryable
@@ -170,8 +170,10 @@ class Relay:
                     return []
                 apply_control(control, channel, now)
                 if control.inject is not None and control.inject_at is not None:
-                    channel.set_position(INTRUDER, control.inject_at, now)
-                    return channel.submit(INTRUDER, control.inject, now, "data")
+                    # from the intruder's modem, or the operator's topside (whose node then
+                    # hears the water: its deliveries go out on fleet/rx/topside)
+                    channel.set_position(control.inject_from, control.inject_at, now)
+                    return channel.submit(control.inject_from, control.inject, now, "data")
             except ValueError:
                 self.counters["malformed_ctl"] += 1
             return []
@@ -300,13 +302,15 @@ def main(conf: zenoh.Config, config: ChannelConfig, stop: threading.Event,
         if epoch_unix is None:
             mission = fetch_mission(session, stop, mission_timeout_s, auth)
             if mission is None:
-                return _gave_up(stop, keys.MISSION, mission_timeout_s)
+                _gave_up(stop, keys.MISSION, mission_timeout_s)
+                return None
             seed = mission.seed if seed is None else seed
             vehicles = vehicles or mission.roster() or None
             sync = ClockSync(session, auth, stop)  # the operator's clock, measured
             clock = sync.join(mission_timeout_s)
             if clock is None:
-                return _gave_up(stop, keys.CLOCK, mission_timeout_s)
+                _gave_up(stop, keys.CLOCK, mission_timeout_s)
+                return None
             sync.start()
         else:  # a clock of its own, from a wall-clock epoch given by hand
             ref, w, _ = ClockRecord(epoch_unix, warp if warp is not None else 1.0).timing()
@@ -335,4 +339,3 @@ def _gave_up(stop: threading.Event, key: str, timeout_s: float) -> None:
     if not stop.is_set():
         print(f"comms_sim relay: no well-formed answer on {key} within {timeout_s:g} s",
               file=sys.stderr, flush=True)
-    return None

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from types import ModuleType
 from typing import Sequence
 
 from cotsfleet.errors import UsageError
@@ -26,10 +27,12 @@ COMMANDS = {
     "link": "link",
     "credentials": "credentials",
     "water": "water",
+    "agent": "agent",
+    "ctl": "ctl",
 }
 
 
-def _available() -> dict[str, object]:
+def _available() -> dict[str, ModuleType]:
     mods = {}
     for name, module in COMMANDS.items():
         try:

@@ -31,75 +31,43 @@ from fleet_agent import records as rec
 from fleet_agent.beliefs import Beliefs
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
-from fleet_agent.intents import (
-    Count,
-    Hold,
-    Intent,
-    LastWords,
-    Note,
-    Owe,
-    SeekWork,
-    Steer,
-    Tell,
-)
-from fleet_agent.io_types import (
-    Command,
-    Frame,
-    Helm,
-    Input,
-    Output,
-    Outputs,
-    Publish,
-    Record,
-    Send,
-    Tick,
-)
+from fleet_agent.intents import (Count, Hold, Intent, LastWords, Note, Owe, SeekWork, Steer,
+                                 Tell)
+from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, Publish,
+                                  Record, Send, Tick)
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import discovery, hearing
 from fleet_agent.policies.cooperate import CoopClock, cooperate
+from fleet_agent.policies.navigation import Navigation
+from fleet_agent.policies.rejoin import Rejoin
+from fleet_agent.policies.orders import Orders
 from fleet_agent.policies.route import sync
 from fleet_agent.provenance import Provenance
 from fleet_agent.radio import Radio, Slots
-from fleet_agent.restore import Snapshot, fold
+from fleet_agent.restore import fold, restore
 from fleet_agent.routing import fit_route
 from fleet_agent.wire import Message, radio_kind
+from fleet_bus.orders import is_topside_frame
 from fleet_bus.telemetry import Status
-from fleet_bus.vehicle_port import (
-    Arrived,
-    Injected,
-    Looked,
-    NavFix,
-    Refused,
-    Sighted,
-    VehicleReport,
-)
+from fleet_bus.vehicle_port import (Arrived, Injected, Looked, NavFix, Refused, Sighted,
+                                    VehicleReport)
 from hfc_core.model.problem import Problem
 
-__all__ = [
-    "Agent",
-    "Command",
-    "Fleet",
-    "Frame",
-    "Helm",
-    "Input",
-    "Output",
-    "Publish",
-    "Record",
-    "Send",
-    "Tick",
-]
+__all__ = ["Agent", "Fleet", "Tick", "Frame", "Command", "Input", "Send", "Publish", "Record",
+           "Helm", "Output"]
 
 
 class Agent:
     """One vehicle's brain: call `step` with each input; `next_wakeup` says when to tick."""
 
     def __init__(self, fleet: Fleet, index: int, config: AgentConfig, now: float = 0.0,
-                 journal: Sequence[dict[str, Any]] = (), chain_seed: bytes | None = None
-                 ) -> None:
+                 journal: Sequence[dict[str, Any]] = (), chain_seed: bytes | None = None,
+                 journal_damaged: bool = False) -> None:
         """``chain_seed``: this vehicle's key chain (`fleet_bus.tesla`) from its
-        credentials; None where the fleet's chains are derived (a simulation)."""
+        credentials; None where the fleet's chains are derived (a simulation).
+        ``journal_damaged``: the journal's reader found bytes it could not read."""
         p = fleet.problem
         self.fleet, self.index, self.config = fleet, index, config
         self.id = p.vehicles[index].id
@@ -114,6 +82,12 @@ class Agent:
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
         self.provenance = Provenance.of(fleet, index, chain_seed, config.slot_s)
         self.coop = CoopClock(now + config.coop_period_s * (1.0 + index / p.n_vehicles))
+        self.nav = Navigation(config)  # fixes that stop, a vehicle that lags (`policies`)
+        assert fleet.orders is not None and fleet.chains is not None
+        chains = fleet.chains
+        self.orders = Orders(fleet.orders, fleet.topside, chains.topside, chains.length, index,
+                             config, journal)  # the operator's live orders
+        self.nav.paused = self.orders.paused
         self.counters: dict[str, int] = {}
         self.largest_frame = 0
         self.lag_s = 0.0  # worst lateness of the host since the last status (`note_lag`)
@@ -124,11 +98,24 @@ class Agent:
         self._synced = -1  # the knowledge's version the route was last checked against
         self._commanded: tuple[Any, ...] | None = None  # what the vehicle was last told
         self._boot = self._outputs()
+        lost = "damaged" if journal_damaged else None
         if journal:
-            self._restore(fold(journal, p.n_tasks), now, self._boot)
+            snap = fold(journal, p.n_tasks)
+            if snap.bad_records:
+                self.count("journal_bad_records", snap.bad_records)
+                lost = "damaged"
+            restore(snap, self.know, self.radio, fleet.base_routes[index], now, self._boot)
         else:
             self.own.set_route(fleet.base_routes[index])
             self._boot.record(rec.Start(now, index))
+            if now > 2 * slots.cycle_s:  # the mission is under way: a journal lost, or late
+                lost = "empty"
+        self.rejoin = Rejoin(lost, now, slots.cycle_s)  # learn the fleet's set before acting
+        self.nav.rejoining = self.rejoin.waiting
+        if lost is not None:
+            self.count(f"journal_{lost}")
+            self._boot.event(now, "restart", detail=f"journal {lost}: keeping station until "
+                             "the fleet's cleared set is learned")
         self.know.rebind()
 
     def _settled_s(self, task: int) -> float:
@@ -136,9 +123,10 @@ class Agent:
 
     # -- the state machine -----------------------------------------------------------------
 
-    def step(self, inp: Input, reports: Sequence[VehicleReport] = ()) -> list[Output]:
-        """Take the vehicle's ``reports`` (in time order, none after ``inp.now``), then
-        ``inp``; return what to journal, send, publish and command."""
+    def step(self, inp: Input, reports: Sequence[VehicleReport] = (),
+             nav_age_s: float | None = None) -> list[Output]:
+        """Take the vehicle's ``reports`` (in time order, none after ``inp.now``) and its last
+        fix's age (None: fresh), then ``inp``; return what to journal, send, publish, command."""
         now = max(float(inp.now), self.t)
         out, self._boot = self._boot, self._outputs()
         for r in reports:
@@ -150,10 +138,15 @@ class Agent:
         elif isinstance(inp, Command):
             self._on_command(inp.name, now, out)
         self._settle(now)
+        self._apply(self.nav.check(self.know, now, nav_age_s), now, out)
+        if self.rejoin.waiting:
+            self._apply(self.rejoin.check(self.know, now), now, out)
+            self.nav.rejoining = self.rejoin.waiting
         self.know.rebind()
         for v in self.know.members.check(now):  # silence makes a suspect, nothing more
             out.event(now, "suspect", peer=self.know.vid(v))
-        if self.active and self.coop.due(now, self.config.coop_period_s):
+        if self.active and not self.rejoin.waiting and self.coop.due(now,
+                                                                     self.config.coop_period_s):
             self._apply(cooperate(self.know, self.config, now), now, out)
         if self.active and self.know.version != self._synced:
             self._synced = self.know.version
@@ -290,13 +283,11 @@ class Agent:
     def _helm(self, out: Outputs) -> None:
         """Tell the vehicle what to do when that changed (an arrival, the end of work, a new
         head of the route, an abort)."""
-        key = self.own.command_key()
-        if key == self._commanded:
-            return
-        self._commanded = key
-        cmd = self.own.command()
-        if cmd is not None:
-            out.append(Helm(cmd))
+        key = self.nav.command_key(self.own)  # the route's, or a hold for want of navigation
+        if key != self._commanded:
+            self._commanded, cmd = key, self.nav.command(self.own)
+            if cmd is not None:
+                out.append(Helm(cmd))
 
     def _settle(self, now: float) -> None:
         """A find that finished settling may now be planned: look for work."""
@@ -311,6 +302,9 @@ class Agent:
         """Bytes off the modem (`provenance`): evidence of life counts at once; the rest once
         proven its sender's, then through the replay window and `policies.hearing`."""
         self.count("rx_frames")
+        if is_topside_frame(data):  # the operator's orders, keys, acknowledgements
+            self._apply(self.orders.hear(data, now, self.know, self.nav), now, out)
+            return
         taken = self.provenance.hear(data, now)
         for reason, n in self.provenance.take_drops().items():
             self.count(f"drop_{reason}", n)
@@ -329,11 +323,10 @@ class Agent:
         self._apply(hearing.content(self.know, self.config, msg, now, self.active), now, out)
 
     def _on_command(self, name: str, now: float, out: Outputs) -> None:
-        if name != "abort" or not self.active:
-            return
-        self.own.abort()
-        self._apply([Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
-                     Tell(now, "abort")], now, out)
+        if name == "abort" and self.active:
+            self.own.abort()
+            self._apply([Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
+                         Tell(now, "abort")], now, out)
 
     # -- the modem out ---------------------------------------------------------------------
 
@@ -345,60 +338,31 @@ class Agent:
             self.count("slots_missed", skipped)
         if sent_s < now:
             self.count("slots_late")
-        msgs = self.radio.messages(now, self.know, self.fleet.modem.frames_per_packet)
-        if not msgs:
-            return
+        room = self.fleet.modem.frames_per_packet
+        msgs = self.radio.messages(now, self.know, room)
+        if self.orders.owes and (len(msgs) < room or radio_kind(msgs[-1]) == "pose"):
+            passed = self.orders.take_frame(now, self.config.slot_s)  # in place of a pose
+            msgs = msgs[:room - 1] if passed is not None else msgs
+        else:
+            passed = None
         sealed = [(m, self.provenance.seal(m)) for m in msgs]
         for reason, n in self.provenance.take_drops().items():
             self.count(f"tx_{reason}", n)
         msgs = [m for m, f in sealed if f is not None]
-        frames = tuple(f for _, f in sealed if f is not None)
+        frames = tuple(f for _, f in sealed if f is not None) + (
+            (passed,) if passed is not None else ())
         if not frames:
             return
-        names = tuple(type(m).__name__.lower() for m in msgs)
+        names = tuple(type(m).__name__.lower() for m in msgs) + (
+            ("order",) if passed is not None else ())
         for name, frame in zip(names, frames):
             self.count(f"tx_{name}")
             self.count("tx_bytes", len(frame))
             self.largest_frame = max(self.largest_frame, len(frame))
-        kind = "pose" if all(radio_kind(m) == "pose" for m in msgs) else "data"
+        kind = "pose" if passed is None and all(radio_kind(m) == "pose" for m in msgs) \
+            else "data"
         out.append(Send(frames, kind, names, sent_s))
         out.record(self.checkpoint(now))
-
-    # -- restarts ----------------------------------------------------------------------------
-
-    def _restore(self, snap: Snapshot, now: float, out: Outputs) -> None:
-        """Come back from a journal's snapshot at ``now``. Silence is counted from the
-        restart: the agent could not listen while it was down."""
-        know, own = self.know, self.own
-        if snap.bad_records:
-            self.count("journal_bad_records", snap.bad_records)
-        know.cleared.update(snap.cleared)
-        know.treated = list(snap.treated)
-        for f in snap.finds:
-            know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s)
-        for h in snap.holds:
-            know.holdings.apply(h.v, h.t_s, list(h.tasks), h.claim)
-        for p in snap.finals:
-            if p.v in know.members.peers:
-                know.members.mark(p.v, p.status, p.t_s)
-        for peer in know.members.peers.values():
-            peer.evidence_s = max(peer.evidence_s, now)
-            peer.since_s = max(peer.since_s, now)
-        know.rebind()  # finds back in the working problem before the route aims at them
-        ck = snap.checkpoint
-        if ck is not None:
-            self.radio.last_seq = ck.seq
-            know.replay.restore(dict(ck.high_water))
-            own.restore(now, ck.pos, ck.distance_m, list(ck.route), snap.aborted, snap.home_at_s)
-        else:
-            own.restore(now, own.pos, 0.0, self.fleet.base_routes[self.index], snap.aborted,
-                        snap.home_at_s)
-        know.touch()
-        if snap.aborted:
-            self.radio.outbox.owe(Owed.OWN_ABORT)
-        self.radio.outbox.owe(Owed.CLEARED, 1)  # tell the fleet what we know as soon as we can
-        out.record(rec.Restarted(now))
-        out.event(now, "restart", detail=f"{len(know.cleared)} cleared")
 
     # -- telemetry and checkpoints ---------------------------------------------------------
 
@@ -426,8 +390,7 @@ class Agent:
             claims=know.tids(sorted(know.standing_claims())),
             counters={**self.counters, "largest_frame": self.largest_frame},
             lag_s=self._take_lag(),
-            suspects={know.vid(u): n for u, n in sorted(know.suspicion.items())},
-        )
+            suspects={know.vid(u): n for u, n in sorted(know.suspicion.items())})
 
     def _take_lag(self) -> float:
         lag, self.lag_s = self.lag_s, 0.0

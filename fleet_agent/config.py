@@ -96,8 +96,9 @@ class AgentConfig:
     # A predicted spot is planned at its expected value, p_cots * rho (eq. 2's priority times
     # the chance it holds COTS), and costs the look (the camera's inspect_s) plus p_cots times
     # its injection time; within aggregation_radius_m of a find its value uses
-    # p_cots_near_find instead (COTS aggregate; the time stays at the prior's). 0.75: the share of predicted spots that held COTS in the paper-like
-    # preset of `cotsfleet scenario --dynamic` (67 of 90).
+    # p_cots_near_find instead (COTS aggregate; the time stays at the prior's). 0.75: the share
+    # of predicted spots that held COTS in the paper-like preset of `cotsfleet scenario
+    # --dynamic` (67 of 90).
     discovery: bool = True  # False: --no-discovery (ignore sightings, no reallocation)
     p_cots: float = 0.75
     p_cots_near_find: float = 0.9
@@ -106,6 +107,15 @@ class AgentConfig:
     find_repeats: int = 3  # each new find is sent this many times
     find_refresh_cycles: int = 6  # one known find rebroadcast every this many cycles
     find_settle_cycles: float = 3.0  # a find is planned this long after it is learned
+    # Navigation as it is (`policies.navigation`): with no fix for nav_hold_s a vehicle under
+    # way keeps station; for nav_limit_s it heads home. A vehicle whose projected end grew by
+    # late_after_s since its route was set is late (its route refitted from its last fix).
+    nav_hold_s: float = 10.0
+    nav_limit_s: float = 120.0
+    late_after_s: float = 60.0
+    # The operator's live orders (`policies.orders`): one issued longer ago than this is
+    # refused as stale (a recording kept back and played later, a topside far behind).
+    ctl_max_age_s: float = 600.0
     # Telemetry and persistence.
     status_period_s: float = 5.0
     truth_period_s: float = 5.0
@@ -114,8 +124,8 @@ class AgentConfig:
 
     def __post_init__(self) -> None:
         positive = ("slot_s", "lost_after_cycles", "coop_period_s", "hear_range_m",
-                    "schedule_epoch_s",
-                    "status_period_s", "truth_period_s", "checkpoint_period_s")
+                    "schedule_epoch_s", "nav_hold_s", "nav_limit_s", "late_after_s",
+                    "ctl_max_age_s", "status_period_s", "truth_period_s", "checkpoint_period_s")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -154,6 +164,8 @@ class AgentConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value >= 0):
                 raise ValueError(f"agent config: {name} must be >= 0, got {value!r}")
+        if self.nav_limit_s < self.nav_hold_s:
+            raise ValueError("agent config: nav_limit_s must be >= nav_hold_s")
         if self.fleet_key_hex:
             try:
                 key = bytes.fromhex(self.fleet_key_hex)

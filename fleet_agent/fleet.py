@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from fleet_agent.beliefs import FIND_MARGIN_M, expected_problem, initial_working_problem
 from fleet_agent.config import AgentConfig
@@ -10,6 +10,7 @@ from fleet_agent.plans import Planner, nominal_tracks
 from fleet_agent.sensor import Camera
 from fleet_agent.wire import Codec
 from fleet_bus.modem_port import WATER_SPEC, ModemSpec
+from fleet_bus.orders import OrderCodec, TopsideSchedule
 from fleet_bus.tdma import SpatialSchedule, Track
 from fleet_bus.tesla import FleetChains
 from hfc_core.model.paths import PathFn, path_function
@@ -49,6 +50,8 @@ class Fleet:
     tracks: tuple[Track, ...] = ()
     schedule: SpatialSchedule | None = None
     chains: FleetChains | None = None  # every vehicle's key chain (`fleet_bus.tesla`)
+    orders: OrderCodec | None = None  # the operator's orders' frames (`fleet_bus.orders`)
+    topside: TopsideSchedule = TopsideSchedule()  # the topside's key intervals
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
@@ -63,25 +66,37 @@ class Fleet:
             raise ValueError(f"key chains for {len(chains.commitments)} vehicles, the "
                              f"scenario has {problem.n_vehicles}")
         if camera is not None:
-            return Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
-                                        chains)
-        codec = Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
-        planner = planner or Planner.from_config(problem, seed, config)
-        routes = planner.initial_routes()
-        tracks = tuple(nominal_tracks(problem, routes))
-        schedule = schedule_of(tracks, config)
-        return Fleet(problem, codec, planner, path_function(problem), seed, routes,
-                     modem=modem, tracks=tracks, schedule=schedule,
-                     chains=chains_for(problem, schedule, key, run_id, chains))
+            fleet = Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
+                                         chains)
+        else:
+            codec = Fleet.wire_of(problem, key, run_id, config, None, modem)
+            planner = planner or Planner.from_config(problem, seed, config)
+            routes = planner.initial_routes()
+            tracks = tuple(nominal_tracks(problem, routes))
+            schedule = schedule_of(tracks, config)
+            fleet = Fleet(problem, codec, planner, path_function(problem), seed, routes,
+                          modem=modem, tracks=tracks, schedule=schedule,
+                          chains=chains_for(problem, schedule, key, run_id, chains))
+        return replace(fleet, orders=OrderCodec(key, run_id, tuple(
+            v.id for v in problem.vehicles)), topside=TopsideSchedule.for_fleet(
+            problem.n_vehicles * config.slot_s))
+
+    @staticmethod
+    def wire_of(problem: Problem, key: bytes, run_id: str, config: AgentConfig,
+                camera: Camera | None = None, modem: ModemSpec = WATER_SPEC) -> Codec:
+        """The wire codec every agent of this mission builds (`build`), without the initial
+        plan: what a launcher needs to speak the fleet's frames (its insider attacks)."""
+        if camera is None:
+            return Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
+        working = initial_working_problem(problem, camera, config)
+        return _dynamic_codec(working, problem.n_tasks, key, run_id, modem)
 
     @staticmethod
     def _build_dynamic(scenario: Problem, key: bytes, seed: int, config: AgentConfig,
                        run_id: str, camera: Camera, modem: ModemSpec,
                        chains: FleetChains | None) -> "Fleet":
         working = initial_working_problem(scenario, camera, config)
-        codec = Codec.for_problem(working, key, run_id, FIND_MARGIN_M,
-                                  found_from=scenario.n_tasks,
-                                  max_frame_bytes=modem.max_frame_bytes)
+        codec = _dynamic_codec(working, scenario.n_tasks, key, run_id, modem)
         expected = expected_problem(scenario, camera, config.p_cots)
         routes = Planner.from_config(expected, seed, config).initial_routes()
         planner = Planner.from_config(working, seed, config)
@@ -114,3 +129,11 @@ def schedule_of(tracks: tuple[Track, ...], config: AgentConfig) -> SpatialSchedu
     return SpatialSchedule(tracks, config.slot_s, config.slot_reuse_m or None,
                            config.schedule_margin_m, config.schedule_epoch_s,
                            config.park_group)
+
+
+def _dynamic_codec(working: Problem, n_predicted: int, key: bytes, run_id: str,
+                   modem: ModemSpec) -> Codec:
+    """A dynamic mission's codec: the working problem's spots and find slots, finds named
+    from ``n_predicted`` on, a margin for finds off the map."""
+    return Codec.for_problem(working, key, run_id, FIND_MARGIN_M, found_from=n_predicted,
+                             max_frame_bytes=modem.max_frame_bytes)

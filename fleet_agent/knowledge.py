@@ -216,9 +216,9 @@ class Knowledge:
         """Where vehicle ``v`` is believed to be at ``t_s`` if alive: this vehicle where it
         was then (`OwnVehicle.position_at`: a silence is judged where it began, and a judge
         that has moved on since was within reach then); a peer heard since ``t_s`` where its
-        poses put it then; a peer dead-reckoned from its last pose along the route it is believed to fly
-        (`replans.live_peer`'s estimate), or where the fleet plan puts it when none was
-        heard (`fleet.tracks`)."""
+        poses put it then; a peer dead-reckoned from its last pose along the route it is
+        believed to fly (`replans.live_peer`'s estimate), or where the fleet plan puts it
+        when none was heard (`fleet.tracks`)."""
         if v == self.index:
             return self.own.position_at(t_s)
         pose = self.peer_pose.get(v)

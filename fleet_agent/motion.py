@@ -25,18 +25,19 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Callable, Sequence
 
+from fleet_bus.states import VehicleState
 from fleet_bus.vehicle_port import (HOME_TARGET, Abort, GoTo, HelmCommand, NavFix, ReturnHome,
                                     StationKeep, Work)
 from hfc_core.model.feasibility import fits, room_s
 from hfc_core.model.paths import PathFn, as_point3
 from hfc_core.model.problem import Problem
+from hfc_core.model.travel import LegError
 
 # Where the vehicle was, kept for `position_at`: a point every TRAIL_STEP_S of mission time,
 # TRAIL_POINTS of them (2 h; older asks get the oldest point). Membership asks where this
 # vehicle was when a peer fell silent, which may be many of a large fleet's cycles ago.
 TRAIL_STEP_S = 30.0
 TRAIL_POINTS = 240
-from hfc_core.model.travel import LegError
 
 Point3 = tuple[float, float, float]
 
@@ -135,11 +136,12 @@ class OwnVehicle:
     def inspecting(self) -> int | None:
         return self.route[0] if self.activity is Activity.LOOKING and self.route else None
 
-    def state(self) -> str:
-        """The telemetry state (`fleet_bus.telemetry.STATES`): busy at a spot is injecting."""
+    def state(self) -> VehicleState:
+        """The telemetry state: busy at a spot is injecting."""
         if self.aborted and not self.done:
-            return "aborted"
-        return "injecting" if self.activity in AT_SPOT else self.activity.value
+            return VehicleState.ABORTED
+        return VehicleState.INJECTING if self.activity in AT_SPOT \
+            else VehicleState(self.activity.value)
 
     def battery_left_s(self, t_s: float | None = None) -> float:
         t = self.t_s if t_s is None else t_s

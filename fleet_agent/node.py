@@ -5,15 +5,20 @@ inbox to the driver with each item's arrival time on the mission clock, ticks th
 `next_wakeup`, and the driver carries out the outputs: frames to the modem (`--modem`: the
 emulated water over Zenoh, `fleet_agent.modems.water`, or a WHOI Micro-Modem,
 `fleet_agent.modems.micromodem`), telemetry to ``fleet/truth|status|event/<id>``, records to
-the journal, commands to the vehicle (`fleet_agent.helms`). Commands arrive on
+the journal, commands to the vehicle (``--helm``: `fleet_agent.helms.choice.open_vehicle`,
+the one place the shell picks it). Commands arrive on
 ``fleet/ctl/<id>``: ``abort`` goes to the agent's logic; ``stop`` ends the process cleanly.
 
 Start-up: the agent reads the mission record (``fleet/mission``: scenario, seed, run id),
-computes the shared initial plan, announces itself ready on ``fleet/alive/<id>`` (a signed
+computes the shared initial plan, opens a live helm (MOOS, ROS 2: on a `PendingClock` until
+the clock comes, so its vehicle answers before the mission starts; the simulated vehicle is
+made at mission time 0, where the journal left it), announces itself ready on
+``fleet/alive/<id>`` (a signed
 put, repeated until the clock comes, and a liveliness token), then waits for the clock record
 (``fleet/clock``), which the operator serves once every agent is ready, and keeps its
 `MissionClock` on the operator's (`ClockSync`: monotonic, offset measured, records followed;
 a step of this host's wall clock is counted as ``clock_wall_steps`` and changes nothing).
+`build_fleet` and `drive` are shared with the on-board shell (`fleet_agent.onboard`).
 
 Authentication (`fleet_bus.auth`, with ``--credentials``): everything this agent puts is
 signed with its own key; it takes deliveries only signed by the relay and commands, mission
@@ -30,6 +35,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import msgpack
 import zenoh
@@ -40,22 +46,25 @@ from fleet_agent.driver import AgentDriver
 from fleet_agent.fleet import Fleet
 from fleet_agent.journal import Journal
 from fleet_agent.plans import set_planning_hook
+from fleet_agent.driver import Telemetry, TruePose
+from fleet_agent.helms.choice import BEFORE_S, HelmChoice, PendingClock, open_vehicle
 from fleet_agent.helms.sim import camera_figures, sim_vehicle
-from fleet_agent.modems.link import parse_link
-from fleet_agent.modems.micromodem import MicroModem, micromodem_spec
+from fleet_agent.modems.choice import ModemChoice
 from fleet_agent.modems.water import ZenohWater
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal, unseal
-from fleet_bus.clock import MissionClock
+from fleet_bus.clock import Clock, MissionClock
 from fleet_bus.commands import STOP, decode_command
 from fleet_bus.credentials import CredentialsError, load_frame_chains, load_frame_seed
-from fleet_bus.mission import ClockSync, fetch_mission
-from fleet_bus.modem_port import WATER_SPEC, ModemPort, ModemReport, ModemSpec, Received
+from fleet_bus.mission import ClockSync, Mission, fetch_mission
+from fleet_bus.modem_port import ModemPort, ModemReport, Received
 from fleet_bus.process import AGENT_READY, ready
 from fleet_bus.telemetry import Event, Status, Truth, encode_busy
+from fleet_bus.vehicle_port import VehiclePort
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.model.errors import ScenarioError
-from reef_sim.truth import reef_from_doc
+from hfc_core.model.problem import Problem
+from reef_sim.truth import Reef, reef_from_doc
 
 MAX_WAIT_WALL_S = 0.25  # longest sleep between looks at the stop flag
 INBOX_LIMIT = 4096  # frames and commands waiting for the agent; beyond, the newest are dropped
@@ -69,21 +78,30 @@ class Inbox:
     once."""
 
     def __init__(self, limit: int = INBOX_LIMIT) -> None:
-        self._q: queue.Queue[tuple[str, object, float]] = queue.Queue(limit)
+        # (kind, payload, arrival): a frame heard ("rx") or a command ("ctl") as bytes, or
+        # another report of the modem ("modem")
+        self._q: queue.Queue[tuple[str, bytes | ModemReport, float]] = queue.Queue(limit)
         self.overflow = 0
 
-    def put(self, kind: str, payload: object) -> None:
+    def put(self, kind: str, payload: bytes | ModemReport) -> None:
         try:  # the monotonic clock: a step of the wall clock must not move a frame in time
             self._q.put_nowait((kind, payload, time.monotonic()))
         except queue.Full:
             self.overflow += 1
+
+    def hear(self, report: ModemReport) -> None:
+        """The modem's sink (its thread): enqueue only."""
+        if isinstance(report, Received):
+            self.put("rx", report.frame)
+        else:
+            self.put("modem", report)
 
     def take_overflow(self) -> int:
         """Items dropped since the last call (counted into the agent by its loop)."""
         n, self.overflow = self.overflow, 0
         return n
 
-    def get(self, timeout_s: float) -> tuple[str, object, float] | None:
+    def get(self, timeout_s: float) -> tuple[str, bytes | ModemReport, float] | None:
         try:
             return self._q.get(timeout=timeout_s) if timeout_s > 0 else self._q.get_nowait()
         except queue.Empty:
@@ -122,55 +140,19 @@ def _announce_ready(session: zenoh.Session, vid: str, auth: BusAuth | None,
             return
 
 
-@dataclass(frozen=True)
-class ModemChoice:
-    """Which modem the agent talks through: the emulated water (``water``) or a WHOI
-    Micro-Modem (``micromodem:LINK``, LINK a serial device or ``tcp:HOST:PORT``) at ``rate``."""
-
-    name: str = "water"
-    rate: int = 1
-
-    @property
-    def spec(self) -> ModemSpec:
-        return WATER_SPEC if self.name == "water" else micromodem_spec(self.rate)
-
-    @staticmethod
-    def parse(text: str, rate: int = 1) -> "ModemChoice":
-        """ValueError, saying why, for anything but ``water`` or ``micromodem:LINK``."""
-        if text == "water":
-            return ModemChoice()
-        kind, _, link = text.partition(":")
-        if kind != "micromodem" or not link:
-            raise ValueError(f"--modem is water or micromodem:LINK, got {text!r}")
-        parse_link(link)
-        micromodem_spec(rate)
-        return ModemChoice(text, rate)
-
-
-class _MissionTime:
-    """Mission time once the clock record has come (before: -1, nothing is dated yet)."""
-
-    clock: MissionClock | None = None
-
-    def now(self) -> float:
-        return -1.0 if self.clock is None else self.clock.now()
-
-
 def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
          stop: threading.Event, mission_timeout_s: float = 120.0,
          auth: BusAuth | None = None, modem: ModemChoice = ModemChoice(),
-         credentials: Path | None = None) -> int:
+         credentials: Path | None = None, helm: HelmChoice = HelmChoice()) -> int:
     """Run agent ``vid`` until ``stop``. Returns 0, 2 if the vehicle is not in the mission,
-    or 3 if no mission or clock record came. With ``auth`` (its own key and the run's ring)
-    it signs what it puts and takes only what its rightful senders signed; with
-    ``credentials`` (its directory) its frames are provably its own (its key chain, and the
-    fleet's commitments: `fleet_bus.tesla`), else every chain derives from the fleet key."""
+    its credentials lack its key chain or its helm could not be opened, or 3 if no mission or
+    clock record came. With ``auth`` (its own key and the run's ring) it signs what it puts
+    and takes only what its rightful senders signed; with ``credentials`` (its directory) its
+    frames are provably its own (its key chain, and the fleet's commitments:
+    `fleet_bus.tesla`), else every chain derives from the fleet key."""
     inbox = Inbox()
-    mission_time = _MissionTime()
-
-    def hear(report: ModemReport) -> None:  # the modem's thread: enqueue only
-        inbox.put("rx", report.frame) if isinstance(report, Received) else \
-            inbox.put("modem", report)
+    mission_time = PendingClock()  # -1 until the clock record comes
+    hear = inbox.hear
 
     def take_ctl(sample: zenoh.Sample) -> None:
         payload = unseal(auth, keys.ctl_key(vid), sample.payload.to_bytes())
@@ -185,28 +167,14 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
         mission = fetch_mission(session, stop, mission_timeout_s, auth)
         if mission is None:
             return 0 if stop.is_set() else 3
-        try:
-            problem = problem_from_dict(mission.scenario)
-            reef = reef_from_doc(mission.scenario, problem)  # the simulated world's reef
-        except ScenarioError as exc:
-            print(f"fleet_agent {vid}: the mission's scenario is not valid: {exc}",
-                  file=sys.stderr)
-            return 2
-        if vid not in problem.vehicle_index:
-            print(f"fleet_agent: {vid!r} is not a vehicle of the mission", file=sys.stderr)
-            return 2
-        chains, seed = None, None
-        if credentials is not None:
-            try:
-                chains = load_frame_chains(credentials, [v.id for v in problem.vehicles])
-                seed = load_frame_seed(credentials)
-            except CredentialsError as exc:
-                print(f"fleet_agent {vid}: {exc}", file=sys.stderr)
+        built = build_fleet(mission, vid, config, modem, credentials)
+        if isinstance(built, int):
+            return built
+        vehicle = None
+        if helm.name != "sim":  # a live vehicle is there before the mission: ready first
+            vehicle = open_live(helm, built, vid, mission_time)
+            if vehicle is None:
                 return 2
-        fleet = Fleet.build(problem, config.fleet_key, mission.seed, config,  # initial plan
-                            run_id=mission.run_id,  # the wire keys bind the run
-                            camera=None if reef is None else camera_figures(reef),
-                            modem=modem.spec, chains=chains)
         clocked = threading.Event()
         threading.Thread(target=_announce_ready, args=(session, vid, auth, clocked),
                          name="ready", daemon=True).start()
@@ -221,37 +189,120 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
             sync.start()
             mission_time.clock = clock
             if port is None:
-                port = MicroModem(modem.name.partition(":")[2], hear, clock, rate=modem.rate)
-            while clock.now() < 0 and not stop.is_set():
-                stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
-            now = clock.now()
-            agent = Agent(fleet, problem.vehicle_index[vid], config, now, journal.records, seed)
+                port = modem.open(hear, clock)
             telemetry = ZenohTelemetry(session, vid, auth)
             set_planning_hook(telemetry.planning)
-            index = problem.vehicle_index[vid]
-            vehicle = sim_vehicle(problem, index, seed=mission.seed, reef=reef, t_s=now,
-                                  pos=agent.own.pos, odometer_m=agent.own.distance_m)
-            driver = AgentDriver(agent, vehicle, port, telemetry, journal,
-                                 truth=vehicle.true_pose, truth_period_s=config.truth_period_s)
-            start = f"restart, {len(journal.records)} records" if journal.records else "fresh"
-            damage = journal.describe_damage()
-            if damage:  # what the restart could not read, and where the evidence is
-                print(f"fleet_agent {vid}: {damage}", file=sys.stderr, flush=True)
-                start += f"; {damage}"
-            if journal.damage is not None:
-                agent.count("journal_damaged_bytes", journal.damage.damaged_bytes)
-            ready(AGENT_READY, f"{vid} at t={now:.1f} s ({start})")
             try:
-                _loop(driver, inbox, clock, stop, auth, sync)
-                driver.final_status(clock.now())
+                return drive(built, vid, config, journal, clock, port, telemetry, helm, stop,
+                             inbox, auth, sync, vehicle)
             finally:
                 sync.close()
                 port.close()
+                if vehicle is not None:
+                    vehicle[0].close()
+
+
+def build_fleet(mission: Mission, vid: str, config: AgentConfig, modem: ModemChoice,
+                credentials: Path | None = None) -> Built | int:
+    """The mission's fleet context (the initial plan: every agent computes the same) with
+    the key chains of ``credentials`` (`fleet_bus.tesla`), or 2 after one line on stderr: a
+    scenario that is not valid, a vehicle not in it, credentials without the chains."""
+    try:
+        problem = problem_from_dict(mission.scenario)
+        reef = reef_from_doc(mission.scenario, problem)  # the simulated world's reef
+    except ScenarioError as exc:
+        print(f"fleet_agent {vid}: the mission's scenario is not valid: {exc}",
+              file=sys.stderr)
+        return 2
+    if vid not in problem.vehicle_index:
+        print(f"fleet_agent: {vid!r} is not a vehicle of the mission", file=sys.stderr)
+        return 2
+    chains, seed = None, None
+    if credentials is not None:
+        try:
+            chains = load_frame_chains(credentials, [v.id for v in problem.vehicles])
+            seed = load_frame_seed(credentials)
+        except CredentialsError as exc:
+            print(f"fleet_agent {vid}: {exc}", file=sys.stderr)
+            return 2
+    fleet = Fleet.build(problem, config.fleet_key, mission.seed, config,  # initial plan
+                        run_id=mission.run_id,  # the wire keys bind the run
+                        camera=None if reef is None else camera_figures(reef),
+                        modem=modem.spec, chains=chains)
+    return Built(mission, problem, reef, fleet, seed)
+
+
+@dataclass(frozen=True)
+class Built:
+    mission: Mission
+    problem: Problem
+    reef: Reef | None
+    fleet: Fleet
+    chain_seed: bytes | None = None  # this vehicle's key chain (None: from the fleet key)
+
+
+class WallStepSource(Protocol):
+    """Whatever tells the agent how often this host's wall clock stepped (`ClockSync` on the
+    bus, `onboard.WallSteps` on a vehicle's own clock)."""
+
+    def take_wall_steps(self) -> int: ...
+
+
+def open_live(helm: HelmChoice, built: Built, vid: str, clock: Clock,
+              now: float = BEFORE_S) -> tuple[VehiclePort, TruePose | None] | None:
+    """The vehicle (`open_vehicle`), or None after one line on stderr."""
+    index = built.problem.vehicle_index[vid]
+    try:
+        return open_vehicle(helm, built.problem, index, clock=clock, seed=built.mission.seed,
+                            reef=built.reef, t_s=now, pos=built.problem.vehicles[index].start,
+                            odometer_m=0.0)
+    except (ConnectionError, ImportError, OSError, ValueError) as exc:
+        print(f"fleet_agent {vid}: --helm {helm.name}: {exc}", file=sys.stderr, flush=True)
+        return None
+
+
+def drive(built: Built, vid: str, config: AgentConfig, journal: Journal, clock: MissionClock,
+          port: ModemPort, telemetry: Telemetry, helm: HelmChoice, stop: threading.Event,
+          inbox: Inbox, auth: BusAuth | None = None, sync: WallStepSource | None = None,
+          opened: tuple[VehiclePort, TruePose | None] | None = None) -> int:
+    """The agent on its vehicle (``opened``, or opened here: the simulated one where the
+    agent last knew it was) from mission time 0 (or now, restarted from its journal) until
+    ``stop``: 0, or 2 if the helm could not be opened (said on stderr)."""
+    while clock.now() < 0 and not stop.is_set():
+        stop.wait(min(MAX_WAIT_WALL_S, clock.wall_delay(-clock.now())))
+    now = clock.now()
+    index = built.problem.vehicle_index[vid]
+    agent = Agent(built.fleet, index, config, now, journal.records, built.chain_seed,
+                  journal_damaged=journal.damage is not None)
+    if opened is None and helm.name == "sim":
+        sim = sim_vehicle(built.problem, index, seed=built.mission.seed, reef=built.reef,
+                          t_s=now, pos=agent.own.pos, odometer_m=agent.own.distance_m)
+        opened = (sim, sim.true_pose)
+    elif opened is None:
+        opened = open_live(helm, built, vid, clock, now)
+        if opened is None:
+            return 2
+    vehicle, truth = opened
+    try:
+        driver = AgentDriver(agent, vehicle, port, telemetry, journal, truth=truth,
+                             truth_period_s=config.truth_period_s)
+        start = f"restart, {len(journal.records)} records" if journal.records else "fresh"
+        damage = journal.describe_damage()
+        if damage:  # what the restart could not read, and where the evidence is
+            print(f"fleet_agent {vid}: {damage}", file=sys.stderr, flush=True)
+            start += f"; {damage}"
+        if journal.damage is not None:
+            agent.count("journal_damaged_bytes", journal.damage.damaged_bytes)
+        ready(AGENT_READY, f"{vid} at t={clock.now():.1f} s ({start}), helm {vehicle.name}")
+        _loop(driver, inbox, clock, stop, auth, sync)
+        driver.final_status(clock.now())
+    finally:
+        vehicle.close()
     return 0
 
 
 def _loop(driver: AgentDriver, inbox: Inbox, clock: MissionClock, stop: threading.Event,
-          auth: BusAuth | None = None, sync: ClockSync | None = None) -> None:
+          auth: BusAuth | None = None, sync: WallStepSource | None = None) -> None:
     driver.tick(clock.now())
     while not stop.is_set():
         due = driver.next_wakeup()
@@ -260,10 +311,10 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: MissionClock, stop: threadin
         while item is not None:
             kind, payload, wall = item
             at = clock.sim_of(wall)
-            if kind == "rx":
-                driver.frame(payload, at)  # type: ignore[arg-type]
-            elif kind == "modem":
+            if not isinstance(payload, bytes):  # kind "modem"
                 driver.agent.count(f"modem_{type(payload).__name__.lower()}")
+            elif kind == "rx":
+                driver.frame(payload, at)
             else:
                 try:
                     name = decode_command(payload)
@@ -282,6 +333,9 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: MissionClock, stop: threadin
         if auth is not None:
             for reason, n in auth.verifier.take_refused().items():
                 driver.agent.count(f"drop_auth_{reason}", n)
+        figures = getattr(driver.vehicle, "figures", None)
+        if callable(figures):  # the live helm's own counts (fix lag, drops, its clock)
+            driver.agent.counters.update(figures())
         steps = sync.take_wall_steps() if sync is not None else 0
         if steps:  # this host's wall clock stepped: named in the status, nothing else
             driver.agent.count("clock_wall_steps", steps)

@@ -133,8 +133,22 @@ class FoundSpot:
                 "r": self.priority, "d": self.service_s}
 
 
+@dataclass(frozen=True)
+class OrderTaken:
+    """The operator's order ``seq`` taken at ``t_s`` (its verb, for a restart's pause):
+    read back by `policies.orders`, so a repeat is never acted on twice."""
+
+    t_s: float
+    seq: int
+    verb: str
+    durable: bool = True
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "ord", "t": self.t_s, "n": self.seq, "verb": self.verb}
+
+
 JournalRecord = Union[Start, Clear, Hold, PeerState, Aborted, Home, Restarted, Checkpoint,
-                      FoundSpot]
+                      FoundSpot, OrderTaken]
 
 
 def _ints(value: Any) -> tuple[int, ...]:
@@ -164,14 +178,14 @@ def parse(doc: Mapping[str, Any]) -> JournalRecord | None:
             pos = tuple(float(c) for c in doc["pos"])
             if len(pos) != 3:
                 return None
-            return FoundSpot(t, int(doc["s"]), pos, float(doc["r"]),  # type: ignore[arg-type]
+            return FoundSpot(t, int(doc["s"]), pos, float(doc["r"]),
                              float(doc["d"]))
         if k == "ckpt":
             pos = tuple(float(c) for c in doc["pos"])
             if len(pos) != 3:
                 return None
             home = doc.get("home")
-            return Checkpoint(t, pos, float(doc.get("dist", 0.0)),  # type: ignore[arg-type]
+            return Checkpoint(t, pos, float(doc.get("dist", 0.0)),
                               _ints(doc.get("route", [])), int(doc.get("seq", -1)),
                               {int(s): int(q) for s, q in doc.get("hw", {}).items()},
                               None if home is None else float(home))

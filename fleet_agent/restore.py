@@ -3,7 +3,7 @@
 What comes back: the cleared set, its own treatments, the finds it knew, every claim and
 release it heard, peers' final states (aborted, home), whether it had aborted or got home,
 and its last checkpoint (position, distance, route, sequence number, replay high-water
-marks). `fold` reads records only; the agent applies the snapshot (`Agent._restore`). Time
+marks). `fold` reads records only; `restore` applies it to the agent. Time
 lost while down is lost battery too; an injection cut short is redone (it never completed).
 A damaged or foreign record costs that record, never the journal: it is counted.
 """
@@ -15,6 +15,10 @@ from typing import Any, Mapping, Sequence
 
 from fleet_agent import membership as mb
 from fleet_agent import records as rec
+from fleet_agent.io_types import Outputs
+from fleet_agent.knowledge import Knowledge
+from fleet_agent.outbox import Owed
+from fleet_agent.radio import Radio
 
 KNOWN_KINDS = ("start", "clr", "hold", "peer", "abort", "home", "restart", "ckpt", "find")
 
@@ -65,3 +69,37 @@ def fold(journal: Sequence[Mapping[str, Any]], n_tasks: int) -> Snapshot:
         elif isinstance(r, rec.Checkpoint):
             snap.checkpoint = r
     return snap
+
+
+def restore(snap: Snapshot, know: Knowledge, radio: Radio, base_route: Sequence[int],
+            now: float, out: Outputs) -> None:
+    """Bring an agent's ``know`` and ``radio`` back from ``snap`` at ``now`` (its initial route
+    ``base_route`` if it never checkpointed). Silence is counted from the restart: the agent
+    could not listen while it was down."""
+    own = know.own
+    know.cleared.update(snap.cleared)
+    know.treated = list(snap.treated)
+    for f in snap.finds:
+        know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s)
+    for h in snap.holds:
+        know.holdings.apply(h.v, h.t_s, list(h.tasks), h.claim)
+    for p in snap.finals:
+        if p.v in know.members.peers:
+            know.members.mark(p.v, p.status, p.t_s)
+    for peer in know.members.peers.values():
+        peer.evidence_s = max(peer.evidence_s, now)
+        peer.since_s = max(peer.since_s, now)
+    know.rebind()  # finds back in the working problem before the route aims at them
+    ck = snap.checkpoint
+    if ck is not None:
+        radio.last_seq = ck.seq
+        know.replay.restore(dict(ck.high_water))
+        own.restore(now, ck.pos, ck.distance_m, list(ck.route), snap.aborted, snap.home_at_s)
+    else:
+        own.restore(now, own.pos, 0.0, list(base_route), snap.aborted, snap.home_at_s)
+    know.touch()
+    if snap.aborted:
+        radio.outbox.owe(Owed.OWN_ABORT)
+    radio.outbox.owe(Owed.CLEARED, 1)  # tell the fleet what we know as soon as we can
+    out.record(rec.Restarted(now))
+    out.event(now, "restart", detail=f"{len(know.cleared)} cleared")

@@ -152,7 +152,12 @@ class Verifier:
         self.ring, self.run_id = dict(ring), run_id
         self.refused: Counter[str] = Counter()
         self.accepted = 0
-        self._windows: dict[str, _Window] = {}
+        # One replay window per (signer, key expression): the signature covers the key, so a
+        # message cannot be replayed on another key anyway, and one login's messages on one
+        # key (an insider's busy flags) cannot push the window past its genuine messages on
+        # another (the vehicle's statuses). Created only for a valid signature of a ring
+        # member on a key it may use: a finite set per mission.
+        self._windows: dict[tuple[str, str], _Window] = {}
         self._lock = threading.Lock()
 
     def open(self, key: str, envelope: bytes) -> tuple[str, bytes]:
@@ -197,7 +202,7 @@ class Verifier:
         payload = envelope[pos + _COUNTER.size:-SIG_BYTES]
         (counter,) = _COUNTER.unpack(counter_raw)
         with self._lock:  # a replay is refused before paying for a signature check
-            window = self._windows.get(signer)
+            window = self._windows.get((signer, key))
             if window is not None and not window.fresh(counter):
                 raise Refused("replay", f"{signer} #{counter}")
         try:
@@ -206,7 +211,7 @@ class Verifier:
         except InvalidSignature:
             raise Refused("bad_signature", signer) from None
         with self._lock:
-            window = self._windows.setdefault(signer, _Window())
+            window = self._windows.setdefault((signer, key), _Window())
             if not window.accept(counter):
                 raise Refused("replay", f"{signer} #{counter}")
             self.accepted += 1

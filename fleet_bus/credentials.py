@@ -12,11 +12,15 @@ certificate of the mission's CA (`fleet_bus.certificates`) and there is no passw
     root/<id>/signing.key           its own Ed25519 private key (operator, relay, vehicles)
     root/<vehicle>/frames.key       its own key chain's seed for the acoustic frames
                                     (`fleet_bus.tesla`; the ring holds every commitment)
+    root/operator/frames.key        the topside modem's key chain seed: the operator's live
+                                    orders (`fleet_bus.orders`; the ring holds its commitment)
 
-for ``operator``, ``relay``, ``station`` (no signing key: it only listens), ``router`` (the
-operator's host's router; its certificate also names ``hosts``) and every vehicle; and, for
-each vehicle of ``linked_routers``, ``router-<id>``: the router of that vehicle's own host,
-linked to the operator's, which may forward only what that vehicle may say.
+for ``operator``, ``relay``, ``station`` and ``world`` (no signing key: they only listen;
+``world`` is the simulated world's processes, e.g. the ROS 2 vehicles that follow the mission
+clock), ``router`` (the operator's host's router; its certificate also names ``hosts``) and
+every vehicle; and, for each vehicle of ``linked_routers``, ``router-<id>``: the router of
+that vehicle's own host, linked to the operator's, which may forward only what that vehicle
+may say.
 
 Without it (one host, loopback only: `fleet_bus.session` refuses these across machines),
 identity is a Zenoh user/password login::
@@ -57,7 +61,7 @@ FRAMES_KEY = "frames.key"  # a vehicle's key chain seed (`fleet_bus.tesla`)
 # vehicle's 2.5 s slots; a mission longer than its chain is refused when its fleet is built.
 FRAME_CHAIN_LENGTH = 4096
 ZENOH_LOGIN = "zenoh.login"
-ROUTER_ID, STATION_ID = "router", "station"
+ROUTER_ID, STATION_ID, WORLD_ID = "router", "station", "world"
 ROUTER_USERS = "users.txt"
 ROUTER_ZID = "zid"
 CA_CERT, TLS_CERT, TLS_KEY = "ca.pem", "tls.pem", "tls.key"
@@ -126,8 +130,8 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
     returns the run id. ``hosts``, ``linked_routers`` and ``valid_days`` are for ``tls``."""
     run_id = run_id or new_run_id()
     for vid in vehicles:
-        if (vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID) or "/" in vid or not vid
-                or vid.startswith(LINKED_PREFIX)):
+        if (vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID, WORLD_ID) or "/" in vid
+                or not vid or vid.startswith(LINKED_PREFIX)):
             raise CredentialsError(f"vehicle id {vid!r} cannot have credentials of its own")
     if not tls and (hosts or linked_routers):
         raise CredentialsError("hosts and linked routers are for TLS credentials")
@@ -143,16 +147,20 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
     _private_dir(root)
     signers = {OPERATOR_ID: OPERATOR, RELAY_ID: RELAY, **{v: VEHICLE for v in vehicles}}
     private = {sid: Ed25519PrivateKey.generate() for sid in signers}
-    seeds = {vid: secrets.token_bytes(16) for vid in vehicles}
+    # Every chain's seed is random (never derived from the fleet key, which every vehicle
+    # holds): only its holder can disclose its keys. The operator's is the topside modem's.
+    seeds = {vid: secrets.token_bytes(16) for vid in (*vehicles, OPERATOR_ID)}
     ring = {"run_id": run_id,
             "members": {sid: {"role": role, "public": _raw_public(private[sid])}
                         for sid, role in signers.items()},
             "frames": {"length": FRAME_CHAIN_LENGTH,
-                       "commitments": {vid: KeyChain(seed, FRAME_CHAIN_LENGTH).commitment.hex()
-                                       for vid, seed in seeds.items()}}}
+                       "commitments": {vid: KeyChain(seeds[vid], FRAME_CHAIN_LENGTH)
+                                       .commitment.hex() for vid in vehicles},
+                       "topside": KeyChain(seeds[OPERATOR_ID], FRAME_CHAIN_LENGTH)
+                       .commitment.hex()}}
     ring_text = json.dumps(ring, indent=1)
     (root / RING).write_text(ring_text, encoding="utf-8")
-    processes = (*signers, STATION_ID, ROUTER_ID,
+    processes = (*signers, STATION_ID, WORLD_ID, ROUTER_ID,
                  *(linked_router_id(v) for v in linked_routers))
     if authority is not None:
         (root / CA_CERT).write_bytes(authority.cert_pem)
@@ -207,24 +215,28 @@ def load_ring(directory: Path) -> Verifier:
 
 
 def load_frame_chains(directory: Path, vehicles: Sequence[str]) -> FleetChains:
-    """Every vehicle's key chain commitment, from the ring in ``directory``, in roster order."""
+    """Every vehicle's key chain commitment, from the ring in ``directory``, in roster order,
+    and the topside modem's (None in a ring made before it had one: no live orders)."""
     path = Path(directory) / RING
     try:
         frames = json.loads(_read(path))["frames"]
         length = int(frames["length"])
         commitments = tuple(bytes.fromhex(frames["commitments"][vid]) for vid in vehicles)
+        topside = frames.get("topside")
+        topside = None if topside is None else bytes.fromhex(topside)
     except KeyError as exc:
         raise CredentialsError(f"{path}: no key chain for {exc} (credentials made for "
                                "another scenario?)") from None
     except (ValueError, TypeError, AttributeError) as exc:
         raise CredentialsError(f"{path}: not a key ring ({exc})") from None
-    if length < 1 or any(len(c) != KEY_BYTES for c in commitments):
+    if length < 1 or any(len(c) != KEY_BYTES for c in commitments) or (
+            topside is not None and len(topside) != KEY_BYTES):
         raise CredentialsError(f"{path}: malformed key chains")
-    return FleetChains(commitments, length)
+    return FleetChains(commitments, length, topside=topside)
 
 
 def load_frame_seed(directory: Path) -> bytes:
-    """A vehicle's own key chain seed."""
+    """A vehicle's own key chain seed, or the topside modem's in the operator's directory."""
     text = _read(Path(directory) / FRAMES_KEY).strip()
     try:
         seed = bytes.fromhex(text)
@@ -286,11 +298,11 @@ def load_tls(directory: Path) -> TlsIdentity:
     """The TLS files of a process's directory, checked: its key matches its certificate,
     which the directory's CA signed and which is valid now (`certificates.check_identity`)."""
     directory = Path(directory)
-    files = [directory / name for name in (CA_CERT, TLS_CERT, TLS_KEY)]
+    ca, cert, key = (directory / name for name in (CA_CERT, TLS_CERT, TLS_KEY))
     try:
-        info = check_identity(*(path.read_bytes() for path in files))
+        info = check_identity(ca.read_bytes(), cert.read_bytes(), key.read_bytes())
     except OSError as exc:
         raise CredentialsError(f"cannot read {exc.filename}: {exc.strerror or exc}") from None
     except CertificateError as exc:
         raise CredentialsError(f"{directory}/{TLS_CERT}: {exc}") from None
-    return TlsIdentity(*files, info)
+    return TlsIdentity(ca, cert, key, info)

@@ -15,12 +15,13 @@ from fleet_bus.telemetry import Event, detail_position
 
 LIST_AT_MOST = 6  # spot ids named in a sentence; the rest are counted
 # How loud each kind is in a log (the dashboard's TextLog levels); unknown kinds are INFO.
-LEVELS = {"abort": "WARN", "lost": "WARN", "suspect": "WARN", "claim_lost": "WARN",
+LEVELS = {"abort": "WARN", "recall": "WARN", "lost": "WARN", "suspect": "WARN",
+          "claim_lost": "WARN",
           "refused": "WARN", "takeover": "INFO", "revived": "INFO"}
 # Kinds an operator reads after a mission (the terminal, report.md); the others (claims,
 # clears, replans, inspections) are many and their sums are in the report's figures.
-NOTABLE = ("abort", "suspect", "lost", "revived", "takeover", "claim_lost", "restart",
-           "refused", "found")
+NOTABLE = ("abort", "suspect", "lost", "revived", "takeover", "claim_lost", "restart", "rejoined",
+           "refused", "found", "order", "recall", "pause", "resume", "dropped")
 
 
 def spot_list(ids: Sequence[int], word: str = "spot") -> str:
@@ -108,7 +109,16 @@ _WORDS: dict[str, Callable[[Event], str]] = {
     "takeover": lambda e: f"{e.id} took over {spot_list(e.tasks)} from {e.peer or 'a peer'}",
     "replan": _replan,
     "restart": lambda e: f"{e.id}'s agent restarted from its journal{_detail(e)}",
+    "rejoined": lambda e: f"{e.id} rejoined the fleet{_detail(e)}",
     "refused": lambda e: f"{e.id} refused a command" + (f": {e.detail}" if e.detail else ""),
+    "navigation": lambda e: f"{e.id}'s navigation{_detail(e)}",
+    "late": lambda e: f"{e.id} is late{_detail(e)}",
+    "order": lambda e: (f"{e.id} {e.detail}" if e.detail.startswith("refused")
+                        else f"{e.id} took the operator's order {e.detail}"),
+    "recall": lambda e: f"{e.id} was recalled by the operator and heads home",
+    "pause": lambda e: f"{e.id} keeps station: paused by the operator",
+    "resume": lambda e: f"{e.id} goes on: resumed by the operator",
+    "dropped": lambda e: f"{e.id} dropped {spot_list(e.tasks)} on the operator's order",
 }
 EVENT_WORDS = frozenset(_WORDS)
 

@@ -22,6 +22,10 @@ LINK_CTL = f"{PREFIX}/ctl/link"  # operator -> relay: extra loss, partitions
 LINK_STATS = f"{PREFIX}/stats/link"  # relay queryable: drop/delivery counters
 MISSION = f"{PREFIX}/mission"  # operator queryable: scenario, seed, run id
 CLOCK = f"{PREFIX}/clock"  # operator queryable: epoch and warp of the mission clock
+# The operator's live orders (`fleet_bus.orders`): `cotsfleet ctl` -> the launcher, and the
+# launcher's answers (accepted, acknowledged). Both the operator's only (kind ``ctl``).
+ORDER_REQUEST = f"{PREFIX}/ctl/order"
+ORDER_ANSWER = f"{PREFIX}/ctl/order/answer"
 
 # The per-vehicle kinds of key, ``fleet/<kind>/<id>``.
 TELEMETRY_KINDS = ("truth", "status", "event")

@@ -18,7 +18,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
-from fleet_bus.telemetry import FINAL_STATES, Event, Status, detail_position
+from fleet_bus.states import FINAL_STATES
+from fleet_bus.telemetry import Event, Status, detail_position
 
 MAX_EVENTS = 1_000_000  # a mission's whole log; beyond, the oldest are dropped and counted
 # A find's position travels in its event detail in decimetres (`telemetry.position_detail`):
@@ -211,11 +212,11 @@ class FleetLedger:
             def worth(spot: int) -> float:
                 return float(reef.priority[spot])
             spots_of, priority_of = len(reef.priority), reef.total
-        counted = [t for t in treatments if t.spot is not None]
-        fleet = {t.spot for t in counted}
+        counted = [(t.vid, t.spot) for t in treatments if t.spot is not None]
+        fleet = {spot for _, spot in counted}
         mine: dict[str, set[int]] = {}
-        for t in counted:
-            mine.setdefault(t.vid, set()).add(t.spot)  # type: ignore[arg-type]
+        for vid, spot in counted:
+            mine.setdefault(vid, set()).add(spot)
         return Collected(
             on_reef=reef is not None,
             spots=len(fleet), spots_of=spots_of,

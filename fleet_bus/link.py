@@ -15,6 +15,7 @@ from typing import Any, Iterable, Mapping
 import msgpack
 
 from fleet_bus import values as v
+from fleet_bus.orders import TOPSIDE  # the operator's own modem at the boat
 
 BROADCAST = "*"  # dst of records that concern no particular receiver (oversize refusals)
 LinkCounts = dict[tuple[str, str], dict[str, int]]
@@ -170,8 +171,10 @@ class Partition:
             raise ValueError(f"malformed partition: {exc!r}") from None
 
 
-_CONTROL_KEYS = {"extra_loss", "partition", "clear_partitions", "inject", "inject_at"}
+_CONTROL_KEYS = {"extra_loss", "partition", "clear_partitions", "inject", "inject_at",
+                 "inject_from"}
 INTRUDER = "intruder"  # the node name of a foreign modem the operator makes transmit
+INJECTORS = (INTRUDER, TOPSIDE)  # the modems link control may make transmit
 
 
 @dataclass(frozen=True)
@@ -185,6 +188,8 @@ class LinkControl:
         {"clear_partitions": true}
         {"inject": <bytes>, "inject_at": [x, y, z]}          # a foreign modem ("intruder")
                                                              #   at x, y, z sends these bytes
+        {"inject": ..., "inject_at": ..., "inject_from": "topside"}  # the operator's modem
+                                                             #   (its node hears the water)
 
     Several keys in one command apply in the order clear, partition, extra loss, inject.
     """
@@ -194,8 +199,12 @@ class LinkControl:
     clear_partitions: bool = False
     inject: bytes | None = None
     inject_at: tuple[float, float, float] | None = None
+    inject_from: str = INTRUDER  # which modem (node) transmits them: one of `INJECTORS`
 
     def __post_init__(self) -> None:
+        if self.inject_from not in INJECTORS:
+            raise ValueError(f"inject_from is one of {', '.join(INJECTORS)}, got "
+                             f"{self.inject_from!r}")
         if self.extra_loss is not None and not 0.0 <= self.extra_loss <= 1.0:
             raise ValueError(f"extra_loss must be in [0, 1], got {self.extra_loss}")
         if (self.inject is None) != (self.inject_at is None):
@@ -213,6 +222,8 @@ class LinkControl:
             doc["extra_loss"] = self.extra_loss
         if self.inject is not None:
             doc["inject"], doc["inject_at"] = bytes(self.inject), list(self.inject_at or ())
+            if self.inject_from != INTRUDER:
+                doc["inject_from"] = self.inject_from
         return msgpack.packb(doc, use_bin_type=True)
 
     @staticmethod
@@ -231,11 +242,15 @@ class LinkControl:
         inject, at = doc.get("inject"), doc.get("inject_at")
         if inject is not None and not isinstance(inject, bytes):
             raise ValueError("link control: inject must be bytes")
+        source = doc.get("inject_from", INTRUDER)
+        if not isinstance(source, str):
+            raise ValueError("link control: inject_from must be a modem's name")
         return LinkControl(
             extra_loss=None if loss is None else v.number(loss, "link control.extra_loss"),
             partition=None if part is None else Partition.from_dict(part, now_s),
             clear_partitions=clear, inject=inject,
-            inject_at=None if at is None else v.point(at, "link control.inject_at"))
+            inject_at=None if at is None else v.point(at, "link control.inject_at"),
+            inject_from=source)
 
 
 def encode_stats(counts: LinkCounts, extra: Mapping[str, Any] | None = None) -> bytes:
@@ -254,7 +269,8 @@ def decode_stats(payload: bytes) -> tuple[LinkCounts, dict[str, Any]]:
     for r in rows:
         if not isinstance(r, dict):
             raise ValueError("link stats: each link is a map")
-        src, dst = v.text(r.get("src"), "link stats.src", 64), v.text(r.get("dst"), "link stats.dst", 64)
+        src = v.text(r.get("src"), "link stats.src", 64)
+        dst = v.text(r.get("dst"), "link stats.dst", 64)
         counts[(src, dst)] = {k: v.integer(n, f"link stats.{k}", 0)
                               for k, n in r.items() if k not in ("src", "dst")}
     return counts, {k: x for k, x in doc.items() if k != "links"}

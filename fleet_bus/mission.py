@@ -20,7 +20,7 @@ import secrets
 import threading
 import time
 from dataclasses import dataclass
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, Mapping, TypeVar
 
 import msgpack
 import zenoh
@@ -53,7 +53,11 @@ class Mission:
 
     @staticmethod
     def decode(payload: bytes) -> "Mission":
-        doc = v.unpack_map(payload, "mission record")
+        return Mission.from_doc(v.unpack_map(payload, "mission record"))
+
+    @staticmethod
+    def from_doc(doc: Mapping[str, Any]) -> "Mission":
+        """The record's fields from a map (the bus record's, a mission file's), checked."""
         scenario = doc.get("scenario")
         if not isinstance(scenario, dict):
             raise ValueError("mission record: scenario must be a map")

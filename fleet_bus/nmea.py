@@ -47,7 +47,7 @@ import datetime as dt
 import math
 import re
 from dataclasses import dataclass
-from typing import ClassVar, Union
+from typing import Callable, ClassVar, Union
 
 MAX_LINE_CHARS = 1024  # a rate-5 $CARXD (256 bytes as 512 hex digits) is ~540
 MAX_FIELDS = 48  # $CACST version 8 has 34
@@ -454,7 +454,8 @@ class Clock:
                  _int(f[2], "day", 1, 31), _int(f[3], "hour", 0, 23),
                  _int(f[4], "minute", 0, 59), _int(f[5], "second", 0, 60)]
         try:
-            when = dt.datetime(*parts[:5], min(parts[5], 59), tzinfo=dt.timezone.utc)
+            when = dt.datetime(parts[0], parts[1], parts[2], parts[3], parts[4], min(parts[5], 59),
+                               tzinfo=dt.timezone.utc)
         except ValueError as exc:
             raise NmeaError("value", f"bad date: {exc}") from None
         return cls(s.talker, when)
@@ -653,12 +654,19 @@ class CycleStats:
 Typed = Union[CycleInit, DataRequest, TxData, TxDataEcho, RxData, TxEdge, Ack, Config,
               ConfigQuery, Clock, Revision, ModemError, Ping, PingReply, Place, CycleStats]
 
-_DECODERS = {
-    "CCCYC": CycleInit, "CACYC": CycleInit, "CADRQ": DataRequest, "CCTXD": TxData,
-    "CATXD": TxDataEcho, "CARXD": RxData, "CATXP": TxEdge, "CATXF": TxEdge, "CAACK": Ack,
-    "CCCFG": Config, "CACFG": Config, "CCCFQ": ConfigQuery, "CCCLK": Clock, "CACLK": Clock,
-    "CAREV": Revision, "CAERR": ModemError, "CCMPC": Ping, "CAMPC": Ping, "CAMPA": Ping,
-    "CAMPR": PingReply, "PCFLP": Place, "CACST": CycleStats,
+# Each kind's decoder (the class's `from_sentence`, typed as what `typed` returns).
+_DECODERS: dict[str, Callable[[Sentence], Typed]] = {
+    "CCCYC": CycleInit.from_sentence, "CACYC": CycleInit.from_sentence,
+    "CADRQ": DataRequest.from_sentence, "CCTXD": TxData.from_sentence,
+    "CATXD": TxDataEcho.from_sentence, "CARXD": RxData.from_sentence,
+    "CATXP": TxEdge.from_sentence, "CATXF": TxEdge.from_sentence,
+    "CAACK": Ack.from_sentence, "CCCFG": Config.from_sentence,
+    "CACFG": Config.from_sentence, "CCCFQ": ConfigQuery.from_sentence,
+    "CCCLK": Clock.from_sentence, "CACLK": Clock.from_sentence,
+    "CAREV": Revision.from_sentence, "CAERR": ModemError.from_sentence,
+    "CCMPC": Ping.from_sentence, "CAMPC": Ping.from_sentence,
+    "CAMPA": Ping.from_sentence, "CAMPR": PingReply.from_sentence,
+    "PCFLP": Place.from_sentence, "CACST": CycleStats.from_sentence,
 }
 KINDS = frozenset(_DECODERS)
 
@@ -667,7 +675,7 @@ def typed(sentence: Sentence) -> Typed | Sentence:
     """The typed form of ``sentence`` if it is of the subset (else the sentence itself);
     raises `NmeaError` if its fields are wrong."""
     decoder = _DECODERS.get(sentence.kind)
-    return sentence if decoder is None else decoder.from_sentence(sentence)  # type: ignore
+    return sentence if decoder is None else decoder(sentence)
 
 
 def decode(line: bytes | str) -> Typed | Sentence:

@@ -10,6 +10,7 @@ import signal
 import sys
 import threading
 import time
+from types import FrameType
 
 # Ready lines: each process prints exactly one, starting with its prefix, when it serves.
 ROUTER_READY = "comms_sim router listening on"
@@ -53,7 +54,7 @@ def die_with_parent(stop: threading.Event) -> None:
     # back would stop the watcher thread too).
     chained = signal.getsignal(signal.SIGTERM)
 
-    def on_term(signum: int, frame: object) -> None:
+    def on_term(signum: int, frame: FrameType | None) -> None:
         if os.getppid() != parent:
             _orphan_deadline()
         if callable(chained):
@@ -83,7 +84,10 @@ def _orphan_deadline() -> None:
     if not _deadline_armed.acquire(blocking=False):
         return
     try:
-        faulthandler.dump_traceback_later(ORPHAN_GRACE_S, exit=True, file=sys.__stderr__)
+        if sys.__stderr__ is not None:
+            faulthandler.dump_traceback_later(ORPHAN_GRACE_S, exit=True, file=sys.__stderr__)
+        else:  # what file=None does: sys.stderr
+            faulthandler.dump_traceback_later(ORPHAN_GRACE_S, exit=True)
     except (OSError, ValueError, AttributeError, RuntimeError):
         # No usable stderr for the watchdog: a plain timer thread ends the process instead
         # (it needs the GIL; the best left).

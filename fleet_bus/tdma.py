@@ -237,7 +237,7 @@ class SpatialSchedule:
                     break
             else:
                 places.append([v])
-        groups = []
+        groups: list[tuple[int, ...]] = []
         for place in places:
             if len(place) <= self.park_group:
                 groups += [(v,) for v in place]

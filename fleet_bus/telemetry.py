@@ -16,13 +16,11 @@ from typing import Any
 import msgpack
 
 from fleet_bus import values as v
+from fleet_bus.states import VehicleState
 
-# Vehicle states, as the agent reports them and the dashboard and reports show them ("dead":
-# the mission runner's word for a vehicle whose agent was killed and not restarted).
-TRANSIT, INJECTING, RETURNING, HOME, ABORTED, DEAD = (
-    "transit", "injecting", "returning", "home", "aborted", "dead")
-STATES = (TRANSIT, INJECTING, RETURNING, HOME, ABORTED, DEAD)
-FINAL_STATES = (HOME, ABORTED, DEAD)  # a vehicle in one of these has left the mission
+# Vehicle states (`fleet_bus.states.VehicleState`), under the names the callers know.
+TRANSIT, INJECTING, RETURNING, HOME, ABORTED, DEAD = VehicleState
+STATES = tuple(VehicleState)
 
 # Event kinds of the dashboard's event log.
 EVENT_KINDS = (
@@ -36,7 +34,16 @@ EVENT_KINDS = (
     "takeover",  # spots of a lost vehicle taken into this vehicle's route
     "replan",  # local route changed
     "restart",  # the agent process restarted from its log
+    "rejoined",  # after a lost or damaged journal: the fleet's cleared set learned, going on
     "refused",  # the vehicle did not carry out a command (detail: which, and why)
+    "navigation",  # fixes stopped (keeping station), came back, or stopped too long (home)
+    "late",  # the vehicle fell behind its plan (detail: by how much); refitted from its fix
+    # the operator's live orders (`fleet_bus.orders`, docs/operator.md)
+    "order",  # an order taken (detail: which, #number) or refused (detail: why)
+    "recall",  # recalled by the operator: heading home now, announced as an abort
+    "pause",  # paused by the operator: keeping station
+    "resume",  # resumed by the operator
+    "dropped",  # a spot the operator dropped: nobody treats it
     # dynamic missions (a hidden reef): what the camera showed
     "found",  # an aggregation the map missed (tasks: its find id; detail: "x,y,z rho r")
     "empty",  # a predicted spot inspected and found empty
@@ -101,7 +108,7 @@ class Status:
     cleared_known: int  # size of the vehicle's grow-only cleared set
     priority_collected: float
     distance_m: float
-    peers: dict[str, str] = field(default_factory=dict)  # id -> "alive" | "suspect" | "lost" | "aborted" | "home"
+    peers: dict[str, str] = field(default_factory=dict)  # id -> a `PeerState`
     claims: list[int] = field(default_factory=list)  # task ids this vehicle holds by claim
     counters: dict[str, int] = field(default_factory=dict)  # msgs sent/received/dropped[reason]
     # How far behind the mission clock the vehicle's process ran since its last status (its

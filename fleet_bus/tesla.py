@@ -133,7 +133,9 @@ class Sender:
 
     def release(self) -> tuple[list[Held], list[Held]]:
         """The held frames whose cycle's key is now trusted: (verified, forged)."""
-        good, bad, keep = [], [], deque()
+        good: list[Held] = []
+        bad: list[Held] = []
+        keep: deque[Held] = deque()
         for h in self.held:
             k = self.key(h.cycle)
             if k is None:
@@ -160,6 +162,10 @@ class FleetChains:
     commitments: tuple[bytes, ...]
     length: int
     seeds: tuple[bytes, ...] | None = None
+    # The operator's topside modem's chain (`fleet_bus.orders`): its commitment, and its seed
+    # where derived. None: no live orders can be proven in this mission.
+    topside: bytes | None = None
+    topside_seed: bytes | None = None
 
     @staticmethod
     def derived(fleet_key: bytes, run_id: str, n_vehicles: int, length: int) -> "FleetChains":
@@ -170,4 +176,7 @@ class FleetChains:
         seeds = tuple(hmac.new(fleet_key, b"cotsfleet tesla seed " + run_id.encode() +
                                bytes([v]), hashlib.sha256).digest()[:16]
                       for v in range(n_vehicles))
-        return FleetChains(tuple(KeyChain(s, length).commitment for s in seeds), length, seeds)
+        top = hmac.new(fleet_key, b"cotsfleet tesla topside " + run_id.encode(),
+                       hashlib.sha256).digest()[:16]
+        return FleetChains(tuple(KeyChain(s, length).commitment for s in seeds), length, seeds,
+                           KeyChain(top, length).commitment, top)

@@ -173,7 +173,8 @@ class VehiclePort(Protocol):
 
     def next_report_s(self) -> float | None:
         """When a simulated vehicle next has something to report (an arrival, the end of a
-        look or an injection); None for a live helm, which is polled at its own rate."""
+        look or an injection); a live helm, polled at its own rate, says only when the work it
+        times ends (None: no such work under way)."""
 
     def close(self) -> None:
         """Release the vehicle (idempotent)."""

@@ -175,5 +175,5 @@ class LogLine:
     level: str  # Rerun TextLog levels: "INFO", "WARN", "ERROR"
 
 
-Drawing = (Spots | Vehicles | Stations | Trails | Routes | Mark | Links | Current | SeriesRow
-           | LogLine)
+Drawing = (Spots | Finds | Vehicles | Stations | Trails | Routes | Mark | Links | Current
+           | SeriesRow | LogLine)

@@ -152,6 +152,6 @@ def graticule(bounds: Bounds, geo: tuple[str, tuple[float, float]] | None) -> Gr
     if geo is not None:
         try:
             return lonlat_grid(bounds, *geo)
-        except Exception:  # noqa: BLE001 - pyproj's CRSError and friends: metres will do
+        except Exception:  # pyproj's CRSError and friends: metres will do
             pass
     return metre_grid(bounds)

@@ -158,7 +158,8 @@ def _field_image(pmap: ProbabilityMap, forbidden: tuple[np.ndarray, ...]) -> Fie
         inside = points_in_polygon(gx, gy, poly) & ~land
         tint = np.asarray(palette.FORBIDDEN, float)
         rgb[inside] = (0.5 * rgb[inside] + 0.5 * tint).astype(np.uint8)
-    return FieldImage(rgb, tuple(float(v) for v in extent))  # type: ignore[arg-type]
+    x0, x1, y0, y1 = (float(v) for v in extent)
+    return FieldImage(rgb, (x0, x1, y0, y1))
 
 
 def _bounds(*xy_sets: np.ndarray, field: FieldImage | None) -> tuple[float, float, float, float]:

@@ -66,8 +66,7 @@ def read_recording(path: str | Path, timeline: str = TIMELINE) -> dict[str, Enti
         batch = chunk.to_record_batch()
         entity = entities.setdefault(chunk.entity_path, EntityRows())
         names = [n for n in batch.schema.names
-                 if n not in _NOT_DATA and batch.schema.field(n).metadata is not None
-                 and batch.schema.field(n).metadata.get(b"rerun:kind") == b"data"]
+                 if n not in _NOT_DATA and _is_data(batch.schema.field(n).metadata)]
         columns = {n: batch.column(n).to_pylist() for n in names}
         if chunk.is_static:
             for n in names:
@@ -79,5 +78,12 @@ def read_recording(path: str | Path, timeline: str = TIMELINE) -> dict[str, Enti
         index = batch.column(timeline)
         scale = 1e-9 if pa.types.is_duration(index.type) else 1.0
         for i, t in enumerate(index.cast(pa.int64()).to_pylist()):
-            entity.rows.append((t * scale, {n: columns[n][i] for n in names}))
+            if t is not None:  # a row without a time on this timeline is not on it
+                entity.rows.append((t * scale, {n: columns[n][i] for n in names}))
     return entities
+
+
+def _is_data(metadata: dict[bytes, bytes] | None) -> bool:
+    """A column of logged data (not Rerun's row ids or times)."""
+    return metadata is not None and metadata.get(b"rerun:kind") == b"data"
+

@@ -248,10 +248,10 @@ class RerunDashboard:
             self.rec.set_time(TIMELINE, duration=d.t_s)
             self._draw(d)
 
-    def _style(self, path: str, *archetypes: object) -> None:
+    def _style(self, path: str, first: rr.AsComponents, *more: rr.AsComponents) -> None:
         """What never changes on ``path``, logged once, static."""
         if path not in self._styled:
-            self.rec.log(path, *archetypes, static=True)  # type: ignore[arg-type]
+            self.rec.log(path, first, *more, static=True)
             self._styled.add(path)
 
     def _draw(self, d: Drawing) -> None:
@@ -322,7 +322,7 @@ class RerunDashboard:
         self.rec.log(LINKS, rr.LineStrips2D.from_fields(
             strips=[[line.a, line.b] for line in d.lines],
             colors=[palette.link_color(line.delivered, line.snr_db) for line in d.lines],
-            radii=[UI(1.0 if line.delivered else 1.5) for line in d.lines]),
+            radii=UI(np.array([1.0 if line.delivered else 1.5 for line in d.lines]))),
             rr.Points2D.from_fields(positions=where[shown].reshape(-1, 2),
                                     labels=[labels[i] for i in shown]))
 
@@ -350,10 +350,10 @@ class RerunDashboard:
             # name and colour the lines (again when one appears), static: the plot legends
             # match the map's colours
             self._lines[path] = d.paths
-            colors = [self._line_color(p) for p in d.paths]
+            colors = [c for c in map(self._line_color, d.paths) if c is not None]
             self.rec.log(path, rr.SeriesLines(
                 names=list(d.names), widths=2.0,
-                colors=colors if all(c is not None for c in colors) else None,
+                colors=colors if len(colors) == len(d.paths) else None,
                 interpolation_mode=None if d.entity in LINEAR_PLOTS else STEP), static=True)
         self.rec.log(path, rr.Scalars(np.asarray(d.values, float)))
 

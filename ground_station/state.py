@@ -23,6 +23,7 @@ import numpy as np
 from fleet_bus.event_text import find_priority, level, sentence
 from fleet_bus.ledger import FIND_MATCH_M, FleetLedger, RealReef, SpotValues
 from fleet_bus.link import BROADCAST, LinkRecord
+from fleet_bus.states import STOPPED_STATES, VehicleState
 from fleet_bus.telemetry import Event, Status, Truth, detail_position
 from ground_station import palette
 from ground_station.drawing import (
@@ -47,11 +48,11 @@ from ground_station.mapview import MapLayers
 from ground_station.series import Policy, SeriesThinner
 from hfc_core.model.current import TIDE_STEP_S
 
-STOPPED = ("aborted", "dead")  # states in which a vehicle's route is abandoned
-FINISHED = ("home",)
+STOPPED = STOPPED_STATES  # states in which a vehicle's route is abandoned
+FINISHED = (VehicleState.HOME,)
 # State changes written to the log: transit <-> injecting would flood it, and an arrival is
 # the vehicle's own event ("auv1 reached its rendezvous")
-LOGGED_STATES = (*STOPPED, "returning")
+LOGGED_STATES = (*STOPPED, VehicleState.RETURNING)
 
 # How each series is thinned (`ground_station.series`): the battery falls steadily (drawn once a
 # minute), T_diff jumps at replans (drawn at once, with the corner), counts step when they
@@ -185,7 +186,7 @@ class FleetPicture:
     def initial(self) -> list[Drawing]:
         """The picture before any telemetry: every spot pending, the stations, the current
         at t = 0."""
-        out: list[Drawing] = [self._spots(force=True)]  # type: ignore[list-item]
+        out = self._spots(force=True)
         out += self._stations(force=True)
         out += self._current(0.0, force=True)
         return out
@@ -321,7 +322,7 @@ class FleetPicture:
             self._dirty.add("vehicles")
         out += self._set_state(v, s.state, s.t_s)
         self._update_route(v)
-        out.append(self._spots())
+        out += self._spots()
         return out + self._treated_scalars(s.id)
 
     def _treated_scalars(self, vid: str) -> list[Drawing]:
@@ -339,15 +340,15 @@ class FleetPicture:
         out: list[Drawing] = [LogLine(e.t_s, sentence(e), level(e))]
         self.ledger.add_event(e)  # treatments, find positions, empty spots
         if e.kind == "cleared":
-            out.append(self._spots())
+            out += self._spots()
             out += self._treated_scalars(e.id)
         elif e.kind == "empty":
             self.empty_ids.update(e.tasks)
-            out.append(self._spots())
+            out += self._spots()
         elif e.kind == "found":
-            out.append(self._found(e))
+            out += self._found(e)
         elif e.kind == "abort":
-            out += self._set_state(v, "aborted", e.t_s, log=False)  # the event said it
+            out += self._set_state(v, VehicleState.ABORTED, e.t_s, log=False)  # the event said it
         elif e.kind in ("lost", "revived") and e.peer:
             peer = self._vehicle(e.peer)
             if e.kind == "lost":
@@ -357,16 +358,16 @@ class FleetPicture:
             out += self._update_mark(peer, e.t_s)
         return out
 
-    def _found(self, e: Event) -> Finds | None:
+    def _found(self, e: Event) -> list[Drawing]:
         """A reported find joins the layer (the same aggregation reported twice: once)."""
         xy = _fix(e.detail)
         if xy is None or any(math.dist(xy, f[:2]) <= FIND_MATCH_M for f in self.finds):
-            return None
+            return []
         rho = find_priority(e.detail)
         self.finds.append((xy[0], xy[1], 0.0 if rho is None else rho))
         arr = np.array(self.finds, float).reshape(-1, 3)
-        return Finds(self.now_s, arr[:, :2], arr[:, 2],
-                     tuple(f"find (priority {p:.0f})" for p in arr[:, 2].tolist()))
+        return [Finds(self.now_s, arr[:, :2], arr[:, 2],
+                      tuple(f"find (priority {p:.0f})" for p in arr[:, 2].tolist()))]
 
     def _on_link(self, e: LinkRecord) -> list[Drawing]:
         self.link_counts["delivered" if e.delivered else "dropped"] += 1
@@ -407,7 +408,7 @@ class FleetPicture:
             out.append(LogLine(t, f"{v.vid} is {state}", level))
         if state in STOPPED or state in FINISHED:
             self._update_route(v)
-            out.append(self._spots())
+            out += self._spots()
         return out + self._update_mark(v, t)
 
     def _update_mark(self, v: _Vehicle, t: float) -> list[Drawing]:
@@ -441,7 +442,7 @@ class FleetPicture:
                 out.append(LogLine(t, f"{v.vid} silent since t={v.last_heard_s:.0f} s", "ERROR"))
                 out += self._update_mark(v, t)
                 self._update_route(v)
-                out.append(self._spots())
+                out += self._spots()
         return out
 
     def _active(self, v: _Vehicle) -> bool:
@@ -506,24 +507,24 @@ class FleetPicture:
             return abs(p[0] - q[0]) < w and abs(p[1] - q[1]) < h
 
         at_station: list[list[_Vehicle]] = [[] for _ in self.layers.stations]
-        groups: list[list[_Vehicle]] = []
+        groups: list[tuple[tuple[float, float], list[_Vehicle]]] = []  # first one's place, all
         for v in located:
             assert v.xy is not None
-            stations = [i for i, s in enumerate(self.layers.stations) if near(s.xy, v.xy)]
+            xy = v.xy
+            stations = [i for i, s in enumerate(self.layers.stations) if near(s.xy, xy)]
             if stations:
-                xy = v.xy
                 at_station[min(stations, key=lambda i: math.dist(self.layers.stations[i].xy,
                                                                  xy))].append(v)
                 continue
             if v.mark:
                 continue
-            for g in groups:
-                if near(g[0].xy, v.xy):  # type: ignore[arg-type]
-                    g.append(v)
+            for anchor, group in groups:
+                if near(anchor, xy):
+                    group.append(v)
                     break
             else:
-                groups.append([v])
-        text = {g[0].vid: _names(g) for g in groups}
+                groups.append((xy, [v]))
+        text = {g[0].vid: _names(g) for _, g in groups}
         return tuple(text.get(v.vid, "") for v in located), at_station
 
     def _stations(self, force: bool = False) -> list[Drawing]:
@@ -534,8 +535,9 @@ class FleetPicture:
         self._station_labels = labels
         return [Stations(self.now_s, labels)]
 
-    def _spots(self, force: bool = False) -> Spots | None:
-        """Every spot's state, stamped with the picture's clock (see `_treated_scalars`)."""
+    def _spots(self, force: bool = False) -> list[Drawing]:
+        """Every spot's state, stamped with the picture's clock (see `_treated_scalars`); none
+        if unchanged and not ``force``."""
         planned: dict[int, str] = {}
         claimed: dict[int, str] = {}
         orphaned: set[int] = set()
@@ -565,10 +567,10 @@ class FleetPicture:
                 states.append("pending")
         new = tuple(states)
         if new == self._spot_states and not force:
-            return None
+            return []
         self._spot_states = new
         colors = np.array([self._spot_color(s) for s in new], np.uint8).reshape(-1, 3)
-        return Spots(self.now_s, new, colors)
+        return [Spots(self.now_s, new, colors)]
 
     def _spot_color(self, state: str) -> palette.Rgb:
         kind, _, vid = state.partition(":")

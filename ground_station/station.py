@@ -54,18 +54,18 @@ class GroundStation:
                  layers: tuple[MapLayers, str] | None = None, tuning: Tuning = Tuning()) -> None:
         self.mission = mission
         self.rec = rec
-        layers, problem = layers if layers is not None else mission_layers(mission)
-        self.picture = FleetPicture(layers, tuning)
+        shown, problem = layers if layers is not None else mission_layers(mission)
+        self.picture = FleetPicture(shown, tuning)
         self.dashboard = rerun_log.RerunDashboard(
             rec, color_of=lambda vid: self.picture.vehicles[vid].color
             if vid in self.picture.vehicles else None,
-            arrow_m=rerun_log.arrow_length_m(layers))
+            arrow_m=rerun_log.arrow_length_m(shown))
         self.roster = frozenset(mission.roster())
         self.dropped: Counter[str] = Counter()  # kind of input -> samples dropped
         self.handled = 0
-        rerun_log.log_map(rec, layers, live=True)
-        rerun_log.log_legend(rec, layers)
-        rerun_log.log_text(rec, mission_markdown(mission, layers))
+        rerun_log.log_map(rec, shown, live=True)
+        rerun_log.log_legend(rec, shown)
+        rerun_log.log_text(rec, mission_markdown(mission, shown))
         self.dashboard.draw(self.picture.initial())
         if problem:
             self.rec.log("events", rr.TextLog(problem, level="ERROR"))

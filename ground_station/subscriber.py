@@ -41,9 +41,10 @@ class Inbox:
     def offer(self, key: str, payload: bytes) -> None:
         """Queue ``payload`` if its key's rightful sender signed it (always on an open bus)."""
         if self.auth is not None:
-            payload = self.auth.open_payload(key, payload)
-            if payload is None:
+            opened = self.auth.open_payload(key, payload)
+            if opened is None:
                 return
+            payload = opened
         self.put(key, payload)
 
     def take_refused(self) -> Counter[str]:

@@ -234,8 +234,12 @@ class Sinks:
                 stop_process(self.web_server)
         if compact and self.rrd is not None and self.rrd.exists():
             try:
-                compact_rrd(self.rrd, self.rec.get_application_id(),
-                            self.rec.get_recording_id(), self.blueprint)
+                # rr's functions: the RecordingStream methods are these, bound in a way mypy
+                # cannot follow ("does not accept self argument")
+                app = rr.get_application_id(recording=self.rec)
+                if app is None:
+                    raise ValueError("the recording has no application id")
+                compact_rrd(self.rrd, app, self.rec.get_recording_id(), self.blueprint)
             except Exception as exc:  # the uncompacted file is complete: keep it
                 self.notes.append(f"{self.rrd} left uncompacted: {exc}")
 
@@ -294,7 +298,7 @@ def _open_sinks(out: Sinks, opts: ViewerOptions) -> None:
 
 def close_recording(rec: rr.RecordingStream) -> None:
     """Flush everything (the .rrd footer included) before the process goes."""
-    if not rec.is_enabled():
+    if not rr.is_enabled(recording=rec):
         return
     rec.flush(timeout_sec=3.0)  # the launcher allows 5 s after SIGTERM
     rec.disconnect()

@@ -58,7 +58,7 @@ def replan_indexed(
     vehicles: Sequence[IndexedVehicle],
     *,
     cleared: Collection[int] = (),
-    held: Mapping[int, int] = {},  # noqa: B006 - read only
+    held: Mapping[int, int] = {},  # read only
     max_iterations: int | None = None,
     time_limit_s: float | None = None,
     seed: int = 0,
@@ -97,7 +97,7 @@ def replan(
     vehicles: Sequence[LiveVehicle],
     *,
     cleared: Collection[int] = (),
-    held: Mapping[int, str] = {},  # noqa: B006 - read only
+    held: Mapping[int, str] = {},  # read only
     max_iterations: int | None = None,
     time_limit_s: float | None = None,
     seed: int = 0,

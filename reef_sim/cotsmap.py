@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from hfc_core.model.errors import ScenarioError, finite
 
@@ -74,7 +75,7 @@ def points_in_polygon(x: np.ndarray, y: np.ndarray, polygon: np.ndarray) -> np.n
     return inside
 
 
-def on_land(polygons: Sequence[np.ndarray], x: Any, y: Any) -> np.ndarray:
+def on_land(polygons: Sequence[ArrayLike], x: Any, y: Any) -> np.ndarray:
     """True where (x, y) lies inside any of ``polygons`` (vectorised)."""
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     mask = np.zeros(np.broadcast(x, y).shape, dtype=bool)
@@ -201,7 +202,7 @@ class ProbabilityMap:
         if not isinstance(land, Sequence):
             raise ScenarioError("cots_map land: expected a list of polygons")
         return ProbabilityMap(
-            bounds=tuple(bounds),  # type: ignore[arg-type]
+            bounds=tuple(bounds),
             centres=tuple(centres),
             land=tuple(land),
             combine=str(doc.get("combine", "sum")),

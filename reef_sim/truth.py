@@ -170,7 +170,8 @@ def reef_from_doc(doc: Mapping[str, Any], problem: Problem) -> Reef | None:
         raise ScenarioError("truth: missing field 'spots'")
     if not isinstance(raw["spots"], list):
         raise ScenarioError(f"truth.spots: expected a list, got {type(raw['spots']).__name__}")
-    spots, named_by = [], {}
+    spots: list[TruthSpot] = []
+    named_by: dict[int, int] = {}
     for i, s in enumerate(raw["spots"]):
         where = f"truth.spots[{i}]"
         if not isinstance(s, Mapping):

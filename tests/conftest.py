@@ -1,8 +1,8 @@
 """Shared fixtures.
 
 Every plan a test produces through `hfc_core.solve.solve` is checked by the independent
-feasibility checker (`hfc_core.model.check`): the autouse fixture wraps the engine lookup, so no test
-can forget to check, whatever it imports. Plans from other entry points (the replanner) use the
+feasibility checker (`hfc_core.model.check`): the autouse fixture wraps the engine lookup, so no
+test can forget to check, whatever it imports. Plans from other entry points (the replanner) use the
 `assert_feasible` fixture explicitly.
 """
 

@@ -67,7 +67,8 @@ def imports_of(package: str) -> list[tuple[Path, int, str]]:
 
 
 # The agent's shell: where a vehicle (simulated or real) is chosen and bound to the agent.
-AGENT_SHELL = ("fleet_agent/helms/", "fleet_agent/node.py", "fleet_agent/__main__.py")
+AGENT_SHELL = ("fleet_agent/helms/", "fleet_agent/node.py", "fleet_agent/__main__.py",
+               "fleet_agent/onboard.py", "fleet_agent/options.py")
 
 
 def test_the_agents_decisions_never_see_the_simulated_world() -> None:

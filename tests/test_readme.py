@@ -139,8 +139,9 @@ def cheaper(argv: list[str]) -> list[str]:
 
 
 def expensive(argv: list[str]) -> bool:
-    """A mission of processes, or a sweep on a Dask cluster: parsed, not run."""
-    return argv[0] == "run" or "--scheduler" in argv
+    """A mission of processes, an order to one, or a sweep on a Dask cluster: parsed, not
+    run."""
+    return argv[0] in ("run", "ctl") or "--scheduler" in argv
 
 
 @pytest.fixture

@@ -80,7 +80,7 @@ class _Cycle:
     frames_wanted: int
     t_cycle_s: float
     frames: list[bytes] = field(default_factory=list)
-    timer: object = None
+    timer: Timer | None = None
 
 
 class VirtualModem:
@@ -128,13 +128,34 @@ class VirtualModem:
                 self.counters[f"host_{exc.reason}"] += 1
                 self._error("NMEA", ERR_NMEA, exc.reason)
                 return
-            handler = _HANDLERS.get(type(message).__name__ + ":" + message.talker)
-            if handler is None:
+            if not self._handle(message):
                 self.counters["host_unsupported"] += 1
                 kind = getattr(message, "kind", type(message).__name__)
                 self._error("NMEA", ERR_UNSUPPORTED, f"{kind} not emulated")
-                return
-            handler(self, message)
+
+    def _handle(self, m: object) -> bool:
+        """Carry out a host's command (the $CC sentences a host sends, and our $P place
+        extension); False for anything this emulator does not do."""
+        talker = getattr(m, "talker", "")
+        if talker == "P" and isinstance(m, nmea.Place):
+            self._place(m)
+        elif talker != "CC":
+            return False
+        elif isinstance(m, nmea.CycleInit):
+            self._cycle_init(m)
+        elif isinstance(m, nmea.TxData):
+            self._tx_data(m)
+        elif isinstance(m, nmea.Ping):
+            self._ping(m)
+        elif isinstance(m, nmea.Config):
+            self._config(m)
+        elif isinstance(m, nmea.ConfigQuery):
+            self._config_query(m)
+        elif isinstance(m, nmea.Clock):
+            self._clock(m)
+        else:
+            return False
+        return True
 
     def on_garbage(self, reason: str) -> None:
         """The server dropped input that is not a line (too long)."""
@@ -190,7 +211,7 @@ class VirtualModem:
                                                  f"{self.fleet.rate.frame_bytes}")
         self._say(nmea.TxDataEcho(m.src, m.dest, m.ack, len(m.data)))
         if cycle.timer is not None:
-            cycle.timer.cancel()  # type: ignore[attr-defined]
+            cycle.timer.cancel()
         if m.data:
             cycle.frames.append(m.data)
         if m.data and len(cycle.frames) < cycle.frames_wanted:
@@ -347,14 +368,3 @@ class VirtualModem:
 
     def _hhmmss(self) -> str:
         return nmea.hhmmss(self._now_date())
-
-
-_HANDLERS: dict[str, Callable[[VirtualModem, object], None]] = {
-    "CycleInit:CC": VirtualModem._cycle_init,  # type: ignore[dict-item]
-    "TxData:CC": VirtualModem._tx_data,  # type: ignore[dict-item]
-    "Ping:CC": VirtualModem._ping,  # type: ignore[dict-item]
-    "Config:CC": VirtualModem._config,  # type: ignore[dict-item]
-    "ConfigQuery:CC": VirtualModem._config_query,  # type: ignore[dict-item]
-    "Clock:CC": VirtualModem._clock,  # type: ignore[dict-item]
-    "Place:P": VirtualModem._place,  # type: ignore[dict-item]
-}

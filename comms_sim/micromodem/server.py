@@ -94,8 +94,8 @@ class ModemServer:
             self._update_interest()
             for key, mask in self._selector.select(max_wait_s):
                 what, index = key.data
-                if what == "listen":
-                    self._accept(key.fileobj, index)  # type: ignore[arg-type]
+                if what == "listen" and isinstance(key.fileobj, socket.socket):
+                    self._accept(key.fileobj, index)
                 elif what == "wake":
                     try:
                         while self._wake_r.recv(512):

@@ -7,6 +7,10 @@ operator's and the relay's, the mission's CA certificate and one TLS key and cer
 process (no password anywhere), including a router for each vehicle's own host, and says
 what to copy where. Make new ones for every mission: signatures bind its run id, and the
 CA's key is gone once they are made.
+
+It also writes the mission file an agent on board loads before the dive (`cotsfleet agent
+--mission`, `fleet_agent.mission_file`: the scenario, the seed, the run id of these
+credentials and, with ``--start``, mission time 0), in DIR and in each vehicle's directory.
 """
 
 from __future__ import annotations
@@ -38,12 +42,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    "certificate names them, and loopback)")
     p.add_argument("--valid-days", type=float, default=DEFAULT_VALID_DAYS, metavar="DAYS",
                    help=f"lifetime of the certificates (default {DEFAULT_VALID_DAYS:g})")
+    p.add_argument("--start", metavar="WHEN",
+                   help="mission time 0 for agents on board (unix seconds or ISO 8601 UTC), "
+                   "written in the mission file (else given to `cotsfleet agent --start`)")
 
 
 def run(args: argparse.Namespace) -> int:
+    from fleet_agent.mission_file import write_mission_file
+    from fleet_agent.options import parse_start
+    from fleet_bus.mission import Mission
+
     if args.dir.exists():
         raise UsageError(f"{args.dir} exists; credentials are made fresh for each mission")
     output_dir(args.dir, "DIR")
+    try:
+        start = parse_start(args.start)
+    except ValueError as exc:
+        raise UsageError(f"--start: {exc}") from None
     doc = scenario_doc(args.scenario, args.vehicles, args.seed)
     ids = [str(v["id"]) for v in doc.get("vehicles", []) if isinstance(v, dict)]
     try:
@@ -52,6 +67,9 @@ def run(args: argparse.Namespace) -> int:
     except CredentialsError as exc:
         raise UsageError(str(exc)) from None
     d = args.dir
+    mission = Mission(doc, args.seed, run_id)
+    for where in (d, *(d / vid for vid in ids)):
+        write_mission_file(where / "mission.json", mission, start)
     names = ", ".join(["loopback", *args.hosts])
     print(f"credentials of run {run_id} in {d} (TLS; valid {args.valid_days:g} days):")
     print(f"  this host:   cotsfleet run --credentials {d} --listen 0.0.0.0:7447 --remote ID ..."
@@ -61,6 +79,9 @@ def run(args: argparse.Namespace) -> int:
               f"there, python -m comms_sim.router --credentials {linked_router_id(vid)} "
               f"--listen tls/127.0.0.1:7447 --connect tls/HOST:7447 and python -m fleet_agent "
               f"--id {vid} --credentials {vid} --connect tls/127.0.0.1:7447 ...")
+    print(f"  on board: cotsfleet agent --id ID --mission {d}/ID/mission.json --credentials "
+          f"{d}/ID --config AGENT.toml --helm moos|ros2 --modem micromodem:/dev/ttyUSB0"
+          + ("" if start is not None else " --start WHEN"))
     if not args.hosts:
         print(f"  (no --hosts: a router elsewhere cannot dial {d / ROUTER_ID}'s router by "
               "name or address; name this host with --hosts)")

@@ -59,7 +59,16 @@ def add_mission_arguments(p: argparse.ArgumentParser, scenario_default: str) -> 
                         help="extra uniform link loss P (0..1) from S on")
     faults.add_argument("--attack", action="append", default=[], metavar="KIND@S[*N]",
                         help="an intruder's modem sends N (default 10) forge|replay|garbage "
-                             "frames from S")
+                             "frames from S; with --insider, the insider attacks N times "
+                             "(all-cleared|claim-own|claim-all|abort-as|phantom|busy-hold; "
+                             "docs/security.md)")
+    faults.add_argument("--insider", metavar="ID",
+                        help="the vehicle whose credentials leaked, for the insider attacks")
+    faults.add_argument("--ctl", action="append", default=[], metavar="ORDER@S",
+                        help="the operator's live order from the topside modem at S, words "
+                             "joined by ':' (recall:auv2@1200, pause:all@600, resume:all@900, "
+                             "drop-spot:17@300; unsigned:recall:auv2@1200 is an insider's "
+                             "forgery): docs/operator.md")
 
 
 @dataclass(frozen=True)
@@ -122,6 +131,17 @@ def agent_config(path: Path | None) -> AgentConfig:
     return read_agent_config(path)
 
 
+def config_sets(path: Path | None, name: str) -> bool:
+    """Whether the agent config file sets ``name`` (else the default or a derived value
+    stands: ``slot_s`` from the modem, `cotsfleet run --modem micromodem`)."""
+    if path is None:
+        return False
+    from cotsfleet.io import read_toml
+
+    doc = read_toml(path)
+    return name in doc.get("agent", doc)
+
+
 def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionArgs:
     """The mission the arguments describe (``seed`` overrides ``--seed``, for Monte Carlo);
     every fault is checked against the scenario before anything starts."""
@@ -136,7 +156,8 @@ def mission_args(args: argparse.Namespace, seed: int | None = None) -> MissionAr
         check_wire_limits(problem)
         faults = parse_faults(aborts=args.abort, kills=args.kill, restarts=args.restart,
                               partitions=args.partition, losses=args.loss_at,
-                              attacks=args.attack, stalls=args.stall)
+                              attacks=args.attack, stalls=args.stall, insider=args.insider,
+                              ctls=args.ctl)
         check_schedule(faults, [v.id for v in problem.vehicles], horizon_of(problem))
     except FaultError as exc:
         raise UsageError(str(exc)) from None

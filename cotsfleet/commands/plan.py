@@ -89,7 +89,8 @@ def select_vehicles(problem: Problem, spec: str | None) -> Problem:
     if len(set(wanted)) != len(wanted):
         raise UsageError(f"--vehicles: a vehicle is named twice in {spec!r}")
     vehicles = [problem.vehicles[problem.vehicle_index[v]] for v in wanted]
-    return Problem.build(problem.name, vehicles, problem.tasks, problem.forbidden)
+    return Problem.build(problem.name, vehicles, problem.tasks,
+                         [p.tolist() for p in problem.forbidden])
 
 
 def fits_alone(problem: Problem) -> int:

@@ -7,13 +7,18 @@ import signal
 import socket
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from cotsfleet.commands.checks import json_output, output_dir, output_file
-from cotsfleet.commands.mission_args import add_mission_arguments, mission_args, write_reports
+from cotsfleet.commands.mission_args import (add_mission_arguments, config_sets, mission_args,
+                                             write_reports)
 from cotsfleet.errors import UsageError
 from cotsfleet.mission.faults import FaultError
 from cotsfleet.mission.report_model import Clock, MissionReport
+
+if TYPE_CHECKING:
+    from fleet_agent.config import AgentConfig
+    from hfc_core.model.problem import Problem
 
 HELP = "run an emulated mission: router, link emulator, one agent process per AUV, dashboard"
 
@@ -45,6 +50,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--startup-timeout", type=float, metavar="S",
                    help="wall seconds to wait for every agent to be ready (default: by fleet "
                    "size, 90 s up to 6 vehicles, 146 s for 12, 406 s for 24)")
+    p.add_argument("--helm", choices=("sim", "moos", "ros2"), default="sim",
+                   help="what each agent drives: the simulated vehicle (sim, default), a "
+                   "MOOS-IvP community per vehicle (moos: MOOSDB, uSimMarineV22, pMarinePIDV22, "
+                   "pHelmIvP from PATH) or the simulated vehicle as a ROS 2 node (ros2: needs "
+                   "the ros2 extra); docs/onboard.md")
+    p.add_argument("--modem", choices=("water", "micromodem"), default="water",
+                   help="the water: the Zenoh relay (water, default) or emulated WHOI "
+                   "Micro-Modems that each agent drives over NMEA (micromodem; docs/modems.md)")
+    p.add_argument("--modem-rate", type=int, default=1, metavar="R",
+                   help="--modem micromodem: the rate every modem runs (0, 1, 5; default 1)")
     p.add_argument("--hold-viewer", action=argparse.BooleanOptionalAction,
                    help="keep the web dashboard up after the mission until Ctrl-C "
                    "(default: yes for the web viewer when stdin is a terminal; a native "
@@ -87,12 +102,20 @@ def run(args: argparse.Namespace) -> int:
     if args.listen:
         _check_listen(args.listen)
     m = mission_args(args)
+    config, derived = m.config, False
     try:
+        from cotsfleet.mission.modem_launch import ModemLaunch
+
+        ModemLaunch(args.modem, args.modem_rate)  # an emulated rate, or said now
+        if args.modem == "micromodem" and not config_sets(args.config, "slot_s"):
+            config, derived = modem_slot(config, args.modem_rate, m.problem), True
         opts = ProcessOptions(warp=args.warp, loss=args.loss, viewer=viewer, rrd=args.rrd,
                               web_port=args.web_port, run_dir=args.run_dir,
-                              agent_config=m.config, hold_viewer=hold, listen=args.listen,
+                              agent_config=config, hold_viewer=hold, listen=args.listen,
                               remote=tuple(args.remote), startup_timeout_s=args.startup_timeout,
-                              credentials=args.credentials, tls=args.tls)
+                              credentials=args.credentials, tls=args.tls, helm=args.helm,
+                              modem=args.modem, modem_rate=args.modem_rate,
+                              slot_from_modem=derived)
         backend = ProcessBackend(m.problem, m.scenario, m.seed, opts)
     except ValueError as exc:  # a CredentialsError too
         raise UsageError(str(exc)) from None
@@ -126,6 +149,22 @@ def _number(value: object) -> float | None:
     """A clock figure, or None where the report has none (absent, or null)."""
     return float(value) if isinstance(value, (int, float)) and not isinstance(value, bool) \
         else None
+
+
+def modem_slot(config: "AgentConfig", rate: int, problem: "Problem") -> "AgentConfig":
+    """``config`` with the TDMA slot a Micro-Modem packet at ``rate`` needs across the
+    scenario (`cotsfleet.mission.modem_launch.micromodem_slot_s`), said on the terminal."""
+    from dataclasses import replace
+
+    from cotsfleet.mission.modem_launch import micromodem_slot_s
+    from fleet_agent.modems.micromodem import micromodem_spec
+
+    spec = micromodem_spec(rate)
+    slot = micromodem_slot_s(spec, problem)
+    print(f"cotsfleet run: --modem micromodem rate {rate} ({spec.frames_per_packet} x "
+          f"{spec.max_frame_bytes} B at {spec.bit_rate_bps:g} bps): TDMA slot {slot:g} s "
+          f"(set slot_s in --config to choose another)")
+    return replace(config, slot_s=slot)
 
 
 def run_warnings(report: MissionReport) -> list[str]:

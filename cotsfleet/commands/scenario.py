@@ -10,7 +10,7 @@ import math
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -116,7 +116,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def params_from_args(args: argparse.Namespace) -> GeneratorParams:
     """The generator parameters the flags ask for (raises `UsageError` on bad values)."""
     base = PAPER_PRESET if args.paper else GeneratorParams()
-    changes: dict[str, object] = {}
+    changes: dict[str, Any] = {}
     for flag, name in (("tasks", "n_tasks"), ("vehicles", "n_vehicles"), ("size", "size_m"),
                        ("battery", "battery_s"), ("speed", "speed_mps"), ("service", "service_s"),
                        ("centres", "n_centres"), ("name", "name")):
@@ -142,7 +142,7 @@ def area_params_from_args(args: argparse.Namespace) -> AreaParams:
     if given:
         raise UsageError(f"{', '.join(given)}: not with --area-m (a large area has its own "
                          "layout; --size is the eq. 1 field's side)")
-    changes: dict[str, object] = {}
+    changes: dict[str, Any] = {}
     for flag, name in (("tasks", "n_tasks"), ("vehicles", "n_vehicles"), ("area_m", "area_m"),
                        ("battery", "battery_s"), ("speed", "speed_mps"), ("service", "service_s"),
                        ("centres", "n_clusters"), ("name", "name")):
@@ -153,7 +153,7 @@ def area_params_from_args(args: argparse.Namespace) -> AreaParams:
             raise UsageError(f"--{flag.replace('_', '-')} must be finite, got {value}")
         changes[name] = value
     try:
-        return AreaParams(**changes)  # type: ignore[arg-type]
+        return AreaParams(**changes)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
 
@@ -186,7 +186,7 @@ def dynamic_params(args: argparse.Namespace, base: GeneratorParams | AreaParams
     changes = {field: getattr(args, flag) for flag, field in flags.items()
                if getattr(args, flag) is not None}
     try:
-        return DynamicParams(base=base, **changes)  # type: ignore[arg-type]
+        return DynamicParams(base=base, **changes)
     except ValueError as exc:
         message = str(exc)
         for flag, field in flags.items():
@@ -238,14 +238,14 @@ def reef_options(args: argparse.Namespace) -> "ReefOptions":
     given = [f"--{k.replace('_', '-')}" for k in GENERATOR_ONLY if getattr(args, k)]
     if given:
         raise UsageError(f"{', '.join(given)}: not with --from-geojson (for drawn scenarios)")
-    changes: dict[str, object] = {"seed": args.seed}
+    changes: dict[str, Any] = {"seed": args.seed}
     for flag, name in (("name", "name"), ("vehicles", "vehicles"), ("battery", "battery_s"),
                        ("speed", "speed_mps"), ("service", "service_s"),
                        *((k, k) for k in (*SENSOR, *GEOJSON_ONLY))):
         if getattr(args, flag) is not None:
             changes[name] = getattr(args, flag)
     try:
-        return ReefOptions(**changes)  # type: ignore[arg-type]
+        return ReefOptions(**changes)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
 

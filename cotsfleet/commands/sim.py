@@ -46,6 +46,7 @@ def _out_dir(args: argparse.Namespace) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
+    from cotsfleet.mission.faults import FaultError
     from cotsfleet.mission.inprocess import simulate
 
     if args.runs < 1:
@@ -61,8 +62,11 @@ def run(args: argparse.Namespace) -> int:
         progress = SimProgress(m.problem.n_tasks)
         print(f"planning the fleet: {m.problem.n_vehicles} vehicles, {m.problem.n_tasks} "
               "spots", file=sys.stderr, flush=True)
-        result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
-                          reef=m.reef, progress=progress)
+        try:
+            result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
+                              reef=m.reef, progress=progress)
+        except FaultError as exc:  # a fault the simulation cannot make (`backend.check`)
+            raise UsageError(str(exc)) from None
         progress.close()
         report = msgspec.structs.replace(result.report, wall_s=round(result.wall_s, 3))
         path = args.report or out / "report.json"

@@ -55,7 +55,8 @@ def run(args: argparse.Namespace) -> int:
     if args.credentials is not None and not args.connect:
         raise UsageError("--credentials goes with --connect")
     problem, _ = read_scenario(args.scenario)
-    vehicles = [(v.id, tuple(float(c) for c in v.start)) for v in problem.vehicles]
+    vehicles = [(v.id, (float(v.start[0]), float(v.start[1]), float(v.start[2])))
+                for v in problem.vehicles]
     if not (1 <= args.port and args.port + len(vehicles) - 1 <= 65535):
         raise UsageError(f"--port {args.port}: ports {args.port}-"
                          f"{args.port + len(vehicles) - 1} must lie in 1-65535")

@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any, Mapping, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from cotsfleet.geo.frame import LocalFrame
 from hfc_core.model.problem import Problem
@@ -18,7 +19,7 @@ from hfc_core.model.problem import Problem
 DECIMALS = 7  # 1e-7 degree is about 1 cm
 
 
-def _lonlat(frame: LocalFrame, xyz: np.ndarray) -> list[list[float]]:
+def _lonlat(frame: LocalFrame, xyz: ArrayLike) -> list[list[float]]:
     xyz = np.atleast_2d(np.asarray(xyz, dtype=float))
     lon, lat = frame.to_lonlat(xyz[:, 0], xyz[:, 1])
     return [[round(float(a), DECIMALS), round(float(b), DECIMALS), round(float(z), 2)]
@@ -60,16 +61,16 @@ def plan_geojson(problem: Problem, routes: Sequence[Sequence[int]], frame: Local
             mission_time_s=round(problem.route_time_s(v, route), 1),
             battery_s=problem.vehicles[v].battery_s))
     for i, task in enumerate(problem.tasks):
-        vid, order = served.get(i, (None, None))
+        by, order = served.get(i, (None, None))
         features.append(_feature(
             {"type": "Point", "coordinates": _lonlat(frame, task.pos)[0]},
             role="cots", id=task.id, priority=task.priority, service_s=task.service_s,
-            vehicle=vid, order=order))
-    for v in problem.vehicles:
+            vehicle=by, order=order))
+    for vehicle in problem.vehicles:
         for role in ("start", "rendezvous"):
             features.append(_feature(
-                {"type": "Point", "coordinates": _lonlat(frame, getattr(v, role))[0]},
-                role=role, vehicle=v.id))
+                {"type": "Point", "coordinates": _lonlat(frame, getattr(vehicle, role))[0]},
+                role=role, vehicle=vehicle.id))
     roles = list((scenario or {}).get("geo", {}).get("forbidden_roles", []))
     for k, poly in enumerate(problem.forbidden):
         ring = _lonlat(frame, np.column_stack([poly, np.zeros(len(poly))]))

@@ -107,7 +107,7 @@ class LocalFrame:
         if geo is None:
             return None
         try:
-            return LocalFrame(str(geo["crs"]), tuple(geo["origin_m"]))  # type: ignore[arg-type]
+            return LocalFrame(str(geo["crs"]), tuple(geo["origin_m"]))
         except ScenarioError:
             raise
         except KeyError as exc:

@@ -73,7 +73,8 @@ def attack_round(s: zenoh.Session, rng: np.random.Generator, vehicles: tuple[str
                  (keys.event_key(vid), Event(0.0, vid, "abort", [99999]).encode()),
                  (keys.alive_key(vid), msgpack.packb({"id": vid, "run_id": "x"})),
                  (keys.truth_key(vid), forged_envelope(rng, vid, b"\x80"))]
-    cut = LinkControl(partition=Partition(0.0, 1e12, ((vehicles[0],),)), extra_loss=1.0).encode()
+    isolated = Partition(0.0, 1e12, (frozenset({vehicles[0]}),))
+    cut = LinkControl(partition=isolated, extra_loss=1.0).encode()
     a, b = vehicles[0], vehicles[-1]
     puts += [(keys.LINK_CTL, cut), (keys.LINK_CTL, forged_envelope(rng, "operator", cut)),
              (keys.link_event_key(a, b),

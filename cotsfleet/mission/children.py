@@ -27,7 +27,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
+from typing import IO, Callable, Mapping, Sequence
 
 from cotsfleet.mission.runner import MissionStopped
 
@@ -114,7 +114,8 @@ class Children:
                         log.flush()
                     except OSError as exc:  # keep reading the pipe: the child must not block
                         child.log_error = str(exc)
-                        log = _close_quietly(log)
+                        _close_quietly(log)
+                        log = None
                 line = raw.decode(errors="replace").rstrip()
                 child.lines.append(line)
                 del child.lines[:-LOG_LINES]
@@ -122,7 +123,8 @@ class Children:
                     self.out(line)
                 if ready_prefix and line.startswith(ready_prefix):
                     child.ready.set()
-            _close_quietly(log)
+            if log is not None:
+                _close_quietly(log)
 
         child.pump = threading.Thread(target=pump, name=f"pump-{name}", daemon=True)
         child.pump.start()
@@ -181,10 +183,9 @@ class Children:
         return None
 
 
-def _close_quietly(log: object) -> None:
-    """Close a log file whose last flush may fail (a full disk); returns None."""
+def _close_quietly(log: IO[bytes]) -> None:
+    """Close a log file whose last flush may fail (a full disk)."""
     try:
-        log.close()  # type: ignore[attr-defined]
-    except (OSError, AttributeError):
+        log.close()
+    except OSError:
         pass
-    return None

@@ -13,7 +13,13 @@ Kinds and their ``value``:
   machine would, so a clock the pacing rule slows shortens the stall in mission time;
 - ``loss``: extra uniform link loss ``value`` (0..1) from then on;
 - ``forge``, ``replay``, ``garbage``: an intruder's modem transmits ``value`` hostile frames
-  (forged under a wrong key, replays of overheard frames, random bytes), one every 3.7 s.
+  (forged under a wrong key, replays of overheard frames, random bytes), one every 3.7 s;
+- ``all-cleared``, ``claim-own``, ``claim-all``, ``abort-as``, ``phantom``, ``busy-hold``:
+  the *insider* ``vid`` (a vehicle whose credentials leaked) attacks ``value`` times, 3.7 s
+  apart (`cotsfleet.mission.insider`: what each sends and what stops it).
+- ``ctl``: the operator's live order ``words`` (`fleet_bus.orders.parse_words`: ``recall
+  auv2``, ``pause all``, ``drop-spot 17``, ...) goes out from the topside modem; with
+  ``unsigned`` first, an insider holding the fleet key but not the topside's chain sends it.
 
 `check_schedule` refuses faults that cannot happen (a restart without an earlier kill, a
 kill of a vehicle already dead, anything after the mission's end), with the reason.
@@ -25,15 +31,22 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Sequence
 
+from fleet_bus.orders import ALL, Order, OrderError, parse_words
+
 VEHICLE_FAULTS = ("abort", "kill", "restart", "partition", "stall")
-ATTACKS = ("forge", "replay", "garbage")
-FAULT_KINDS = (*VEHICLE_FAULTS, "loss", *ATTACKS)
+OUTSIDER_ATTACKS = ("forge", "replay", "garbage")
+INSIDER_ATTACKS = ("all-cleared", "claim-own", "claim-all", "abort-as", "phantom", "busy-hold")
+ATTACKS = (*OUTSIDER_ATTACKS, *INSIDER_ATTACKS)
+FAULT_KINDS = (*VEHICLE_FAULTS, "loss", *ATTACKS, "ctl")
 VEHICLE_FLAGS = ("aborted", "killed", "restarted", "stalled")  # a report's per-vehicle marks
 ATTACK_SPACING_S = 3.7  # between two hostile frames of one attack
 DEFAULT_PARTITION_S = 300.0
 DEFAULT_STALL_S = 300.0
 STALL_PERIOD_S = 8.0  # a stalled host: frozen for the first half of each period, then runs
 DEFAULT_ATTACK_FRAMES = 10
+# An insider's steps by default: the whole lie once, 24 phantom finds (issue 31's attack), a
+# busy announcement every 3.7 s for 10 minutes.
+INSIDER_STEPS = {"phantom": 24, "busy-hold": 162}
 
 
 class FaultError(ValueError):
@@ -48,6 +61,7 @@ class Fault:
     t_s: float
     vid: str = ""
     value: float = 0.0
+    words: tuple[str, ...] = ()  # a ``ctl``'s order
 
     def __post_init__(self) -> None:
         if self.kind not in FAULT_KINDS:
@@ -58,18 +72,41 @@ class Fault:
             raise FaultError(f"fault value must be finite, got {self.value}")
         if self.kind in VEHICLE_FAULTS and not self.vid:
             raise FaultError(f"a {self.kind} names a vehicle")
+        if self.kind in INSIDER_ATTACKS and not self.vid:
+            raise FaultError(f"a {self.kind} attack names its insider (--insider ID)")
         if self.kind == "loss" and not 0.0 <= self.value <= 1.0:
             raise FaultError(f"loss must be in [0, 1], got {self.value}")
         if self.kind in ("partition", "stall") and not self.value > 0:
             raise FaultError(f"a {self.kind} lasts > 0 s, got {self.value}")
         if self.kind in ATTACKS and not (self.value >= 1 and float(self.value).is_integer()):
             raise FaultError(f"an attack sends a whole number >= 1 of frames, got {self.value}")
+        if self.kind == "ctl":
+            try:
+                parse_words(list(self.order_words))
+            except OrderError as exc:
+                raise FaultError(f"--ctl: {exc}") from None
+
+    @property
+    def unsigned(self) -> bool:
+        """A ``ctl`` an insider sends, unsigned by the topside's chain."""
+        return bool(self.words) and self.words[0] == "unsigned"
+
+    @property
+    def order_words(self) -> tuple[str, ...]:
+        return self.words[1:] if self.unsigned else self.words
+
+    def order(self) -> Order:
+        """A ``ctl``'s order, unnumbered."""
+        return parse_words(list(self.order_words))
 
     def describe(self) -> str:
         what = {"partition": f" for {self.value:g} s", "stall": f" for {self.value:g} s",
                 "loss": f" {self.value:g}",
                 **{a: f" x{int(self.value)}" for a in ATTACKS}}.get(self.kind, "")
-        who = f" {self.vid}" if self.vid else ""
+        who = (f" by insider {self.vid}" if self.kind in INSIDER_ATTACKS else f" {self.vid}") \
+            if self.vid else ""
+        if self.kind == "ctl":
+            what = " " + " ".join(self.words)
         return f"{self.kind}{who}{what} at t={self.t_s:g} s"
 
     def stall_phase(self, t_s: float) -> tuple[bool, float] | None:
@@ -107,11 +144,17 @@ def parse_at(spec: str) -> tuple[str, float]:
 def parse_faults(*, aborts: Iterable[str] = (), kills: Iterable[str] = (),
                  restarts: Iterable[str] = (), partitions: Iterable[str] = (),
                  losses: Iterable[str] = (), attacks: Iterable[str] = (),
-                 stalls: Iterable[str] = ()) -> list[Fault]:
+                 stalls: Iterable[str] = (), insider: str | None = None,
+                 ctls: Iterable[str] = ()) -> list[Fault]:
     """Faults from command-line specs: ``ID@S`` (abort, kill, restart), ``ID@S+D``
     (partition or stall for D seconds), ``P@S`` (loss P from S), ``KIND@S`` or
-    ``KIND@S*N`` (attack: N frames, default 10)."""
+    ``KIND@S*N`` (attack: N frames, default 10; an insider attack's steps, by ``insider``),
+    ``WORD:WORD...@S`` (an order: ``recall:auv2@1200``, ``add-spot:500:300:80@900``,
+    ``unsigned:recall:auv2@1200``)."""
     faults = []
+    for spec in ctls:
+        head, t = parse_at(spec)
+        faults.append(Fault("ctl", t, "", 0.0, tuple(head.split(":"))))
     for kind, specs in (("abort", aborts), ("kill", kills), ("restart", restarts)):
         for spec in specs:
             vid, t = parse_at(spec)
@@ -130,7 +173,15 @@ def parse_faults(*, aborts: Iterable[str] = (), kills: Iterable[str] = (),
         kind, t = parse_at(head)
         if kind not in ATTACKS:
             raise FaultError(f"attack kind must be one of {ATTACKS}, got {kind!r}")
-        faults.append(Fault(kind, t, "", _number(n, spec) if n else DEFAULT_ATTACK_FRAMES))
+        if kind in INSIDER_ATTACKS and not insider:
+            raise FaultError(f"--attack {spec}: an insider attack needs --insider ID (the "
+                             "vehicle whose credentials leaked)")
+        who = insider if kind in INSIDER_ATTACKS else ""
+        default = INSIDER_STEPS.get(kind, 1) if who else DEFAULT_ATTACK_FRAMES
+        faults.append(Fault(kind, t, who or "", _number(n, spec) if n else default))
+    if insider and not any(f.kind in INSIDER_ATTACKS for f in faults):
+        raise FaultError(f"--insider {insider}: no insider attack to make (--attack KIND@S "
+                         f"with KIND one of {INSIDER_ATTACKS})")
     return faults
 
 
@@ -147,6 +198,8 @@ def check_schedule(faults: Sequence[Fault], vehicles: Sequence[str], horizon_s: 
     known = set(vehicles)
     dead: set[str] = set()
     for f in sorted(faults, key=lambda f: f.t_s):
+        if f.kind == "ctl" and f.order().target not in (ALL, *known):
+            raise FaultError(f"{f.describe()}: unknown vehicle; the mission has {sorted(known)}")
         if f.vid and f.vid not in known:
             raise FaultError(f"{f.describe()}: unknown vehicle; the mission has {sorted(known)}")
         if f.t_s >= horizon_s:

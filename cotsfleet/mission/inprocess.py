@@ -21,11 +21,14 @@ from comms_sim.des import EventLoop, Handle, InProcessNetwork
 from comms_sim.seeds import MISSION_STREAMS, channel_rng
 from comms_sim.link_event import LinkEvent
 from comms_sim.stats import LinkCounts
-from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault
+from cotsfleet.mission.fault_plan import Step, awaited, carry_out, plan
+from cotsfleet.mission.faults import ATTACKS, INSIDER_ATTACKS, Fault, FaultError
+from cotsfleet.mission.insider import Insider, insider_rng
 from cotsfleet.mission.intruder import NODE as INTRUDER
 from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.report_model import MissionReport, Oracle
 from cotsfleet.mission.runner import Outcome, horizon_of, run_mission
+from cotsfleet.mission.topside import forged_order, topside_of
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
 from fleet_agent.driver import AgentDriver
@@ -39,6 +42,7 @@ from fleet_agent.routing import fit_route
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition
 from fleet_bus.modem_port import WATER_SPEC
+from fleet_bus.orders import TOPSIDE
 from fleet_bus.telemetry import Event, Status, Truth
 from hfc_core.model.problem import Problem
 from reef_sim.truth import Reef
@@ -124,6 +128,8 @@ class InProcessBackend:
         self.net = InProcessNetwork(self.channel, self.loop)
         self.net.add_listener(self._overhear)
         self.intruder = Intruder(problem, intruder_rng(seed))
+        self.insiders: dict[str, Insider] = {}
+        self.topside = topside_of(problem, self.fleet, self.config)
         self.oracle_iterations = oracle_iterations
         self.tap = tap
         self.ledger = FleetLedger()
@@ -133,22 +139,29 @@ class InProcessBackend:
         self.oracle: dict[str, Any] = {}
         self.at_kill: dict[str, tuple[Status, frozenset[int]]] = {}  # status, cleared set
         self.positions_at_kill: dict[str, dict[str, tuple[float, ...]]] = {}
-        self._pending: list[Fault] = []
+        self._pending: list[Step] = []  # the fault plan (`fault_plan.plan`)
         self._stuck = 0
+        self._topside_wake: Handle | None = None
 
     # -- the runner's interface --------------------------------------------------------------
 
     def check(self, faults: Sequence[Fault]) -> None:
-        pass  # every fault kind is simulated
+        if any(f.kind == "busy-hold" for f in faults):
+            raise FaultError("busy-hold holds the paced clock of `cotsfleet run`; a "
+                             "simulation has none to hold")
 
     def start(self, faults: Sequence[Fault]) -> None:
         for v in self.problem.vehicles:
             self._start_agent(v.id, 0.0, MemoryJournal())
-        if any(f.kind in ATTACKS for f in faults):
+        if any((f.kind in ATTACKS and f.kind not in INSIDER_ATTACKS)
+               or (f.kind == "ctl" and f.unsigned) for f in faults):
             self.channel.set_position(INTRUDER, self.intruder.position(), 0.0)
-        self._pending = sorted(faults, key=lambda f: f.t_s)
-        for f in self._pending:
-            self.loop.call_at(f.t_s, lambda f=f: self._apply(f))
+        if any(f.kind == "ctl" for f in faults):  # the operator's modem, at the boat
+            self.net.attach(TOPSIDE, lambda data, t: self.topside.hear(data, t))
+            self.channel.set_position(TOPSIDE, self.topside.position, 0.0)
+        self._pending = plan(faults)
+        for s in self._pending:
+            self.loop.call_at(s.t_s, lambda s=s: carry_out(s, self, self.loop.now()))
 
     def now(self) -> float:
         return self.loop.now()
@@ -158,7 +171,7 @@ class InProcessBackend:
 
     def finished(self) -> bool:
         now = self.now()
-        if any(f.t_s > now for f in self._pending if f.kind in ("restart", "abort")):
+        if awaited(self._pending, now):
             return False
         dead = {vid for vid, s in self.seats.items() if s.driver is None}
         return self.ledger.all_final(list(self.seats), dead)
@@ -183,6 +196,9 @@ class InProcessBackend:
         out: dict[str, Any] = {"baseline": {
             "priority": round(float(sum(self.problem.priority[t] for t in plan)), 2),
             "spots": len(plan)}}
+        if self.topside.orders or any(f.kind == "ctl" for f in self.applied):
+            out["commands"] = self.topside.section(
+                {v: dict(st.counters) for v, st in self.ledger.statuses.items()})
         if not self.oracle:
             return out
         after = self._collected_after(self.oracle["t_s"], set(self.oracle["survivors"]),
@@ -257,9 +273,9 @@ class InProcessBackend:
 
     # -- faults -----------------------------------------------------------------------------
 
-    def _apply(self, f: Fault) -> None:
-        now = self.loop.now()
-        self.applied.append(Fault(f.kind, now, f.vid, f.value))
+    def apply(self, f: Fault, now: float) -> None:
+        """A fault at ``now`` (`fault_plan.FleetControl`)."""
+        self.applied.append(Fault(f.kind, now, f.vid, f.value, f.words))
         seat = self.seats.get(f.vid)
         if f.kind == "abort" and seat is not None and seat.driver is not None:
             self._step(seat, lambda d: d.command("abort", now), tick=False)
@@ -285,18 +301,47 @@ class InProcessBackend:
             seat.stall = f
         elif f.kind == "loss":
             apply_control(LinkControl(extra_loss=f.value), self.channel)
-        elif f.kind in ATTACKS:
-            for i in range(int(f.value)):
-                self.loop.call_later(1.0 + ATTACK_SPACING_S * i,
-                                     lambda kind=f.kind: self._attack(kind))
+        elif f.kind == "ctl" and f.unsigned:  # an insider: the fleet key, not the chain
+            self.net.send(INTRUDER, forged_order(self.fleet, f.order(), now), "data")
+        elif f.kind == "ctl":
+            self.topside.submit(f.order(), now)
+            self._topside_send()
+
+    def _topside_send(self) -> None:
+        """The topside's frames due now, and its next turn."""
+        now = self.loop.now()
+        for frame in self.topside.frames(now):
+            self.net.send(TOPSIDE, frame, "data")
+        due = self.topside.next_s(now)
+        if due is not None and (self._topside_wake is None or self._topside_wake.cancelled
+                                or self._topside_wake.t_s != due):
+            if self._topside_wake is not None:
+                self._topside_wake.cancel()
+            self._topside_wake = self.loop.call_at(due, self._topside_send)
 
     def _overhear(self, event: LinkEvent) -> None:
         if event.delivered and event.src != INTRUDER:
             self.intruder.overhear(event.frame)
 
-    def _attack(self, kind: str) -> None:
-        """The intruder's modem transmits one hostile frame through the channel."""
-        self.net.send(INTRUDER, self.intruder.frame(kind, self.loop.now()), "data")
+    def attack(self, f: Fault, now: float) -> None:
+        """One hostile frame of ``f`` (`fault_plan.FleetControl`): the intruder's modem
+        transmits it through the channel; an insider's frames leave from its position."""
+        if f.kind not in INSIDER_ATTACKS:
+            self.net.send(INTRUDER, self.intruder.frame(f.kind, now), "data")
+            return
+        for frame in self._insider(f.vid).frames(f.kind, now):
+            self.net.send(f.vid, frame, "data")
+
+    def _insider(self, vid: str) -> Insider:
+        """The insider ``vid``: its leaked seed is the one its own agent was given."""
+        if vid not in self.insiders:
+            index = self.problem.vehicle_index[vid]
+            chains = self.fleet.chains
+            assert chains is not None and chains.seeds is not None, "a simulation derives " \
+                "every chain, seeds included"
+            self.insiders[vid] = Insider(self.problem, self.fleet.codec, chains, self.config,
+                                         index, chains.seeds[index], insider_rng(self.seed, index))
+        return self.insiders[vid]
 
     # -- the perfect-information reference ---------------------------------------------------
 

@@ -8,7 +8,10 @@ command; kill: SIGKILL; restart: the agent again on its journal; stall: SIGSTOP 
 in wall time; partition, loss and attacks: link control to the relay), watches the fleet's
 telemetry, and collects the relay's counters. Its parts, each one idea: `children` (the
 processes), `clock_control` (the shared clock's pace and holds) and `intake` (what it takes
-from the bus, checked); this module wires them to the bus and to the runner.
+from the bus, checked), `helm_launch` (what each vehicle's helm needs: MOOS communities, ROS 2
+vehicles, ``--helm``) and `modem_launch` (the relay or the emulated Micro-Modems, ``--modem``);
+this module wires them to the bus and to the runner. With ``--helm moos`` the shared clock is
+kept at the warp (`helm_launch.pins_clock`: no holds, no pacing).
 
 Lifecycle: every child dies with its parent (`fleet_bus.process.die_with_parent`:
 ``PR_SET_PDEATHSIG`` on Linux, and a watch on the parent's pid everywhere), so whatever ends
@@ -52,16 +55,24 @@ from typing import Any, Callable, Iterator, Mapping, Sequence
 import zenoh
 
 from comms_sim.stats import LinkCounts
-from cotsfleet.mission.faults import ATTACK_SPACING_S, ATTACKS, Fault, FaultError
+from cotsfleet.mission.fault_plan import Step, awaited, carry_out, plan
+from cotsfleet.mission.faults import INSIDER_ATTACKS, Fault, FaultError
+from cotsfleet.mission.insider_launch import Leaked
 from cotsfleet.mission.children import Child, ChildExited, Children
 from cotsfleet.mission.clock_control import ClockControl
 from cotsfleet.mission.disk import DiskReserve, cut_to_whole_lines
+from cotsfleet.mission.helm_launch import BRIDGE_READY, HelmLaunch, pins_clock
 from cotsfleet.mission.intake import Intake
 from cotsfleet.mission.intruder import Intruder, intruder_rng
 from cotsfleet.mission.report import values_of
+from cotsfleet.mission.modem_launch import ModemLaunch
+from cotsfleet.mission.order_desk import OrderDesk
+from cotsfleet.mission.run_record import RunRecord, remove_run_record, write_run_record
+from cotsfleet.mission.topside import Topside, forged_frame, topside_position
 from cotsfleet.mission.transport import choose_transport
 from cotsfleet.reporting.terminal import progress_line
 from fleet_agent.config import AgentConfig, dump_config
+from fleet_agent.mission_file import write_mission_file
 from fleet_agent.radio import LATE_SHARE
 from fleet_bus import keys
 from fleet_bus.auth import BusAuth, seal_query
@@ -70,9 +81,11 @@ from fleet_bus.commands import ABORT, STOP, encode_command
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition, decode_stats
 from fleet_bus.mission import Mission
-from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID, load_auth,
-                                   load_ring, new_run_id, write_run_credentials)
-from fleet_bus.process import RELAY_READY, ROUTER_READY
+from fleet_bus.credentials import (OPERATOR_ID, ROUTER_ID, STATION_ID, CredentialsError,
+                                   load_auth, load_frame_chains, load_frame_seed, load_ring,
+                                   new_run_id, write_run_credentials)
+from fleet_bus.orders import TOPSIDE, OrderCodec, TopsideSchedule
+from fleet_bus.process import ROUTER_READY
 from fleet_bus.query_limits import QueryGate, gate_queryable
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
 from fleet_agent.beliefs import find_ids
@@ -84,7 +97,9 @@ ROUTER_ATTEMPTS = 3  # free loopback ports tried for the router
 MAX_RESTARTS = 3  # times the relay or the ground station is started again after a crash
 # What a crash of each child costs the mission: "restart" (then, once the restarts are
 # spent, "report" for a passive process, else "end"), "vehicle" (lost to the fleet), "end".
-CRASH_POLICY = {"router": "end", "relay": "restart", "ground_station": "restart"}
+# A helm's process (a MOOS app, a ROS 2 vehicle) is "helm": reported, not started again.
+CRASH_POLICY = {"router": "end", "relay": "restart", "water": "restart",
+                "ground_station": "restart"}
 PASSIVE = ("ground_station",)  # nothing depends on it: reported once it cannot be restarted
 # Start-up (launch to the clock's start) measured on the 2-core machine, paper preset:
 # 4.2 s (3 vehicles), 9.4 s (6), 38.8 s (12), 165.5 s (24): about 0.29 s x vehicles²
@@ -137,6 +152,13 @@ class ProcessOptions:
     disk_reserve_bytes: int = 4 << 20  # kept free in the run dir for the report (full disk)
     credentials: Path | None = None  # made beforehand (`cotsfleet credentials`); else fresh
     tls: bool = False  # TLS on loopback too (off loopback, or with TLS credentials, it always is)
+    helm: str = "sim"  # sim | moos | ros2: what each vehicle's agent drives (`helm_launch`)
+    modem: str = "water"  # water | micromodem: the water and each agent's modem (`modem_launch`)
+    modem_rate: int = 1  # the emulated Micro-Modems' rate
+    slot_from_modem: bool = False  # the agents' slot_s was derived from the modem (report)
+    # Keep the shared clock at the warp (no planning holds, no pacing); None: when the helm
+    # cannot follow a changing clock (MOOS: `helm_launch.pins_clock`).
+    pin_clock: bool | None = None
 
     def __post_init__(self) -> None:
         if not self.warp > 0:
@@ -181,6 +203,9 @@ class ProcessBackend:
         self.startup_timeout_s = opts.startup_timeout_s or startup_timeout_for(
             len(self.ids) - len(opts.remote))
         self.procs = Children(self.run_dir, out, self.startup_timeout_s)
+        self.helm = HelmLaunch(opts.helm, problem, self.run_dir, opts.warp, self.run_id)
+        self.modem = ModemLaunch(opts.modem, opts.modem_rate)
+        self.pinned = pins_clock(opts.helm) if opts.pin_clock is None else opts.pin_clock
         self.crashes: list[dict[str, Any]] = []  # every child that ended untold, and what then
         self.reserve = DiskReserve(self.run_dir / DiskReserve.NAME, opts.disk_reserve_bytes)
         self.saved: dict[str, Any] = {}  # what the end could write (`_write_events`)
@@ -190,7 +215,7 @@ class ProcessBackend:
         self.endpoint = ""
         self.started = threading.Event()  # set once the mission clock runs
         self.interrupted = False
-        self._pending: list[tuple[float, Fault, str]] = []  # (time, fault, step)
+        self._pending: list[Step] = []  # the fault plan's steps still to come
         self._link: LinkCounts | None = None
         self._session: zenoh.Session | None = None
         self._closers: list[Any] = []
@@ -209,14 +234,19 @@ class ProcessBackend:
         self._stallers: list[threading.Thread] = []
         # Dynamic missions: finds are named by ids past the scenario's (`beliefs.find_ids`).
         finds = find_ids(problem, opts.agent_config) if "truth" in scenario else range(0)
-        self.intake = Intake(problem, self.ids, self.run_id, finds, self.pacer.busy,
+        self.intake = Intake(problem, self.ids, self.run_id, finds, self._busy,
                              self.intruder.overhear)
         self.queries = QueryGate(None)  # who asks the operator what (`start`: with the key)
+        self.desk: OrderDesk | None = None  # the operator's live orders (`start`)
 
     # -- the runner's interface --------------------------------------------------------------
 
     def check(self, faults: Sequence[Fault]) -> None:
         for f in faults:
+            if f.kind == "ctl" and self.modem.name != "water":
+                raise FaultError(f"{f.describe()}: the operator's orders go into the water "
+                                 "through the relay (--modem water); the emulated "
+                                 "Micro-Modems do not carry the topside's frames yet")
             if f.kind in ("kill", "restart", "stall") and f.vid in self.opts.remote:
                 raise FaultError(f"{f.describe()}: a {f.kind} needs the agent's process "
                                  "here; not for --remote vehicles")
@@ -234,6 +264,9 @@ class ProcessBackend:
         cfg_path.touch(mode=0o600)
         cfg_path.write_text(dump_config(config), encoding="utf-8")
         (self.run_dir / "scenario.json").write_text(json.dumps(self.scenario), encoding="utf-8")
+        # The mission as an agent on board loads it (`cotsfleet agent --mission`): on record.
+        write_mission_file(self.run_dir / "mission.json",
+                           Mission(self.scenario, self.seed, self.run_id))
         creds = self.creds = opts.credentials or self.run_dir / "credentials"
         if opts.credentials is None:
             write_run_credentials(creds, self.ids, self.run_id, tls=self.transport.tls,
@@ -245,7 +278,11 @@ class ProcessBackend:
                                                            credentials=creds / OPERATOR_ID))
         if any(f.kind == "replay" for f in faults):  # the modem intruder's material only
             self._closers.append(session.declare_subscriber(keys.RX_ALL, self.intake.rx))
+        desk = self.desk = self._order_desk(creds, config)
         self._closers += [
+            session.declare_subscriber(keys.ORDER_REQUEST, lambda sample: desk.request(
+                sample.payload.to_bytes()) if sample.kind == zenoh.SampleKind.PUT else None),
+            session.declare_subscriber(keys.rx_key(TOPSIDE), self._topside_heard),
             session.declare_subscriber(keys.STATUS_ALL, self.intake.status),
             session.declare_subscriber(keys.EVENT_ALL, self.intake.event),
             session.declare_subscriber(keys.ALIVE_ALL, self.intake.alive),
@@ -255,36 +292,47 @@ class ProcessBackend:
             self.queries, keys.MISSION,
             lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission)))))
         relay = self.procs.spawn(
-            "relay", ["-m", "comms_sim", "--connect", self.endpoint, "--credentials",
-                      str(creds / RELAY_ID), "--mission-from-bus",
-                      "--mission-timeout", str(2 * self.startup_timeout_s)]
-            + (["--loss", str(opts.loss)] if opts.loss else []), RELAY_READY,
-            env=opts.child_env.get("relay"))
+            self.modem.child, self.modem.water_argv(
+                self.endpoint, creds, self.run_dir, self.seed, len(self.ids), opts.loss,
+                2 * self.startup_timeout_s), self.modem.ready_prefix,
+            env=opts.child_env.get(self.modem.child))
         if opts.viewer != "none" or opts.rrd is not None:
             self.procs.spawn("ground_station", self._station_argv(0), echo=True,
                              env=opts.child_env.get("ground_station"))
+        local = [vid for vid in self.ids if vid not in opts.remote]
+        helm_env = self.helm.env()
+        if self.helm.name == "moos":  # the communities first: the agents connect to them
+            for name, argv in self.helm.moos_argvs(local):
+                self.procs.spawn(name, argv, env=helm_env)
+        bridges = [self.procs.spawn(name, argv, BRIDGE_READY, env=helm_env)
+                   for name, argv in (self.helm.bridge_argvs(local, self.endpoint, creds)
+                                      if self.helm.name == "ros2" else [])]
+        for bridge in bridges:  # each vehicle serves (at its start) before its agent looks
+            self.procs.wait_ready(bridge)
         for vid in self.ids:
             if vid in opts.remote:
                 self.out(f"waiting for {vid} elsewhere: python -m fleet_agent --id {vid} "
                          f"--config AGENT.toml --credentials {creds / vid} "
                          f"--connect <a router linked to {listen}>")
             else:
-                self.procs.spawn(vid, self._agent_argv(vid), env=opts.child_env.get(vid))
+                self.procs.spawn(vid, self._agent_argv(vid), env=self._agent_env(vid))
         self._wait_agents()
         self.pacer.start()
         self._closers.append(session.declare_queryable(  # the newest record, timed
             keys.CLOCK, gate_queryable(self.queries, keys.CLOCK, lambda q: q.reply(
                 keys.CLOCK, auth.seal(keys.CLOCK, self.pacer.answer(str(q.parameters)))))))
         self.procs.wait_ready(relay)
-        for f in sorted(faults, key=lambda f: f.t_s):
-            steps = int(f.value) if f.kind in ATTACKS else 1
-            for i in range(steps):
-                at = f.t_s + (1.0 + ATTACK_SPACING_S * i if f.kind in ATTACKS else 0.0)
-                self._pending.append((at, f, "apply" if i == 0 else "attack"))
-        self._pending.sort(key=lambda p: p[0])
+        if opts.loss and self.modem.name != "water":  # the relay takes it as an option
+            self._put_link(LinkControl(extra_loss=opts.loss))
+        self._insiders = self._make_insiders(faults, config)
+        self._pending = plan(faults)
         self.started.set()
-        self.out(f"mission {self.run_id}: {len(self.ids)} vehicles, warp {opts.warp:g}, "
-                 f"loss {opts.loss:g}, run dir {self.run_dir}")
+        write_run_record(self.run_dir, RunRecord(self.run_id, self.endpoint, os.getpid(),
+                                                 str(creds.resolve()), tuple(self.ids)))
+        self.out(f"mission {self.run_id}: {len(self.ids)} vehicles, warp {opts.warp:g}"
+                 f"{' (held fixed: ' + self.helm.name + ')' if self.pinned else ''}, loss "
+                 f"{opts.loss:g}, helm {self.helm.name}, modem {self.modem.name} (slot "
+                 f"{opts.agent_config.slot_s:g} s), run dir {self.run_dir}")
 
     def _start_router(self, creds: Path) -> str:
         """Start the router; returns where it listens. Without ``listen`` it takes a free
@@ -311,6 +359,7 @@ class ProcessBackend:
     def advance(self, t_s: float) -> None:
         while self.now() < t_s:
             self._apply_due()
+            self._orders_due()
             self._pace_clock()
             self._watch_children()
             self._progress()
@@ -318,7 +367,7 @@ class ProcessBackend:
         self._apply_due()
 
     def finished(self) -> bool:
-        if any(f.kind in ("restart", "abort") for _, f, _ in self._pending):
+        if awaited(self._pending, self.now()):
             return False
         return self.intake.all_final(self.dead)
 
@@ -327,9 +376,14 @@ class ProcessBackend:
 
     def _pace_clock(self) -> None:
         """Slow or speed the shared clock with the hosts' pace (`ClockControl.pace`)."""
-        if self.clock is None:
+        if self.clock is None or self.pinned:
             return
         self.pacer.pace(self.intake.statuses().values())
+
+    def _busy(self, vid: str, busy: bool) -> None:
+        """A planning hold begins or ends (`ClockControl.busy`); none on a pinned clock."""
+        if not self.pinned:
+            self.pacer.busy(vid, busy)
 
     def _put_clock(self, record: bytes) -> None:
         """Put a new clock record on the bus, signed: every process follows it. (Only the
@@ -381,7 +435,34 @@ class ProcessBackend:
                 "security": self._security(), "crashes": list(self.crashes),
                 "saved": dict(self.saved),
                 "queries": {"operator": self.queries.counts(),
-                            "relay": self._relay_extra.get("queries", {})}}
+                            "relay": self._relay_extra.get("queries", {})},
+                "helm": self._helm_report(), **self._commands(),
+                "modem": self.modem.describe(self.opts.agent_config.slot_s,
+                                             self.opts.slot_from_modem)}
+
+    def _commands(self) -> dict[str, Any]:
+        """The report's ``commands`` section, if the operator gave any order."""
+        if self.desk is None:
+            return {}
+        section = self.desk.section({vid: dict(s.counters)
+                                     for vid, s in self.intake.statuses().items()})
+        return {} if section is None else {"commands": section}
+
+    def _helm_report(self) -> dict[str, Any]:
+        """Which helm drove each vehicle, and whether the clock was kept at the warp for it
+        (with the worst drift of each MOOS vehicle's clock from the mission clock)."""
+        statuses = self.intake.statuses()
+        out: dict[str, Any] = {
+            "name": self.helm.name, "clock_pinned": self.pinned,
+            "vehicles": {vid: "remote" if vid in self.opts.remote else self.helm.name
+                         for vid in self.ids}}
+        if self.helm.name == "moos":
+            out["clock_drift_max_s"] = {
+                vid: s.counters.get("helm_clock_drift_max_ms", 0) / 1000.0
+                for vid, s in sorted(statuses.items())}
+        if self.helm.name == "ros2":
+            out["ros_domain_id"] = int(self.helm.env()["ROS_DOMAIN_ID"])
+        return out
 
     def _security(self) -> dict[str, Any]:
         """What each part of the fleet refused, by reason: the operator (telemetry, ready
@@ -394,10 +475,11 @@ class ProcessBackend:
         agents = {vid: row for vid, row in (
             (vid, {k[len("drop_auth_"):]: n for k, n in s.counters.items()
                    if k.startswith("drop_auth_")}) for vid, s in sorted(statuses.items())) if row}
+        orders = self.desk.refusals() if self.desk is not None else {}
         total = sum(operator.values()) + sum(relay.values()) + sum(
-            sum(a.values()) for a in agents.values())
+            sum(a.values()) for a in agents.values()) + sum(orders.values())
         return {"refused_total": total, "operator": operator, "relay": relay,
-                "agents": agents}
+                "agents": agents, **({"orders": orders} if orders else {})}
 
     def close(self) -> None:
         """Stop the fleet (agents first: their final statuses), fetch the link counters, stop
@@ -412,6 +494,7 @@ class ProcessBackend:
             self._close()
 
     def _close(self) -> None:
+        remove_run_record(self.run_dir)  # `cotsfleet ctl` finds no mission from now on
         try:
             self.procs.stop(self.ids)
             if self._session is not None:
@@ -453,7 +536,13 @@ class ProcessBackend:
         return ["-m", "fleet_agent", "--id", vid, "--config", str(self.run_dir / "agent.toml"),
                 "--connect", self.endpoint, "--journal", str(self.run_dir / f"{vid}.journal"),
                 "--credentials", str(self.creds / vid),
-                "--mission-timeout", str(2 * self.startup_timeout_s)]
+                "--mission-timeout", str(2 * self.startup_timeout_s),
+                *self.helm.agent_argv(vid),
+                *self.modem.agent_argv(self.problem.vehicle_index[vid])]
+
+    def _agent_env(self, vid: str) -> dict[str, str]:
+        """An agent's environment: its helm's (a ROS 2 domain) and the test's, if any."""
+        return {**self.helm.env(), **self.opts.child_env.get(vid, {})}
 
     def _station_argv(self, incarnation: int) -> list[str]:
         """The ground station's command line; a restarted one records to a file of its own
@@ -484,15 +573,16 @@ class ProcessBackend:
     def _watch_children(self) -> None:
         """A child that ended without being told to: restarted, reported or the end of the
         mission, as `CRASH_POLICY` says; named with its last lines either way."""
-        relay = self.children.get("relay")
+        relay = self.children.get(self.modem.child)
         if self._relay_back is not None and relay is not None and relay.ready.is_set():
             self._relay_back = None  # the relay is back on the clock: the hold ends
-            self.pacer.busy("relay", False)
+            self._busy("relay", False)
         c = self.procs.ended_untold()
         if c is None:
             return
         why = c.why()
-        policy = "vehicle" if c.name in self.ids else CRASH_POLICY.get(c.name, "end")
+        policy = "vehicle" if c.name in self.ids else "helm" if c.name in \
+            self.helm.children else CRASH_POLICY.get(c.name, "end")
         restarts = sum(1 for x in self.crashes if x["name"] == c.name)
         if policy == "restart" and restarts >= MAX_RESTARTS:
             policy = "report" if c.name in PASSIVE else "end"
@@ -505,14 +595,17 @@ class ProcessBackend:
             raise ChildExited(why)
         if policy == "vehicle":
             self.dead.add(c.name)
-            self.pacer.busy(c.name, False)  # a hold of the dead process ends with it
+            self._busy(c.name, False)  # a hold of the dead process ends with it
             self.out(f"t={now:6.0f} s  {why}; {c.name} is lost to the fleet, the others go on")
+        elif policy == "helm":  # not started again: it would put its vehicle back at start
+            self.out(f"t={now:6.0f} s  {why}; not started again: its agent sees the "
+                     "vehicle's navigation stop")
         elif policy == "restart":
             argv = self._station_argv(restarts + 1) if c.name == "ground_station" else None
             self.procs.restart(c, argv)
-            if c.name == "relay":  # no frame crosses the water until it is back: hold the
-                self._relay_back = now  # clock (rationed like any hold), so that silence
-                self.pacer.busy("relay", True)  # does not look like death to the fleet
+            if c.name == self.modem.child:  # no frame crosses the water until it is back:
+                self._relay_back = now  # hold the clock (rationed like any hold), so that
+                self._busy("relay", True)  # silence does not look like death to the fleet
             self.out(f"t={now:6.0f} s  {why}; started again ({restarts + 1} of "
                      f"{MAX_RESTARTS})")
         else:
@@ -523,15 +616,12 @@ class ProcessBackend:
 
     def _apply_due(self) -> None:
         now = self.now()
-        while self._pending and self._pending[0][0] <= now:
-            _, f, step = self._pending.pop(0)
-            if step == "apply":
-                self._apply(f, now)
-            else:
-                self._inject(f.kind, now)
+        while self._pending and self._pending[0].t_s <= now:
+            carry_out(self._pending.pop(0), self, now)
 
-    def _apply(self, f: Fault, now: float) -> None:
-        self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value))
+    def apply(self, f: Fault, now: float) -> None:
+        """A fault at ``now`` (`fault_plan.FleetControl`)."""
+        self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value, f.words))
         self.out(f"t={now:6.0f} s  fault: {f.describe()}")
         if f.kind == "abort":
             self._command(f.vid, ABORT)
@@ -541,9 +631,9 @@ class ProcessBackend:
                 self.procs.signal(child, signal.SIGKILL)
                 child.popen.wait(5.0)
             self.dead.add(f.vid)
-            self.pacer.busy(f.vid, False)  # a hold of the killed process ends with it
+            self._busy(f.vid, False)  # a hold of the killed process ends with it
         elif f.kind == "restart":
-            self.procs.spawn(f.vid, self._agent_argv(f.vid))
+            self.procs.spawn(f.vid, self._agent_argv(f.vid), env=self._agent_env(f.vid))
             self.dead.discard(f.vid)
         elif f.kind == "stall":
             child = self.children.get(f.vid)
@@ -556,8 +646,73 @@ class ProcessBackend:
             self._put_link(LinkControl(partition=Partition(now, now + f.value, ((f.vid,),))))
         elif f.kind == "loss":
             self._put_link(LinkControl(extra_loss=f.value))
-        elif f.kind in ATTACKS:
-            self._inject(f.kind, now)
+        elif f.kind == "ctl" and f.unsigned:  # an insider: the fleet key, not the chain
+            assert self.desk is not None and self.desk.topside is not None
+            top = self.desk.topside
+            frame = forged_frame(top.codec, top.schedule, top.chain.length, f.order(), now)
+            self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
+        elif f.kind == "ctl":
+            assert self.desk is not None
+            answer = self.desk.submit(f.order(), now)
+            if answer.error:
+                self.out(f"t={now:6.0f} s  order refused: {answer.error}")
+            self._orders_due()
+
+    # -- the operator's live orders -----------------------------------------------------------
+
+    def _order_desk(self, creds: Path, config: AgentConfig) -> OrderDesk:
+        """The topside modem of this run (its chain's seed in the operator's credentials)
+        behind the desk that takes `cotsfleet ctl`'s requests (`order_desk`)."""
+        verifier = load_ring(creds / OPERATOR_ID)
+        why = ("the emulated Micro-Modems do not carry the topside's frames yet (--modem "
+               "water does)") if self.modem.name != "water" else ""
+        try:
+            seed = load_frame_seed(creds / OPERATOR_ID)
+            length = load_frame_chains(creds / OPERATOR_ID, self.ids).length
+        except CredentialsError:
+            why = why or (f"{creds} holds no topside key chain (made before live orders): "
+                          "make the credentials again to order this fleet")
+            seed, length = b"", 0
+        if why:
+            return OrderDesk(None, verifier, why)
+        codec = OrderCodec(config.fleet_key, self.run_id, tuple(self.ids))
+        schedule = TopsideSchedule.for_fleet(len(self.ids) * config.slot_s)
+        return OrderDesk(Topside(codec, schedule, seed, length, topside_position(self.problem),
+                                 config.ctl_max_age_s), verifier)
+
+    def _topside_heard(self, sample: Any) -> None:
+        """A frame the water delivered to the topside (signed by the relay)."""
+        if self.desk is None or sample.kind != zenoh.SampleKind.PUT:
+            return
+        assert self.auth is not None
+        frame = self.auth.open_payload(keys.rx_key(TOPSIDE), sample.payload.to_bytes())
+        if frame is not None:
+            self.desk.hear(frame, self.now())
+
+    def _orders_due(self) -> None:
+        """The topside's frames due now go into the water from its place; the answers to
+        `cotsfleet ctl` go out on the bus."""
+        if self.desk is None or self._session is None or self.clock is None:
+            return
+        now = self.now()
+        due = self.desk.due(now)
+        top = self.desk.topside
+        for frame in due.frames:
+            assert top is not None
+            self._put_link(LinkControl(inject=frame, inject_at=top.position,
+                                       inject_from=TOPSIDE))
+        for answer in due.answers:
+            assert self.auth is not None
+            self._session.put(keys.ORDER_ANSWER, self.auth.seal(keys.ORDER_ANSWER,
+                                                                answer.encode()))
+            if answer.error:
+                self.out(f"t={now:6.0f} s  order refused: {answer.error}")
+            elif not answer.acked and not answer.refused:
+                self.out(f"t={now:6.0f} s  order #{answer.seq}: {answer.order} (topside)")
+            else:
+                self.out(f"t={now:6.0f} s  order #{answer.seq}: acknowledged by "
+                         f"{', '.join(sorted(answer.acked)) or 'nobody'}"
+                         + (f"; refused by {answer.refused}" if answer.refused else ""))
 
     def _stall(self, child: Child, f: Fault) -> None:
         """Freeze and thaw ``child`` as `Fault.thaw_at` says, in wall time at the requested
@@ -577,10 +732,33 @@ class ProcessBackend:
         finally:
             child.signal_group(signal.SIGCONT)
 
-    def _inject(self, kind: str, now: float) -> None:
-        """The intruder's modem transmits one hostile frame into the water (via the relay)."""
-        frame = self.intruder.frame(kind, now)
-        self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
+    def attack(self, f: Fault, now: float) -> None:
+        """The intruder's modem transmits one hostile frame into the water (via the relay);
+        an insider's frames leave from where its vehicle last said it was, and its busy
+        announcements go out under its own bus login."""
+        if f.kind not in INSIDER_ATTACKS:
+            frame = self.intruder.frame(f.kind, now)
+            self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
+            return
+        insider = self._insiders[f.vid]  # its leaked credentials
+        if f.kind == "busy-hold":
+            insider.busy()
+            return
+        status = self.intake.statuses().get(f.vid)
+        at = tuple(status.pos) if status is not None else \
+            tuple(self.problem.vehicles[self.problem.vehicle_index[f.vid]].start)
+        for frame in insider.insider.frames(f.kind, now):
+            self._put_link(LinkControl(inject=frame, inject_at=at))
+
+    def _make_insiders(self, faults: Sequence[Fault], config: AgentConfig) -> dict[str, Leaked]:
+        """Each insider's leaked credentials (`insider_launch`), closed with the mission."""
+        out = {}
+        reef = reef_from_doc(self.scenario, self.problem)
+        for vid in sorted({f.vid for f in faults if f.kind in INSIDER_ATTACKS}):
+            out[vid] = Leaked.open(vid, self.problem, reef, config, self.run_id, self.seed,
+                                   self.modem.spec, self.creds, self.ids, self.endpoint)
+            self._closers.append(_Undeclare(out[vid].close))
+        return out
 
     def _put_link(self, control: LinkControl) -> None:
         assert self._session is not None and self.auth is not None
@@ -640,3 +818,13 @@ class ProcessBackend:
             state = "dead" if vid in self.dead else (s.state if s else "starting")
             parts.append(f"{vid} {state} {len(s.treated) if s else 0}")
         self.out(progress_line(now, collected, parts))
+
+
+@dataclass(frozen=True)
+class _Undeclare:
+    """A closer of the mission's `_closers` list that runs ``close``."""
+
+    close: Any
+
+    def undeclare(self) -> None:
+        self.close()

@@ -104,6 +104,7 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
     aborted = {f.vid: f.t_s for f in faults if f.kind == "abort"}
     restarted = {f.vid for f in faults if f.kind == "restart"}
     stalled = {f.vid for f in faults if f.kind == "stall"}
+    helms = ((extra or {}).get("helm") or {}).get("vehicles", {})
     vehicles = []
     for v in problem.vehicles:
         s = statuses.get(v.id)
@@ -119,6 +120,8 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
             home=bool(s and s.state == "home"),
             aborted=v.id in aborted, killed=v.id in killed, restarted=v.id in restarted,
             stalled=v.id in stalled,
+            helm=helms.get(v.id, "sim"),  # what drove it (`cotsfleet run --helm`)
+            nav_fixes=int(s.counters.get("nav_fixes", 0)) if s else 0,
             counters=dict(s.counters) if s else {}))
 
     detection: dict[str, dict[str, float | None]] = {}
@@ -181,7 +184,8 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
         sections["security"] = msgspec.structs.replace(sections["security"], relay=None)
     return MissionReport(
         mode=mode, scenario=problem.name, seed=seed, end_s=round(end_s, 1),
-        faults=[FaultRow(kind=f.kind, vid=f.vid, t_s=f.t_s, value=f.value) for f in faults],
+        faults=[FaultRow(kind=f.kind, vid=f.vid, t_s=f.t_s, value=f.value,
+                         order=" ".join(f.words)) for f in faults],
         vehicles=vehicles, fleet=fleet, messages=messages,
         dynamic=dynamic_section(ledger, values) if reef is not None else None,
         suspects={k: dict(sorted(v.items())) for k, v in sorted(suspects.items())} or None,

@@ -44,6 +44,31 @@ class FaultRow(_Section):
     vid: str
     t_s: float
     value: float
+    order: str = ""  # a ``ctl``'s order words
+
+
+class OrderRow(_Section):
+    """One of the operator's live orders (`cotsfleet.mission.topside`)."""
+
+    seq: int
+    order: str
+    verb: str
+    target: str
+    issued_s: float
+    transmissions: int
+    acked: dict[str, float]  # vehicle -> when the topside heard its acknowledgement
+    refused: dict[str, str]  # vehicle -> why it refused
+
+
+class Commands(_Section):
+    """The operator's live orders: what was sent and what came of it (docs/operator.md)."""
+
+    topside: list[float]  # where the topside modem was
+    sent: list[OrderRow]
+    refused: dict[str, int]  # by the vehicles, by reason (unsigned, replayed, stale, ...)
+    repeats: int  # orders heard again after they were taken (not acted on twice)
+    taken: dict[str, int]  # vehicle -> orders it took
+    operator_refused: dict[str, int]  # requests the operator's side refused, by reason
 
 
 class VehicleRow(_Section):
@@ -60,6 +85,8 @@ class VehicleRow(_Section):
     restarted: bool
     stalled: bool
     counters: dict[str, int]
+    helm: str = "sim"  # what drove it (`cotsfleet run --helm`: sim, moos, ros2, remote)
+    nav_fixes: int = 0  # navigation fixes its agent used
 
     @property
     def flags(self) -> list[str]:
@@ -176,6 +203,30 @@ class Saved(_Section):
     events_error: str | UnsetType = UNSET
 
 
+class HelmSection(_Section):
+    """Which helm drove each vehicle (`cotsfleet run --helm`), and whether the mission clock
+    was held at the warp for it."""
+
+    name: str
+    clock_pinned: bool
+    vehicles: dict[str, str]
+    clock_drift_max_s: dict[str, float] | None = None  # MOOS: each vehicle's clock
+    ros_domain_id: int | None = None  # ROS 2: the run's own domain
+
+
+class ModemSection(_Section):
+    """The modem every agent drove (`cotsfleet run --modem`) and the slot it needs."""
+
+    name: str
+    spec: str
+    frames_per_packet: int
+    max_frame_bytes: int
+    bit_rate_bps: float
+    slot_s: float
+    slot_from: str  # "modem" (derived from its packet) | "config"
+    rate: int | None = None  # Micro-Modem rate
+
+
 class Queries(_Section):
     """Queries to the operator's and the relay's queryables: answered and rationed by asker,
     refused in all."""
@@ -189,6 +240,9 @@ class Security(_Section):
     operator: dict[str, int]
     relay: dict[str, int] | None  # None: the relay's counters never came
     agents: dict[str, dict[str, int]]
+    # Requests on fleet/ctl/order the launcher refused (`cotsfleet ctl`'s key: not the
+    # operator's signature, garbage, not an order), by reason; absent when none.
+    orders: dict[str, int] = msgspec.field(default_factory=dict)
 
 
 class MissionReport(Struct, kw_only=True, forbid_unknown_fields=True, omit_defaults=True):
@@ -219,10 +273,13 @@ class MissionReport(Struct, kw_only=True, forbid_unknown_fields=True, omit_defau
     crashes: list[Crash] | None = None
     saved: Saved | None = None
     queries: Queries | None = None
+    helm: HelmSection | None = None
+    modem: ModemSection | None = None
     failure: str | None = None
     # accused -> accuser -> how many things it said that could not be (`fleet_agent.policies.
     # plausible`); absent when nobody lied
     suspects: dict[str, dict[str, int]] | None = None
+    commands: Commands | None = None  # the operator's live orders
     other: dict[str, Any] = {}  # top-level fields this version does not know
 
     # -- the document ------------------------------------------------------------------------

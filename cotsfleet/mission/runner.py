@@ -39,7 +39,10 @@ class MissionStopped(RuntimeError):
 
 class Backend(Protocol):
     mode: str  # "sim" | "run": the report's name for how the fleet ran
-    ledger: FleetLedger
+
+    @property
+    def ledger(self) -> FleetLedger:
+        """What the fleet reported (read only: the runner never replaces it)."""
     applied: list[Fault]  # faults as applied, with the mission time they were
     interrupted: bool  # the operator stopped the mission early (Ctrl-C, SIGTERM, SIGHUP)
 

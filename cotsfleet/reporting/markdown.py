@@ -13,7 +13,9 @@ import json
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from cotsfleet.mission.report_model import MissionReport, Security
+from cotsfleet.mission.faults import INSIDER_ATTACKS, OUTSIDER_ATTACKS
+from cotsfleet.mission.report_model import (Commands, FaultRow, MissionReport, Security,
+                                            TreatedRow)
 from cotsfleet.reporting.plots import drop_reasons
 from cotsfleet.reporting.terminal import notable, suspects_line
 from cotsfleet.reporting.timeline import ACTIVITIES, Segment, Spots, time_shares
@@ -82,6 +84,8 @@ def render(report: MissionReport, segments: Mapping[str, Sequence[Segment]] | No
     lines += _reef(report)
     lines += _vehicles(report, segments, spots, figures)
     lines += _faults(report)
+    if report.commands is not None:
+        lines += _commands(report.commands)
     lines += _events(events)
     lines += _radio(report, figures)
     lines += _clock(report)
@@ -177,7 +181,7 @@ def _reef(report: MissionReport) -> list[str]:
                      _num(v.priority, 1)])
     lines += _table(["vehicle", "treatments", "real spots", "real priority"], rows)
     if d.treated:
-        first = {}
+        first: dict[int, TreatedRow] = {}
         for t in d.treated:
             first.setdefault(t.spot, t)
         again = [t for t in d.treated if first[t.spot] is not t]
@@ -238,6 +242,8 @@ def _faults(report: MissionReport) -> list[str]:
     f = report.fleet
     when = {(x.vid, x.kind): x.t_s for x in report.faults}
     lines = ["## Faults and detection", ""]
+    if report.faults:
+        lines.append("- **Injected:** " + "; ".join(_fault_text(x) for x in report.faults) + ".")
     for gone, row in f.detection_delay_s.items():
         how = "killed" if (gone, "kill") in when else "aborted" if (gone, "abort") in when \
             else "lost"
@@ -260,6 +266,40 @@ def _faults(report: MissionReport) -> list[str]:
             "survivors made at that moment with perfect information (true positions, "
             "batteries, cleared spots). That replan is the heuristic planner with a fixed "
             "budget, not an optimum, so the fleet can beat it: a ratio above 1 is possible.")
+    return lines + [""]
+
+
+def _fault_text(x: FaultRow) -> str:
+    """One injected fault in words (`cotsfleet.mission.faults`)."""
+    if x.kind == "ctl":
+        return f"the operator's order {x.order} at {_num(x.t_s)} s"
+    if x.kind in INSIDER_ATTACKS:
+        return f"{x.kind} by insider {x.vid} x{_num(x.value)} at {_num(x.t_s)} s"
+    if x.kind in OUTSIDER_ATTACKS:
+        return f"{x.kind} by an intruder's modem x{_num(x.value)} at {_num(x.t_s)} s"
+    what = {"partition": f" for {_num(x.value)} s", "stall": f" for {_num(x.value)} s",
+            "loss": f" {x.value:g}"}.get(x.kind, "")
+    who = f" {x.vid}" if x.vid else ""
+    return f"{x.kind}{who}{what} at {_num(x.t_s)} s"
+
+
+def _commands(c: Commands) -> list[str]:
+    """The operator's live orders (docs/operator.md): sent, acknowledged, refused."""
+    rows = [[f"#{o.seq}", o.order, _num(o.issued_s), o.transmissions,
+             ", ".join(f"{v} at {_num(t)} s" for v, t in sorted(o.acked.items())) or "-",
+             ", ".join(f"{v}: {why}" for v, why in sorted(o.refused.items())) or "-"]
+            for o in c.sent]
+    lines = ["## The operator's orders", "",
+             f"From the topside modem at ({', '.join(_num(v) for v in c.topside)}) m; proven "
+             "by its own key chain (docs/security.md).", ""]
+    if rows:
+        lines += _table(["order", "words", "issued s", "transmissions", "acknowledged",
+                         "refused"], rows)
+    refused = {**{f"by the vehicles: {k}": n for k, n in c.refused.items()},
+               **{f"by the operator's side: {k}": n for k, n in c.operator_refused.items()}}
+    lines.append("Refused: " + (", ".join(f"{k} {n}" for k, n in sorted(refused.items()))
+                                or "none") + f"; repeats heard (not acted on twice): "
+                 f"{c.repeats}.")
     return lines + [""]
 
 
@@ -364,6 +404,8 @@ def _security(sec: Security) -> list[str]:
              f"- **By the relay:** {reasons(sec.relay)}"]
     for vid, row in sec.agents.items():
         lines.append(f"- **By {vid}:** {reasons(row)}")
+    if sec.orders:
+        lines.append(f"- **Order requests refused by the launcher:** {reasons(sec.orders)}")
     return lines + [""]
 
 

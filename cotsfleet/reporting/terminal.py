@@ -83,6 +83,8 @@ def format_report(report: MissionReport, events: Sequence[Event] = ()) -> str:
         elif sec.relay:
             parts.append(f"relay {sec.relay}")
         parts += [f"{vid} {row}" for vid, row in sec.agents.items()]
+        if sec.orders:
+            parts.append(f"order requests {sec.orders}")
         lines.append(f"security: {sec.refused_total} message(s) refused"
                      + (f" ({'; '.join(parts)})" if parts else ""))
     if report.suspects:

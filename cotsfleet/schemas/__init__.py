@@ -62,7 +62,8 @@ def _json_type(value: Any) -> str:
         return "boolean"
     if isinstance(value, (int, float)):
         return "number"
-    return {dict: "object", list: "array", str: "string"}.get(type(value), type(value).__name__)
+    names: dict[type, str] = {dict: "object", list: "array", str: "string"}
+    return names.get(type(value), type(value).__name__)
 
 
 def _short(value: Any, limit: int = 40) -> str:
@@ -72,7 +73,11 @@ def _short(value: Any, limit: int = 40) -> str:
 
 def describe(error: ValidationError) -> str:
     """A short message: what was expected and what was found (never the whole document)."""
-    kind, want, got = error.validator, error.validator_value, error.instance
+    # Any: parts of a JSON document and of its schema
+    kind = error.validator
+    want: Any = error.validator_value
+    got: Any = error.instance
+    schema: Any = error.schema
     if kind == "required":
         missing = [k for k in want if isinstance(got, dict) and k not in got]
         return f"missing field {missing[0]!r}" if missing else error.message
@@ -80,7 +85,7 @@ def describe(error: ValidationError) -> str:
         wanted = " or ".join(want) if isinstance(want, list) else want
         return f"expected {wanted}, got {_json_type(got)} {_short(got)}"
     if kind == "additionalProperties":
-        allowed = error.schema.get("properties", {})
+        allowed = schema.get("properties", {})
         extra = sorted(k for k in got if k not in allowed)
         return f"unknown field(s) {', '.join(map(repr, extra))}; known: {', '.join(allowed)}"
     if kind in ("minimum", "exclusiveMinimum", "maximum", "exclusiveMaximum"):

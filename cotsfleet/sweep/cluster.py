@@ -100,7 +100,7 @@ class DaskPool:
         here = environment()
         try:
             theirs = self._client.run(environment)
-        except Exception as exc:  # noqa: BLE001 - e.g. cotsfleet not importable there
+        except Exception as exc:  # e.g. cotsfleet not importable there
             raise UsageError(f"the Dask workers cannot run cotsfleet ({exc!r}); install the "
                              "same cotsfleet on every worker") from None
         wrong = [f"{addr}: {env}" for addr, env in sorted(theirs.items()) if env != here]

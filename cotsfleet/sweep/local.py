@@ -61,7 +61,7 @@ def _worker_main(conn: mpc.Connection, parent: int) -> None:
     _die_with(parent)
     from cotsfleet.sweep.task import run_seed
 
-    spec = None
+    spec: SweepSpec | None = None
     while True:
         try:
             message = conn.recv()
@@ -72,6 +72,8 @@ def _worker_main(conn: mpc.Connection, parent: int) -> None:
         kind, value = message
         if kind == "spec":
             spec = value
+        elif spec is None:  # the pool hands the spec before any seed
+            raise RuntimeError("sweep worker: a seed came before the sweep's spec")
         else:
             conn.send(run_seed(spec, value))
 

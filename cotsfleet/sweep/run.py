@@ -12,7 +12,7 @@ import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import IO, Any, Iterator, Protocol, Sequence
+from typing import IO, Any, Iterator, Protocol, Self, Sequence
 
 from cotsfleet.errors import UsageError
 from cotsfleet.mission.report_model import FailedRun, RunResult
@@ -23,16 +23,17 @@ LOCAL_CLUSTER = "local"
 
 
 class Executor(Protocol):
-    workers: int
+    @property
+    def workers(self) -> int: ...
 
     @property
     def where(self) -> str: ...
 
     def results(self, spec: SweepSpec, seeds: Sequence[int]) -> Any: ...
 
-    def __enter__(self) -> "Executor": ...
+    def __enter__(self) -> Self: ...
 
-    def __exit__(self, *exc: object) -> None: ...
+    def __exit__(self, exc_type: object, *exc: object) -> None: ...
 
 
 def executor_for(runs: int, jobs: int | None, scheduler: str | None) -> Executor:

@@ -31,7 +31,7 @@ def run_seed(spec: SweepSpec, seed: int) -> RunResult:
         m = build_mission(spec, seed)
         result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
                           reef=m.reef)
-    except Exception as exc:  # noqa: BLE001 - whatever a run raises is that run's result
+    except Exception as exc:  # whatever a run raises is that run's result
         text = "".join(traceback.format_exception(exc))
         return FailedRun(seed=seed, error=repr(exc), traceback=text[-TRACEBACK_CHARS:],
                          run_s=round(time.perf_counter() - t0, 3))

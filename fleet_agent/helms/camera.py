@@ -8,7 +8,7 @@ position): the adapter is given an object with two calls,
 - ``inspect(task) -> (present, priority, service_s)``: what hovering at predicted spot
   ``task`` shows.
 
-`SensorCamera` gives today's `fleet_agent.sensor.World` that shape. On board there is no
+`reef_sim.camera.ReefCamera` has that shape. On board there is no
 camera object: the vehicle's detector posts detections as text (a MOOS variable, a ROS 2
 ``std_msgs/String``), one per post, as comma-separated ``key=value`` pairs
 (`parse_detection`, `format_detection`):
@@ -22,6 +22,7 @@ camera object: the vehicle's detector posts detections as text (a MOOS variable,
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Iterable, Protocol
 
 Point3 = tuple[float, float, float]
@@ -34,23 +35,30 @@ class Camera(Protocol):
     def inspect(self, task: int) -> tuple[bool, float, float]: ...
 
 
-class SensorCamera:
-    """`fleet_agent.sensor.World` (the simulated reef's camera) as a `Camera`."""
-
-    def __init__(self, world) -> None:  # world: fleet_agent.sensor.World
-        self._world = world
-
-    def sweep(self, pos: Point3) -> list[tuple[Point3, float, float]]:
-        return [(tuple(s.pos), float(s.priority), float(s.service_s))  # type: ignore[misc]
-                for s in self._world.sweep(pos)]
-
-    def inspect(self, task: int) -> tuple[bool, float, float]:
-        seen = self._world.inspect(task)
-        return bool(seen.present), float(seen.priority), float(seen.service_s)
-
-
 class DetectionError(ValueError):
     """Text that is not a detection."""
+
+
+@dataclass(frozen=True)
+class Sighting:
+    """An aggregation the detector saw along the track, at ``pos`` (the helm's local frame)."""
+
+    pos: Point3
+    priority: float
+    service_s: float
+
+
+@dataclass(frozen=True)
+class LookResult:
+    """What a look at predicted spot ``task`` showed."""
+
+    task: int
+    present: bool
+    priority: float
+    service_s: float
+
+
+Detection = Sighting | LookResult
 
 
 def _number(fields: dict[str, str], key: str, default: float | None = None) -> float:
@@ -68,9 +76,9 @@ def _number(fields: dict[str, str], key: str, default: float | None = None) -> f
     return value
 
 
-def parse_detection(text: str) -> dict[str, object]:
-    """A detection's fields, checked: ``{"kind": "sighting", "pos": (x, y, z), "priority",
-    "service_s"}`` or ``{"kind": "look", "task", "present", "priority", "service_s"}``."""
+def parse_detection(text: str) -> Detection:
+    """A detection, checked: a `Sighting` (``kind=sighting``) or a `LookResult`
+    (``kind=look``)."""
     if len(text) > MAX_DETECTION_CHARS:
         raise DetectionError(f"detection longer than {MAX_DETECTION_CHARS} characters")
     fields: dict[str, str] = {}
@@ -85,7 +93,7 @@ def parse_detection(text: str) -> dict[str, object]:
         if priority < 0 or service < 0:
             raise DetectionError("priority and service_s must be >= 0")
         pos = (_number(fields, "x"), _number(fields, "y"), _number(fields, "z", 0.0))
-        return {"kind": kind, "pos": pos, "priority": priority, "service_s": service}
+        return Sighting(pos, priority, service)
     if kind == "look":
         task = _number(fields, "task")
         if task != int(task) or task < 0:
@@ -97,8 +105,7 @@ def parse_detection(text: str) -> dict[str, object]:
         service = _number(fields, "service_s", 0.0)
         if priority < 0 or service < 0:
             raise DetectionError("priority and service_s must be >= 0")
-        return {"kind": kind, "task": int(task), "present": present == "true",
-                "priority": priority, "service_s": service}
+        return LookResult(int(task), present == "true", priority, service)
     raise DetectionError(f"unknown kind {kind!r} (sighting | look)")
 
 

@@ -48,7 +48,13 @@ import re
 import threading
 from dataclasses import dataclass, field
 
-from fleet_agent.helms.camera import Camera, DetectionError, format_detection, parse_detection
+from fleet_agent.helms.camera import (
+    Camera,
+    DetectionError,
+    LookResult,
+    format_detection,
+    parse_detection,
+)
 from fleet_agent.helms.duty import Duty
 from fleet_agent.helms.frames import LocalFrame, finite_points, yaw_from_compass
 from fleet_agent.helms.moos_client import MoosClient
@@ -162,8 +168,13 @@ class MoosHelm:
         self._last_sent: dict[str, str] = {}
         self._helm_state = ""
         self._cmd_moos_t = math.inf  # MOOS time the command under way was posted
-        self._look_result: dict[str, object] | None = None
+        self._look_result: LookResult | None = None
         self.dropped_detections = 0
+        # How far the vehicle's MOOS time has run from the mission clock since the first fix
+        # (MOOS seconds less mission seconds): MOOSTimeWarp is fixed, the fleet's clock is not.
+        self.clock_drift_s = 0.0
+        self.clock_drift_max_s = 0.0
+        self._first_stamp: tuple[float, float] | None = None  # (MOOS time, mission time)
         self._closed = False
         p, t = config.nav_prefix, config.truth_prefix
         self._nav_vars = {f"{p}_{s}": s for s in ("X", "Y", "DEPTH", "HEADING", "SPEED")}
@@ -210,7 +221,9 @@ class MoosHelm:
         return self._reports.take(until_s)
 
     def next_report_s(self) -> float | None:
-        return None
+        """When the look or injection it times ends (its arrivals come when they come)."""
+        with self._lock:
+            return self._duty.work_end_s
 
     def close(self) -> None:
         with self._lock:
@@ -228,6 +241,28 @@ class MoosHelm:
     @property
     def helm_state(self) -> str:
         return self._helm_state
+
+    def figures(self) -> dict[str, int]:
+        """What the agent's status counts of its helm: the worst lag of a fix from the
+        helm's stamp to its receipt, fixes and detections dropped, the MOOS clock's drift."""
+        return {"helm_fix_lag_max_ms": int(round(1000.0 * self.stats.lag_max_s)),
+                "helm_fixes_dropped": self._reports.dropped_fixes,
+                "helm_events_dropped": self._reports.dropped_events + self.dropped_detections,
+                "helm_clock_drift_max_ms": int(round(1000.0 * self.clock_drift_max_s))}
+
+    def true_pose(self) -> tuple[Point3, float, float] | None:
+        """Where the vehicle really is, for the simulation's bookkeeping (emulation): the
+        simulator's true state if it posts one apart (``truth_prefix``), else its navigation
+        (uSimMarine without navigation error); None before the first fix."""
+        with self._lock:
+            fix = self.stats.last_fix
+            if fix is None:
+                return None
+            if self._truth_vars and "X" in self._truth and "Y" in self._truth:
+                pos = self.config.frame.to_scenario(self._truth["X"], self._truth["Y"],
+                                                    -self._truth.get("DEPTH", 0.0))
+                return pos, fix.yaw_deg, fix.pitch_deg
+            return fix.pos, fix.yaw_deg, fix.pitch_deg
 
     # -- commands ------------------------------------------------------------------------------
 
@@ -271,9 +306,9 @@ class MoosHelm:
         if self.camera is not None:
             return self.camera.inspect(task)
         seen = self._look_result
-        if seen is not None and seen["task"] == task:
+        if seen is not None and seen.task == task:
             self._look_result = None
-            return bool(seen["present"]), float(seen["priority"]), float(seen["service_s"])
+            return seen.present, seen.priority, seen.service_s
         return False, 0.0, 0.0  # the detector said nothing of this spot: nothing seen
 
     # -- mail ----------------------------------------------------------------------------------
@@ -290,10 +325,10 @@ class MoosHelm:
             nav_seen = False
             for m in mail:
                 if m.key in self._nav_vars and m.is_double:
-                    self._nav[self._nav_vars[m.key]] = (float(m.value), m.time)  # type: ignore[arg-type]
+                    self._nav[self._nav_vars[m.key]] = (float(m.value), m.time)
                     nav_seen = nav_seen or self._nav_vars[m.key] in ("X", "Y")
                 elif m.key in self._truth_vars and m.is_double:
-                    self._truth[self._truth_vars[m.key]] = float(m.value)  # type: ignore[arg-type]
+                    self._truth[self._truth_vars[m.key]] = float(m.value)
                 else:
                     self._on_event(m)
             if nav_seen:
@@ -304,6 +339,7 @@ class MoosHelm:
             return
         stamp = max(self._nav["X"][1], self._nav["Y"][1])
         t_s, lag = self._mission_time(stamp)
+        self._clock_drift(stamp, t_s)
         last = self.stats.last_fix
         if last is not None and t_s <= last.t_s:  # never a fix older than the last one
             t_s = last.t_s
@@ -318,6 +354,18 @@ class MoosHelm:
         if self.camera is not None:
             self._sweep(fix)
 
+    def _clock_drift(self, stamp: float, t_s: float) -> None:
+        """MOOS seconds less mission seconds since the first fix, from the simulator's own
+        stamps: the vehicle's clock against the fleet's."""
+        if stamp <= 0 or t_s < 0:  # from the mission's start on
+            return
+        if self._first_stamp is None:
+            self._first_stamp = (stamp, t_s)
+            return
+        drift = (stamp - self._first_stamp[0]) - (t_s - self._first_stamp[1])
+        self.clock_drift_s = drift
+        self.clock_drift_max_s = max(self.clock_drift_max_s, abs(drift))
+
     def _sweep(self, fix: NavFix) -> None:
         true = fix.pos
         if self._truth_vars:
@@ -325,10 +373,15 @@ class MoosHelm:
                 return
             true = self.config.frame.to_scenario(
                 self._truth["X"], self._truth["Y"], -self._truth.get("DEPTH", 0.0))
-        for pos, prio, service in self.camera.sweep(true):  # type: ignore[union-attr]
+        camera = self.camera
+        if camera is None:  # no camera on this vehicle: nothing to see
+            return
+        for pos, prio, service in camera.sweep(true):
             # Where the vehicle believes it is plus what the camera measured from it.
-            seen = tuple(n + (p - t) for n, p, t in zip(fix.pos, pos, true))
-            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))  # type: ignore[arg-type]
+            # where it lies in the vehicle's own navigation frame
+            seen = (fix.pos[0] + (pos[0] - true[0]), fix.pos[1] + (pos[1] - true[1]),
+                    fix.pos[2] + (pos[2] - true[2]))
+            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))
 
     def _on_event(self, m: MoosMsg) -> None:
         text = m.text if not m.is_double else ""
@@ -364,10 +417,10 @@ class MoosHelm:
             self.dropped_detections += 1
             log.warning("MOOS %s dropped: %s", DETECTION_VAR, err)
             return
-        if seen["kind"] == "look":
+        if isinstance(seen, LookResult):
             self._look_result = seen
             return
-        x, y, z = seen["pos"]  # type: ignore[misc]
+        x, y, z = seen.pos
         self._reports.add(Sighted(self._mission_time(m.time)[0],
                                   self.config.frame.to_scenario(x, y, z),
-                                  float(seen["priority"]), float(seen["service_s"])))  # type: ignore[arg-type]
+                                  seen.priority, seen.service_s))

@@ -89,7 +89,7 @@ def encode_msg(msg: MoosMsg) -> bytes:
         raise ValueError(f"message type must be one character, got {msg.kind!r}")
     dtype = msg.data_type
     if dtype == DOUBLE:
-        dval, sval = float(msg.value), b""  # type: ignore[arg-type]
+        dval, sval = float(msg.value), b""
     else:
         dval = -1.0
         sval = msg.value if isinstance(msg.value, bytes) else str(msg.value).encode()

@@ -13,8 +13,11 @@ from __future__ import annotations
 import math
 import threading
 from collections import deque
+from typing import TypeVar
 
 from fleet_bus.vehicle_port import NavFix, VehicleReport
+
+R = TypeVar("R", bound=VehicleReport)
 
 
 class ReportBuffer:
@@ -46,13 +49,8 @@ class ReportBuffer:
     def take(self, until_s: float) -> list[VehicleReport]:
         """Every report dated up to ``until_s``, in time order (a later one stays)."""
         with self._lock:
-            out: list[VehicleReport] = []
-            for queue in (self._fixes, self._events):
-                keep = deque()
-                for r in queue:
-                    (out if r.t_s <= until_s else keep).append(r)
-                queue.clear()
-                queue.extend(keep)
+            out: list[VehicleReport] = [*_take(self._fixes, until_s),
+                                        *_take(self._events, until_s)]
         out.sort(key=lambda r: r.t_s)  # stable: a fix and an event at one time keep order
         return out
 
@@ -94,3 +92,14 @@ class NavStats:
             if self.first_fix_s is None or now_s <= self.first_fix_s:
                 return 0.0
             return self.fixes / (now_s - self.first_fix_s)
+
+
+def _take(queue: deque[R], until_s: float) -> list[R]:
+    """The reports of ``queue`` dated up to ``until_s``, taken out (the later ones stay)."""
+    out: list[R] = []
+    keep: deque[R] = deque()
+    for r in queue:
+        (out if r.t_s <= until_s else keep).append(r)
+    queue.clear()
+    queue.extend(keep)
+    return out

@@ -26,17 +26,19 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import rclpy
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry, Path
+from rclpy.client import Client
 from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 
-from fleet_agent.helms.camera import Camera, DetectionError, parse_detection
+from fleet_agent.helms.camera import Camera, DetectionError, LookResult, parse_detection
 from fleet_agent.helms.duty import Duty
 from fleet_agent.helms.frames import LocalFrame, finite_points
 from fleet_agent.helms.reports import NavStats, ReportBuffer
@@ -107,7 +109,8 @@ class Ros2Helm:
         self._reports = ReportBuffer(config.max_fixes, config.max_events)
         self.stats = NavStats()
         self._truth: tuple[float, float, float] | None = None
-        self._look_result: dict[str, object] | None = None
+        self._truth_yaw = 0.0
+        self._look_result: LookResult | None = None
         self._pending: list[tuple] = []  # (future, client, deadline, generation, kind)
         self.dropped = {"odometry": 0, "events": 0}
         self._closed = False
@@ -125,11 +128,13 @@ class Ros2Helm:
             self._goal_pub = node.create_publisher(PoseStamped, n.goal, LATCHED)
             self._plan_pub = node.create_publisher(Path, n.plan, LATCHED)
             self._route_pub = node.create_publisher(Path, n.route, LATCHED)
-            self._station = {Work.LOOK: node.create_client(Trigger, n.look),
-                             Work.INJECT: node.create_client(Trigger, n.inject),
-                             Work.WAIT: node.create_client(Trigger, n.hold)}
-            self._return = node.create_client(SetBool, n.return_home)
-            self._abort = node.create_client(SetBool, n.abort)
+            # Any: std_srvs from PyPI has no type information (pyproject's [tool.mypy])
+            self._station: dict[Work, Client[Any, Any]] = {
+                Work.LOOK: node.create_client(Trigger, n.look),
+                Work.INJECT: node.create_client(Trigger, n.inject),
+                Work.WAIT: node.create_client(Trigger, n.hold)}
+            self._return: Client[Any, Any] = node.create_client(SetBool, n.return_home)
+            self._abort: Client[Any, Any] = node.create_client(SetBool, n.abort)
             self._executor = SingleThreadedExecutor(context=self._context)
             self._executor.add_node(node)
             self._thread = threading.Thread(target=self._spin, name="ros2-helm", daemon=True)
@@ -203,7 +208,9 @@ class Ros2Helm:
         return self._reports.take(until_s)
 
     def next_report_s(self) -> float | None:
-        return None
+        """When the look or injection it times ends (its arrivals come when they come)."""
+        with self._lock:
+            return self._duty.work_end_s
 
     def close(self) -> None:
         with self._lock:
@@ -218,6 +225,22 @@ class Ros2Helm:
     def nav_age_s(self) -> float:
         """Mission seconds since the last navigation fix (inf: none yet)."""
         return self.stats.age_s(self.clock.now())
+
+    def figures(self) -> dict[str, int]:
+        """What the agent's status counts of its helm: the worst lag of a fix from its
+        header stamp to its receipt, odometry and events dropped."""
+        return {"helm_fix_lag_max_ms": int(round(1000.0 * self.stats.lag_max_s)),
+                "helm_fixes_dropped": self._reports.dropped_fixes + self.dropped["odometry"],
+                "helm_events_dropped": self._reports.dropped_events + self.dropped["events"]}
+
+    def true_pose(self) -> tuple[tuple[float, float, float], float, float] | None:
+        """Where the vehicle really is (emulation: ``ground_truth/odom`` with ``use_truth``,
+        else its navigation); None before anything came."""
+        with self._lock:
+            if self._truth is not None:
+                return self._truth, self._truth_yaw, 0.0
+            fix = self.stats.last_fix
+            return None if fix is None else (fix.pos, fix.yaw_deg, fix.pitch_deg)
 
     # -- commands ------------------------------------------------------------------------------
 
@@ -294,15 +317,16 @@ class Ros2Helm:
         if self.camera is not None:
             return self.camera.inspect(task)
         seen = self._look_result
-        if seen is not None and seen["task"] == task:
+        if seen is not None and seen.task == task:
             self._look_result = None
-            return bool(seen["present"]), float(seen["priority"]), float(seen["service_s"])
+            return seen.present, seen.priority, seen.service_s
         return False, 0.0, 0.0
 
     # -- callbacks (executor thread) -----------------------------------------------------------
 
     def _mission_time(self, stamp) -> tuple[float, float]:
-        lag = max(0.0, time.time() - wall_of(stamp)) * self.config.warp
+        warp = getattr(self.clock, "warp", None) or self.config.warp  # the clock's, as it is
+        lag = max(0.0, time.time() - wall_of(stamp)) * warp
         return self.clock.now() - lag, lag
 
     def _on_odom(self, msg: Odometry) -> None:
@@ -331,7 +355,7 @@ class Ros2Helm:
         fix = fix_of(msg, self.config.frame, 0.0)
         if fix is not None:
             with self._lock:
-                self._truth = fix.pos
+                self._truth, self._truth_yaw = fix.pos, fix.yaw_deg
 
     def _sweep(self, fix: NavFix) -> None:
         true = fix.pos
@@ -339,9 +363,14 @@ class Ros2Helm:
             if self._truth is None:
                 return
             true = self._truth
-        for pos, prio, service in self.camera.sweep(true):  # type: ignore[union-attr]
-            seen = tuple(n + (p - t) for n, p, t in zip(fix.pos, pos, true))
-            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))  # type: ignore[arg-type]
+        camera = self.camera
+        if camera is None:  # no camera on this vehicle: nothing to see
+            return
+        for pos, prio, service in camera.sweep(true):
+            # where it lies in the vehicle's own navigation frame
+            seen = (fix.pos[0] + (pos[0] - true[0]), fix.pos[1] + (pos[1] - true[1]),
+                    fix.pos[2] + (pos[2] - true[2]))
+            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))
 
     def _on_event(self, msg: String) -> None:
         text = msg.data
@@ -360,11 +389,10 @@ class Ros2Helm:
             log.warning("ROS 2 %s dropped: %s", self.config.names.events, err)
             return
         with self._lock:
-            if seen["kind"] == "look":
+            if isinstance(seen, LookResult):
                 self._look_result = seen
             elif self.camera is None:
-                x, y, z = seen["pos"]  # type: ignore[misc]
+                x, y, z = seen.pos
                 self._reports.add(Sighted(self.clock.now(),
                                           self.config.frame.to_scenario(x, y, z),
-                                          float(seen["priority"]),  # type: ignore[arg-type]
-                                          float(seen["service_s"])))  # type: ignore[arg-type]
+                                          seen.priority, seen.service_s))

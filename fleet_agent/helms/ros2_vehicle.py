@@ -18,8 +18,13 @@ After an abort the vehicle takes nothing but another abort (its mission is over)
 answers ``success=false``, a plan is dropped and counted.
 
 Run one per vehicle with ``python -m fleet_agent.helms.ros2_vehicle --scenario S --vehicle I
---factory module:callable`` (the callable builds the port: ``f(problem, index, clock)``); it
-prints `READY` when serving and ends on SIGTERM/SIGINT or with its parent.
+--factory module:callable`` (the callable builds the port: ``f(problem, index, clock)``,
+e.g. `fleet_agent.helms.sim.bridged_vehicle`); it prints `READY` when serving and ends on
+SIGTERM/SIGINT or with its parent. Its clock: ``--epoch``/``--warp`` (a wall-clock
+`WarpClock`), or, in a mission (``--connect`` to its router, ``--credentials`` a listen-only
+identity), the fleet's own mission clock through `fleet_bus.mission.ClockSync`: the vehicle
+then holds and slows with the fleet (planning holds, pacing), which a fixed epoch and warp
+would not (the vehicle would run ahead of the agents whenever the operator slows the clock).
 """
 
 from __future__ import annotations
@@ -32,7 +37,8 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from pathlib import Path as FilePath
+from typing import Callable, Iterable
 
 import rclpy
 from geometry_msgs.msg import PoseStamped
@@ -98,6 +104,8 @@ class VehicleBridge:
         self._aborted = False
         self.counters = {"fixes": 0, "plans": 0, "plans_dropped": 0, "events": 0}
         n = config.names
+        true_pose = getattr(port, "true_pose", None)  # an emulated vehicle's (not the port's)
+        self._true_pose: Callable[[], object] | None = true_pose if callable(true_pose) else None
         self._context = Context()
         rclpy.init(context=self._context, args=[])
         try:
@@ -105,7 +113,7 @@ class VehicleBridge:
                                                  context=self._context)
             self._odom = node.create_publisher(Odometry, n.odom, STREAM)
             self._truth = (node.create_publisher(Odometry, n.truth, STREAM)
-                           if callable(getattr(port, "true_pose", None)) else None)
+                           if self._true_pose is not None else None)
             self._events = node.create_publisher(String, n.events, EVENTS)
             node.create_subscription(Path, n.plan, self._on_plan, LATCHED)
             node.create_subscription(PoseStamped, n.goal, lambda _m: None, LATCHED)
@@ -142,7 +150,7 @@ class VehicleBridge:
     def _tick(self) -> None:
         with self._lock:
             reports = self.port.poll(self.clock.now())
-            truth = self.port.true_pose() if self._truth is not None else None  # type: ignore[attr-defined]
+            truth = self._true_pose() if self._true_pose is not None else None
         c, n, now = self.config, self.config.names, time.time()
         fixes = [r for r in reports if isinstance(r, NavFix)]
         if fixes:
@@ -153,8 +161,8 @@ class VehicleBridge:
             self._odom.publish(odometry(fix, c.frame, n.frame_id, c.child_frame_id, wall))
             self.counters["fixes"] += 1
             if truth is not None and self._truth is not None:
-                pos = tuple(float(v) for v in (truth.pos if hasattr(truth, "pos") else truth))
-                self._truth.publish(odometry(NavFix(fix.t_s, pos, 0.0, fix.yaw_deg),  # type: ignore[arg-type]
+                pos, yaw = true_position(truth, fix.yaw_deg)
+                self._truth.publish(odometry(NavFix(fix.t_s, pos, 0.0, yaw),
                                              c.frame, n.frame_id, c.child_frame_id, wall))
         for r in reports:
             text = ""
@@ -228,6 +236,23 @@ class VehicleBridge:
         return resp
 
 
+def true_position(truth: object, yaw_deg: float) -> tuple[tuple[float, float, float], float]:
+    """(position, yaw) of a port's ``true_pose()``: ``(pos, yaw, pitch)`` as the simulated
+    vehicle gives it (`reef_sim.vehicle.SimVehicle.true_pose`), an object with ``pos``, or
+    a bare position (then the fix's yaw)."""
+    if hasattr(truth, "pos"):
+        truth = getattr(truth, "pos")
+    if not isinstance(truth, Iterable):
+        raise TypeError(f"not a pose: {truth!r}")
+    items = tuple(truth)
+    if len(items) == 3 and isinstance(items[0], (tuple, list)):
+        pos, yaw = items[0], float(items[1])
+    else:
+        pos, yaw = items, yaw_deg
+    x, y, z = (float(v) for v in pos)
+    return (x, y, z), yaw
+
+
 # -- a process per vehicle --------------------------------------------------------------------
 
 
@@ -250,15 +275,56 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--namespace", default="", help="ROS namespace (default /<vehicle id>)")
     ap.add_argument("--epoch", type=float, default=None, help="mission epoch, unix s")
     ap.add_argument("--warp", type=float, default=1.0)
+    ap.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
+                    help="a mission's Zenoh router: run on the fleet's mission clock, "
+                         "followed as it holds and slows (instead of --epoch and --warp)")
+    ap.add_argument("--credentials", type=FilePath, metavar="DIR",
+                    help="with --connect: a listen-only identity (the run's 'world')")
+    ap.add_argument("--clock-timeout", type=float, default=600.0, metavar="S",
+                    help="with --connect: wall seconds to wait for the clock")
     ap.add_argument("--rate-hz", type=float, default=10.0)
     args = ap.parse_args(argv)
     stop = process_stop()
     with open(args.scenario) as f:
         problem = problem_from_dict(json.load(f))
-    clock = WarpClock(args.epoch if args.epoch is not None else time.time(), args.warp)
-    port = load_factory(args.factory)(problem, args.vehicle, clock)
     ns = args.namespace or "/" + problem.vehicles[args.vehicle].id
-    bridge = VehicleBridge(port, clock, BridgeConfig(namespace=ns, rate_hz=args.rate_hz))
+    factory = load_factory(args.factory)
+    config = BridgeConfig(namespace=ns, rate_hz=args.rate_hz)
+    if not args.connect:
+        clock = WarpClock(args.epoch if args.epoch is not None else time.time(), args.warp)
+        return _serve(factory(problem, args.vehicle, clock), clock, config, stop, ready, ns)
+    from fleet_agent.helms.choice import PendingClock
+    from fleet_bus.credentials import load_auth
+    from fleet_bus.mission import ClockSync
+    from fleet_bus.session import client_config, open_session
+
+    auth = load_auth(args.credentials) if args.credentials else None
+    # Serving from now, at the vehicle's start, before the mission clock: the operator serves
+    # it once every agent is ready, and an agent is ready once its vehicle answers.
+    pending = PendingClock()
+    bridge = VehicleBridge(factory(problem, args.vehicle, pending), pending, config)
+    try:
+        ready(READY, ns)
+        with open_session(client_config(args.connect,
+                                        credentials=args.credentials)) as session:
+            sync = ClockSync(session, auth, stop)  # the operator's clock: offset, holds, pace
+            mission_clock = sync.join(args.clock_timeout)
+            if mission_clock is None:
+                return 0 if stop.is_set() else 3
+            pending.clock = mission_clock
+            sync.start()
+            try:
+                stop.wait()
+            finally:
+                sync.close()
+    finally:
+        bridge.close()
+    return 0
+
+
+def _serve(port: VehiclePort, clock: Clock, config: BridgeConfig, stop: threading.Event,
+           ready: Callable[[str, str], None], ns: str) -> int:
+    bridge = VehicleBridge(port, clock, config)
     try:
         ready(READY, ns)
         stop.wait()

@@ -9,6 +9,7 @@ hidden reef when the mission has one.
 from __future__ import annotations
 
 from fleet_agent.sensor import Camera
+from fleet_bus.clock import Clock
 from hfc_core.model.paths import Point3
 from hfc_core.model.problem import Problem
 from reef_sim.truth import Reef
@@ -28,3 +29,13 @@ def sim_vehicle(scenario: Problem, index: int, *, seed: int, reef: Reef | None, 
     camera = None if reef is None else ReefCamera(reef, seed, index)
     return SimVehicle(scenario, index, camera=camera, t_s=t_s, pos=pos, odometer_m=odometer_m)
 
+
+
+def bridged_vehicle(problem: Problem, index: int, clock: Clock) -> SimVehicle:
+    """The simulated vehicle a ROS 2 bridge serves in a mission (``python -m
+    fleet_agent.helms.ros2_vehicle --factory fleet_agent.helms.sim:bridged_vehicle``): at
+    its start, from mission time now, without a camera. The camera is the agent's helm's
+    (`fleet_agent.helms.choice`, on the true pose the bridge publishes): the ROS 2 interface
+    has the helm time a look (``look`` is a ``Trigger`` with no spot), so only the helm knows
+    which spot it looks at."""
+    return SimVehicle(problem, index, t_s=clock.now())

@@ -254,14 +254,14 @@ class MicroModem:
 
     # -- what the modem says ---------------------------------------------------------------
 
-    def _on_Config(self, m: nmea.Config) -> None:  # noqa: N802
+    def _on_Config(self, m: nmea.Config) -> None:
         link = self._link
         if m.name == "SRC" and m.value.isdigit() and link is not None:
             if self.address is None or int(m.value) == self.address:
                 self.address = int(m.value)
                 link.address_known = True
 
-    def _on_Revision(self, m: nmea.Revision) -> None:  # noqa: N802
+    def _on_Revision(self, m: nmea.Revision) -> None:
         self.counters["revisions"] += 1
         if m.kind == "AUV":
             self.revision = m.version
@@ -272,12 +272,12 @@ class MicroModem:
                 self._link.address_known = False
                 self._configure()
 
-    def _on_ModemError(self, m: nmea.ModemError) -> None:  # noqa: N802
+    def _on_ModemError(self, m: nmea.ModemError) -> None:
         self.counters[f"caerr_{m.module.lower()}"[:40]] += 1
         if self._cycle is not None:
             self._fail_cycle("timeout" if m.module == "DATA_TIMEOUT" else "error")
 
-    def _on_CycleInit(self, m: nmea.CycleInit) -> None:  # noqa: N802
+    def _on_CycleInit(self, m: nmea.CycleInit) -> None:
         cycle = self._cycle
         if m.src == self.address and cycle is not None and cycle.state == "cyc":
             cycle.state = "drq"
@@ -285,7 +285,7 @@ class MicroModem:
         elif m.src != self.address:
             self.counters["rx_cycles"] += 1
 
-    def _on_DataRequest(self, m: nmea.DataRequest) -> None:  # noqa: N802
+    def _on_DataRequest(self, m: nmea.DataRequest) -> None:
         cycle = self._cycle
         if cycle is None or cycle.state != "drq" or m.src != self.address:
             self.counters["drq_unexpected"] += 1
@@ -306,7 +306,7 @@ class MicroModem:
         else:
             cycle.deadline = time.monotonic() + self.reply_timeout_s
 
-    def _on_TxEdge(self, m: nmea.TxEdge) -> None:  # noqa: N802
+    def _on_TxEdge(self, m: nmea.TxEdge) -> None:
         cycle = self._cycle
         if cycle is None or cycle.state != "txf":
             return
@@ -323,19 +323,19 @@ class MicroModem:
         self.counters["sent"] += 1
         self._report(Sent(t_s, len(frames), sum(len(f) for f in frames)))
 
-    def _on_RxData(self, m: nmea.RxData) -> None:  # noqa: N802
+    def _on_RxData(self, m: nmea.RxData) -> None:
         if m.dest not in (BROADCAST, self.address):
             self.counters["rx_not_for_us"] += 1
         elif m.data:
             self.counters["received"] += 1
             self._report(Received(m.data, self._clock.now()))
 
-    def _on_CycleStats(self, m: nmea.CycleStats) -> None:  # noqa: N802
+    def _on_CycleStats(self, m: nmea.CycleStats) -> None:
         self.counters["cycle_stats"] += 1
         if m.bad_frames:
             self.counters["rx_bad_frames"] += m.bad_frames
 
-    def _on_Ack(self, m: nmea.Ack) -> None:  # noqa: N802
+    def _on_Ack(self, m: nmea.Ack) -> None:
         if m.dest == self.address:
             self.counters["acked"] += 1
             self._report(Acked(self._last_sent_s, m.frame - 1))
@@ -399,7 +399,7 @@ class MicroModem:
     def _report(self, report: ModemReport) -> None:
         try:
             self._sink(report)
-        except Exception:  # noqa: BLE001 - the agent's sink must never stop the modem
+        except Exception:  # the agent's sink must never stop the modem
             self.counters["sink_errors"] += 1
 
     def _wake(self) -> None:

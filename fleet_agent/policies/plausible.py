@@ -34,6 +34,7 @@ import numpy as np
 from scipy.sparse.csgraph import minimum_spanning_tree
 from scipy.spatial.distance import pdist, squareform
 
+from fleet_agent.beliefs import Beliefs
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.witness import Witness, new_track
 from hfc_core.model.problem import Problem
@@ -51,11 +52,21 @@ def cleared(know: Knowledge, sender: int, spots: Iterable[int]) -> tuple[list[in
     take, waiting = [], 0
     for t in spots:
         own = know.holdings.claim_time(t, sender) is not None  # the initial plan's, or claimed
-        if own or know.holder(t) is None or Witness.second(know.witness.cleared, t, sender):
+        free = know.holder(t) is None and _known_or_its_own(know.beliefs, sender, t)
+        if own or free or Witness.second(know.witness.cleared, t, sender):
             take.append(t)
         else:
             waiting += 1
     return take, waiting
+
+
+def _known_or_its_own(beliefs: Beliefs, sender: int, t: int) -> bool:
+    """Whether a clear of ``t``, a spot nobody holds, can be taken from ``sender`` alone: a
+    predicted spot, a find we know, or a find slot of the sender's own (it may treat its find
+    before the FOUND frame arrives). A slot of someone else's we have not heard of waits for a
+    second word: otherwise one CLEARED frame with every bit set would wipe out, ahead of
+    time, every find the fleet is yet to make."""
+    return t < beliefs.n or t in beliefs.finds or (beliefs.cap > 0 and beliefs.finder(t) == sender)
 
 
 def claims(know: Knowledge, sender: int, tasks: Iterable[int]) -> list[int]:

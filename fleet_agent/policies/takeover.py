@@ -94,9 +94,10 @@ AHEAD = 6
 def likely_treated(know: Knowledge, gone: int, on_leg_m: float = 25.0) -> set[int]:
     """Spots of ``gone``'s route (as believed) that it had probably treated before it fell
     silent, its clear unheard. A vehicle flies its route in order, so its last pose places it
-    (among the first `AHEAD` spots): on the leg into a spot of the route (within ``on_leg_m`` of the straight leg), every spot
-    before that one is behind it; at a spot, that spot too (injecting it, just done with it or
-    about to start: it may have finished and died before its clear went out); and every spot
+    (among the first `AHEAD` spots): on the leg into a spot of the route (within ``on_leg_m``
+    of the straight leg), every spot before that one is behind it; at a spot, that spot too
+    (injecting it, just done with it or about to start: it may have finished and died before
+    its clear went out); and every spot
     it would have finished, flying on from its last pose, before its next slot after the last
     frame of its own this vehicle took (it may have lived until that slot, the first it was
     silent in: one was heard leaving a spot at 2905 s, treated the next, 22 m on, until 2997 s

@@ -91,7 +91,8 @@ def _land_leg(problem: Problem, a: Point, b: Point) -> tuple[float, list[str], l
     """(length of the waypoint path from a to b, problems with it, the path)."""
     assert problem.land is not None
     try:
-        _, path = problem.land.shortest_path(a, b)
+        _, waypoints = problem.land.shortest_path(a, b)
+        path: list[Point] = list(waypoints)
     except ValueError as err:
         return math.inf, [f"leg {a}->{b}: {err}"], [a, b]
     errors = []
@@ -102,7 +103,7 @@ def _land_leg(problem: Problem, a: Point, b: Point) -> tuple[float, list[str], l
             ring = [(float(x), float(y)) for x, y in poly]
             if _segment_enters(p[:2], q[:2], ring):
                 errors.append(f"leg {a}->{b}: segment {p}->{q} crosses forbidden[{i}]")
-    return sum(math.dist(p, q) for p, q in zip(path[:-1], path[1:])), errors, path
+    return sum((math.dist(p, q) for p, q in zip(path[:-1], path[1:])), 0.0), errors, path
 
 
 # --- currents: each route flown through the water, from mission time 0 ---------------------

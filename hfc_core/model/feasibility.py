@@ -31,7 +31,7 @@ Number = TypeVar("Number", float, np.ndarray)
 
 def fits(time_s: Number, budget_s: Number) -> Number:
     """True where a mission of ``time_s`` fits a battery of ``budget_s`` (scalars or arrays)."""
-    return time_s <= budget_s + FEASIBILITY_TOL_S  # type: ignore[return-value]
+    return time_s <= budget_s + FEASIBILITY_TOL_S
 
 
 def room_s(time_s: float, budget_s: float) -> float:

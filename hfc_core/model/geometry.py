@@ -17,6 +17,7 @@ from __future__ import annotations
 from typing import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import shortest_path
 from scipy.spatial.distance import cdist
@@ -36,7 +37,7 @@ def _cross(ox, oy, ax, ay, bx, by):
 class LandMap:
     """Shortest paths around polygons; build once per scenario, query many times."""
 
-    def __init__(self, polygons: Sequence[np.ndarray], clearance_m: float = 0.5) -> None:
+    def __init__(self, polygons: Sequence[ArrayLike], clearance_m: float = 0.5) -> None:
         if not clearance_m > 0:
             raise ValueError(f"clearance must be positive, got {clearance_m}")
         self.clearance_m = float(clearance_m)
@@ -49,7 +50,7 @@ class LandMap:
         self._cache: tuple[bytes, np.ndarray] | None = None
 
     # --- queries -------------------------------------------------------------------------
-    def inside(self, xy: np.ndarray) -> np.ndarray:
+    def inside(self, xy: ArrayLike) -> np.ndarray:
         """Which points (``(N, 2)`` or ``(N, 3)``) lie strictly inside land."""
         xy = np.atleast_2d(np.asarray(xy, dtype=float))[:, :2]
         out = np.zeros(len(xy), dtype=bool)
@@ -57,12 +58,12 @@ class LandMap:
             out |= _strictly_inside(xy, poly)
         return out
 
-    def require_water(self, xyz: np.ndarray, what: str = "point") -> None:
+    def require_water(self, xyz: ArrayLike, what: str = "point") -> None:
         bad = np.flatnonzero(self.inside(xyz))
         if len(bad):
             raise LandError(f"{what} {np.asarray(xyz)[bad[0]].tolist()} is on land")
 
-    def visible(self, p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    def visible(self, p: ArrayLike, q: ArrayLike) -> np.ndarray:
         """Elementwise: does the segment ``p[i] -> q[i]`` stay out of every polygon's interior?"""
         p = np.atleast_2d(np.asarray(p, dtype=float))[:, :2]
         q = np.atleast_2d(np.asarray(q, dtype=float))[:, :2]
@@ -72,7 +73,7 @@ class LandMap:
             out[lo : lo + step] = self._visible_block(p[lo : lo + step], q[lo : lo + step])
         return out
 
-    def distance_matrix(self, xyz: np.ndarray) -> np.ndarray:
+    def distance_matrix(self, xyz: ArrayLike) -> np.ndarray:
         """Pairwise shortest travel distances between the rows of ``xyz``."""
         xyz = np.asarray(xyz, dtype=float)
         self.require_water(xyz)
@@ -94,7 +95,7 @@ class LandMap:
         dz = xyz[:, 2][:, None] - xyz[:, 2][None, :]
         return np.sqrt(flat_m**2 + dz**2)
 
-    def distances_from(self, p: Sequence[float], targets: np.ndarray) -> np.ndarray:
+    def distances_from(self, p: ArrayLike, targets: ArrayLike) -> np.ndarray:
         """Shortest travel distance from point ``p`` to each row of ``targets``."""
         p = _xyz(p).reshape(1, 3)
         targets = np.atleast_2d(np.asarray(targets, dtype=float))
@@ -110,7 +111,7 @@ class LandMap:
         return np.sqrt(flat**2 + (targets[:, 2] - p[0, 2]) ** 2)
 
     def shortest_path(
-        self, p: Sequence[float], q: Sequence[float]
+        self, p: ArrayLike, q: ArrayLike
     ) -> tuple[float, list[tuple[float, float, float]]]:
         """(length in metres, waypoints from ``p`` to ``q`` inclusive, 3-D, depth interpolated
         along the way) of the shortest path around the land."""
@@ -123,7 +124,8 @@ class LandMap:
             total = to_c[0][:, None] + self._graph_m + to_c[1][None, :]
             a, b = np.unravel_index(int(total.argmin()), total.shape)
             if not np.isfinite(total[a, b]):
-                raise LandError(f"no path from {list(p)} to {list(q)} around the land")
+                raise LandError(f"no path from {pq[0].tolist()} to {pq[1].tolist()} around "
+                                "the land")
             chain = [int(b)]
             while chain[-1] != a:
                 chain.append(int(self._pred[a, chain[-1]]))
@@ -224,7 +226,7 @@ class LandMap:
         return bool(self.inside(mids).any())
 
 
-def _xyz(p: Sequence[float]) -> np.ndarray:
+def _xyz(p: ArrayLike) -> np.ndarray:
     arr = np.asarray(p, dtype=float)
     return np.append(arr, 0.0) if arr.shape == (2,) else arr
 
@@ -266,8 +268,9 @@ def _min_plus(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     return out
 
 
-def distance_matrix(xyz: np.ndarray, forbidden: Sequence[np.ndarray] = ()) -> np.ndarray:
+def distance_matrix(xyz: ArrayLike, forbidden: Sequence[ArrayLike] = ()) -> np.ndarray:
     """Pairwise travel distance in metres between the rows of ``xyz`` (shape ``(m, 3)``)."""
     if len(forbidden):
         return LandMap(forbidden).distance_matrix(xyz)
-    return cdist(xyz, xyz)
+    points = np.asarray(xyz, dtype=float)
+    return cdist(points, points)

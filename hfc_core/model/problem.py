@@ -265,7 +265,7 @@ def _require_water(
 ) -> None:
     inside = land.inside(xyz)
     n = len(tasks)
-    for i in np.flatnonzero(inside):
+    for i in np.flatnonzero(inside).tolist():
         if i < n:
             raise ScenarioError(f"task {tasks[i].id}: pos {tasks[i].pos} is on land (forbidden)")
         v = vehicles[(i - n) // 2]

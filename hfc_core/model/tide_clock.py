@@ -38,8 +38,9 @@ class TideClock:
     """Flown route times for ``k`` vehicles over the nodes ``xyz``; vehicle ``v`` leaves its
     first node at mission time ``start_s[v]`` at water speed ``speed_mps[v]``."""
 
-    def __init__(self, current: TidalCurrent, xyz: np.ndarray, speed_mps: Sequence[float],
-                 start_s: Sequence[float], service_s: np.ndarray, horizon_s: float,
+    def __init__(self, current: TidalCurrent, xyz: np.ndarray,
+                 speed_mps: Sequence[float] | np.ndarray, start_s: Sequence[float] | np.ndarray,
+                 service_s: np.ndarray, horizon_s: float,
                  land: "LandMap | None" = None) -> None:
         self.current = current
         self.xyz = np.asarray(xyz, dtype=float)
@@ -55,7 +56,7 @@ class TideClock:
         self._rows: dict[tuple[float, int, int], _Row] = {}
         self._visible: dict[tuple[int, int], bool] = {}
 
-    def route_time_s(self, v: int, nodes: Sequence[int]) -> float:
+    def route_time_s(self, v: int, nodes: Sequence[int] | np.ndarray) -> float:
         """Mission time of vehicle ``v`` along ``nodes`` (its first node to its last; the
         service of every task node reached), as flown; ``inf`` if it cannot be flown."""
         t0 = self.start_s[v]

@@ -292,7 +292,8 @@ class Travel:
     def straight_or_land_path(self, p: Sequence[float], q: Sequence[float]) -> list[Point3]:
         """The points a leg p -> q passes through (its ends included)."""
         if self.land is None:
-            return [tuple(p), tuple(q)]  # type: ignore[list-item]
+            return [(float(p[0]), float(p[1]), float(p[2])),
+                    (float(q[0]), float(q[1]), float(q[2]))]
         return self.land.shortest_path(p, q)[1]
 
     def leg_time_s(self, p: Sequence[float], q: Sequence[float], speed: float,

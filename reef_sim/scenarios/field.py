@@ -139,7 +139,8 @@ def generate_doc(params: GeneratorParams, rng: np.random.Generator) -> dict[str,
     bounds = (0.0, size, 0.0, size)
     centres = params.centres or _random_centres(params, rng)
     centres = _jittered(centres, params.centre_jitter_m, rng)
-    cots_map = ProbabilityMap(bounds, centres, params.land, params.combine)
+    land = tuple(np.asarray(p, dtype=float) for p in params.land)
+    cots_map = ProbabilityMap(bounds, centres, land, params.combine)
     xy = sample_spots_m(cots_map, params.n_tasks, params, rng)
     depth = seabed_depth_m(cots_map, xy[:, 0], xy[:, 1], params.seabed)
     lo, hi = params.priority_range

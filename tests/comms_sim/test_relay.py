@@ -10,7 +10,8 @@ import pytest
 from comms_sim.channel import Channel, ChannelConfig
 from comms_sim.relay import Relay
 from fleet_bus.clock import ManualClock
-from fleet_bus.link import LinkRecord, decode_stats
+from fleet_bus.link import INTRUDER, LinkControl, LinkRecord, decode_stats
+from fleet_bus.orders import TOPSIDE
 from fleet_bus.telemetry import Truth
 
 LOSSLESS = ChannelConfig(range_d50_m=1e7)
@@ -119,3 +120,22 @@ def test_a_late_frame_keeps_its_slot_and_a_misdated_one_is_sent_now() -> None:
     assert sorted(f for t, f in delivered.items() if t >= 20.0) == [b"ancient", b"future"]
     assert relay.counters["late_tx"] == 1 and relay.counters["misdated_tx"] == 1
     assert relay.max_late_s == pytest.approx(3.5)
+
+
+def test_the_topside_transmits_from_its_place_and_then_hears_the_water() -> None:
+    """The operator's modem (link control ``inject_from: topside``) sends from where it is,
+    and once placed it is a node: the vehicles' frames (their ACKs) reach fleet/rx/topside."""
+    clock, relay, sent = make_relay(vehicles=frozenset({"auv0"}))
+    relay.on_truth("auv0", truth(0.0))
+    relay.on_tx("auv0", b"before")  # the topside is nowhere yet: nobody hears this
+    clock.advance_to(10.0)
+    relay.on_ctl(LinkControl(inject=b"order", inject_at=(500.0, 0.0, 0.0),
+                             inject_from=TOPSIDE).encode())
+    clock.advance_to(20.0)
+    relay.on_tx("auv0", b"ack")
+    while (due := relay.step()) is not None:
+        clock.advance_to(max(due, clock.now()))
+    rx = [(k, p, msgpack.unpackb(a)["src"]) for k, p, a in sent if k.startswith("fleet/rx/")]
+    assert rx == [("fleet/rx/auv0", b"order", "topside"), ("fleet/rx/topside", b"ack", "auv0")]
+    assert relay.channel.position(TOPSIDE) == (500.0, 0.0, 0.0)
+    assert relay.channel.position(INTRUDER) is None  # not the intruder's modem

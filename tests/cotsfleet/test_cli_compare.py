@@ -2,7 +2,6 @@
 clean failures on bad files."""
 
 import io
-import json
 import re
 from pathlib import Path
 

@@ -21,7 +21,8 @@ def test_credentials_for_every_process_and_a_router_per_vehicle_host(tmp_path: P
         assert f"vehicle {vid}: copy {d / vid} and {d / ('router-' + vid)} to its host" in out
         assert load_tls(d / f"router-{vid}").info.common_name == f"router-{vid}"
     assert {p.name for p in d.iterdir() if p.is_dir()} == {
-        "operator", "relay", "station", "router", "auv1", "auv2", "router-auv1", "router-auv2"}
+        "operator", "relay", "station", "world", "router", "auv1", "auv2", "router-auv1",
+        "router-auv2"}
     assert not list(d.rglob("zenoh.login")) and not list(d.rglob("users.txt"))
     assert load_tls(d / "router").info.names("ship.local")
     assert "no --hosts" not in out

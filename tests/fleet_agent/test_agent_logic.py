@@ -44,7 +44,8 @@ def problem() -> Problem:
 
 @functools.lru_cache(maxsize=None)
 def fleet() -> Fleet:
-    return Fleet.build(problem(), KEY, 5, CONFIG, run_id="sim-5")  # as InProcessBackend names seed 5
+    # run_id as InProcessBackend names seed 5
+    return Fleet.build(problem(), KEY, 5, CONFIG, run_id="sim-5")
 
 
 class World:
@@ -234,3 +235,25 @@ def test_every_frame_an_agent_sends_decodes_within_the_limits() -> None:
             if isinstance(m, Pose):
                 assert len(f) <= 32
     assert {"Pose", "ClearedSegment"} <= kinds
+
+
+@pytest.mark.parametrize("restart_s", [1500.0])
+def test_a_restart_on_a_lost_journal_rejoins_before_it_treats_anything(restart_s: float
+                                                                        ) -> None:
+    """Issue 31 item 5: auv2 killed at 1200 s comes back at ``restart_s`` with an empty
+    journal. It keeps station until a peer's digest equals its own (the fleet's cleared set,
+    pushed to it), then goes on; it treats nothing twice and says what it lost."""
+    world = World((Fault("kill", 1200.0, "auv2"),))
+    world.run_until(restart_s)
+    cleared_by_fleet = set(world.agent("auv1").know.cleared)
+    world.backend._start_agent("auv2", restart_s, MemoryJournal())  # the journal is gone
+    reborn = world.agent("auv2")
+    assert reborn.rejoin.waiting and reborn.counters.get("journal_empty") == 1
+    world.run_until(3700.0)
+    events = [(o.payload.t_s, o.payload.kind) for o in world.outputs["auv2"]
+              if isinstance(o, Publish) and o.topic == "event"]
+    rejoined = [t for t, k in events if k == "rejoined"]
+    assert len(rejoined) == 1 and rejoined[0] - restart_s < 4 * 7.5 * 3  # a few cycles
+    assert not any(k == "cleared" and restart_s <= t < rejoined[0] for t, k in events)
+    assert set(reborn.know.cleared) >= cleared_by_fleet
+    assert world.backend.ledger.duplicates() == 0

@@ -1,7 +1,7 @@
 """A peer that claims a spot we hold by an earlier claim, or one we know is cleared, missed
 our claim or our clear and is on its way: we answer at once (`Agent._contest`), not at the
-next refresh (`policies.hearing`). The case that made a duplicate: a find's claim waited behind older claims and
-releases for two minutes while a peer, which had missed it, flew there."""
+next refresh (`policies.hearing`). The case that made a duplicate: a find's claim waited behind
+older claims and releases for two minutes while a peer, which had missed it, flew there."""
 
 from __future__ import annotations
 

@@ -4,17 +4,15 @@ from __future__ import annotations
 
 import functools
 
-import numpy as np
 import pytest
 
-from comms_sim.channel import Channel
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import InProcessBackend, SimResult, simulate
 from fleet_agent.config import AgentConfig
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.model.check import check_routes
 from hfc_core.model.problem import Problem
-from reef_sim.scenarios.field import GeneratorParams, generate_doc, paper_preset_doc
+from reef_sim.scenarios.field import paper_preset_doc
 
 CONFIG = AgentConfig()
 CYCLE_S = CONFIG.slot_s * 3  # heartbeat period of a 3-AUV fleet

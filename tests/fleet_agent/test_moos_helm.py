@@ -19,7 +19,13 @@ from pathlib import Path
 import pytest
 
 from fleet_agent.helms import moos_wire as wire
-from fleet_agent.helms.camera import DetectionError, format_detection, parse_detection
+from fleet_agent.helms.camera import (
+    DetectionError,
+    LookResult,
+    Sighting,
+    format_detection,
+    parse_detection,
+)
 from fleet_agent.helms.duty import Duty
 from fleet_agent.helms.frames import (
     LocalFrame,
@@ -158,10 +164,9 @@ def test_update_result_keeps_an_update_with_commas() -> None:
 def test_detections_round_trip_and_bad_ones_are_refused() -> None:
     text = format_detection("sighting", x=1.5, y=-2.0, z=-8.0, priority=55.0, service_s=70.0)
     seen = parse_detection(text)
-    assert seen == {"kind": "sighting", "pos": (1.5, -2.0, -8.0), "priority": 55.0,
-                    "service_s": 70.0}
+    assert seen == Sighting((1.5, -2.0, -8.0), 55.0, 70.0)
     look = parse_detection(format_detection("look", task=17, present=True, priority=3.0))
-    assert look["task"] == 17 and look["present"] is True
+    assert look == LookResult(17, True, 3.0, 0.0)
     for bad in ("kind=sighting,x=1", "kind=look,task=-1,present=true", "x", "kind=boom",
                 "kind=sighting,x=nan,y=0,priority=1,service_s=1", "k=" + "v" * 600):
         with pytest.raises(DetectionError):

@@ -129,8 +129,9 @@ def test_credentials_on_disk(creds):
     assert not (creds / "router" / "signing.key").exists()
     assert load_ring(creds / "auv2").run_id == "run-a"
     users = (creds / "router" / "users.txt").read_text().split()
+    # "world": the listen-only login of the ROS 2 vehicles' clock (`cotsfleet run --helm ros2`)
     assert {u.split(":")[0] for u in users} == {*VEHICLES, "operator", "relay", "station",
-                                                "router"}
+                                                "world", "router"}
     assert load_login(creds / "auv1").user == "auv1"
     for _ in range(64):  # a Zenoh id never starts with 0 (Zenoh refuses it)
         assert not write_run_credentials_zid(creds.parent / "z").startswith("0")
@@ -141,3 +142,19 @@ def test_credentials_on_disk(creds):
     station = load_auth(creds / "station")
     with pytest.raises(PermissionError):
         station.seal(keys.status_key("auv1"), b"x")
+
+
+def test_one_keys_counters_do_not_refuse_another_keys_messages(creds):
+    """An insider's login signing busy flags with counters far ahead (a session started later)
+    must not make the operator refuse the vehicle's genuine statuses as replays: one replay
+    window per (signer, key expression)."""
+    genuine, leaked = load_auth(creds / "auv1", "auv1"), load_auth(creds / "auv1", "auv1")
+    assert leaked.signer is not None
+    leaked.signer._counter += 10 * REPLAY_WINDOW  # started much later: its counters are ahead
+    operator = load_auth(creds / "operator", "operator")
+    busy, status = keys.busy_key("auv1"), keys.status_key("auv1")
+    assert operator.open(busy, leaked.seal(busy, b"1"))[0] == "auv1"
+    assert operator.open(status, genuine.seal(status, b"s"))[0] == "auv1"
+    again = genuine.seal(busy, b"0")  # on the busy key itself the window still holds
+    with pytest.raises(Refused):
+        operator.open(busy, again)

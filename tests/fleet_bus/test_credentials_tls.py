@@ -34,13 +34,14 @@ def creds(tmp_path_factory) -> Path:
 
 def test_each_directory_holds_its_own_secrets_and_no_password(creds: Path) -> None:
     dirs = {p.name for p in creds.iterdir() if p.is_dir()}
-    assert dirs == {*SIGNERS, "station", "router", "router-auv3"}
+    assert dirs == {*SIGNERS, "station", "world", "router", "router-auv3"}
     assert {p.name for p in creds.iterdir() if p.is_file()} == {"ring.json", "ca.pem"}
     public = {"ca.pem", "ring.json", "tls.pem"}
     for d in dirs:
         names = {p.name for p in (creds / d).iterdir()}
-        expect = public | {"tls.key"} | ({"signing.key"} if d in SIGNERS else set()) | \
-            ({"frames.key"} if d.startswith("auv") else set())
+        expect = public | {"tls.key"} | ({"signing.key"} if d in SIGNERS else set()) | (
+            {"frames.key"} if d in (*VEHICLES, "operator") else set())  # its key chain's
+        # seed (`tesla`); the operator's is the topside modem's (live orders)
         assert names == expect, d
         assert stat.S_IMODE((creds / d).stat().st_mode) == 0o700
         for secret in expect - public:

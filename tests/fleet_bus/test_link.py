@@ -48,6 +48,12 @@ def test_injected_frames_need_a_place_and_round_trip() -> None:
         LinkControl(inject=b"x")
     with pytest.raises(ValueError):
         LinkControl.decode(msgpack.packb({"inject": "text", "inject_at": [0, 0, 0]}), 0.0)
+    top = LinkControl(inject=b"order", inject_at=(1.0, 2.0, 0.0), inject_from="topside")
+    assert LinkControl.decode(top.encode(), now_s=0.0) == top
+    for source in ("auv1", 3):  # only the intruder's modem and the operator's transmit
+        with pytest.raises(ValueError):
+            LinkControl.decode(msgpack.packb({"inject": b"x", "inject_at": [0, 0, 0],
+                                              "inject_from": source}), 0.0)
 
 
 def test_link_records_carry_no_frame_and_validate_values() -> None:

@@ -32,7 +32,8 @@ def test_forgeries_never_reach_the_picture(tmp_path: Path) -> None:
     for _ in range(500):  # a flood: refused before the bounded queue
         inbox.offer(keys.status_key("auv3"), b"\x00" * 40)
     link = keys.link_event_key("auv1", "auv9")
-    inbox.offer(link, relay.seal(link, LinkRecord("auv1", "auv9", 1.0, 1.0, 10, True).encode()))  # genuine relay, unknown vehicle
+    # a genuine relay's record about an unknown vehicle
+    inbox.offer(link, relay.seal(link, LinkRecord("auv1", "auv9", 1.0, 1.0, 10, True).encode()))
     assert inbox.overflow == 0
     refused = inbox.take_refused()
     assert refused == {"not_allowed": 1, "malformed": 501}

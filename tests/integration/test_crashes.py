@@ -4,9 +4,9 @@
 A passive process (the ground station) that dies is started again and the mission goes on;
 the relay too, with the clock held while it comes back; a full disk loses the agents that
 cannot write their journals, names them, and still leaves the report and the whole event
-log; every crash is named with its last output. The journal cases show today's agent,
-without the recovery of issue 31 item 5 (the lead's, inside the agent): what they assert
-about the restarted agent says so and will change with it."""
+log; every crash is named with its last output. An agent restarted on an empty or cut
+journal keeps station until it has learned the fleet's cleared set from its peers
+(`fleet_agent.policies.rejoin`), treats nothing twice, and says what it lost."""
 
 from __future__ import annotations
 
@@ -86,15 +86,18 @@ def test_a_full_disk_names_who_it_stopped_and_keeps_the_report(root, baseline) -
 
 
 @pytest.mark.parametrize("case", ["empty journal", "cut journal"])
-def test_a_restart_on_a_damaged_journal_today(root, baseline, case) -> None:
+def test_a_restart_on_a_damaged_journal_rejoins_before_it_acts(root, baseline, case) -> None:
     out = run_case(CASES[case], root)
     report = ran(out, baseline)
     assert [f["kind"] for f in report["faults"]] == ["kill", "restart"]
     log = (out.run_dir / "auv2.log").read_text()
     restarts = [line for line in log.splitlines() if line.startswith("fleet_agent ready")]
     assert len(restarts) == 2
-    if case == "empty journal":  # today: nothing to read, it starts as a new vehicle
-        assert "(fresh)" in restarts[1]
-    else:  # today: the cut is read as one torn last record, the rest replayed
-        assert "restart" in restarts[1]
+    assert report["fleet"]["duplicate_treatments"] == 0
+    auv2 = next(v for v in report["vehicles"] if v["id"] == "auv2")
+    lost = "journal_empty" if case == "empty journal" else "journal_damaged"
+    assert auv2["counters"].get(lost) == 1, auv2["counters"]  # the report says what was lost
+    events = [json.loads(line) for line in (out.run_dir / "events.jsonl").read_text()
+              .splitlines() if line.strip()]
+    assert any(e.get("id") == "auv2" and e.get("kind") == "rejoined" for e in events)
     assert report["fleet"]["vehicles_home"] >= 2

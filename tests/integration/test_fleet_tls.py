@@ -185,11 +185,13 @@ def test_the_documented_procedure_runs_over_tls_and_nothing_crosses_in_clear(
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stdout + done.stderr
 
-    # Host B holds auv3's secrets and its router's, the fleet key and the scenario: nothing
-    # of another vehicle or of the operator, no password.
+    # Host B holds auv3's secrets and its router's, the fleet key, the scenario and the
+    # mission file an agent on board runs from: nothing of another vehicle or of the
+    # operator, no password.
     assert _files(hosts.b.cwd) == {
         "fleet.toml", "scenario.json", *(f"auv3/{f}" for f in (
-            "ca.pem", "frames.key", "ring.json", "signing.key", "tls.key", "tls.pem")),
+            "ca.pem", "frames.key", "mission.json", "ring.json", "signing.key", "tls.key",
+            "tls.pem")),
         *(f"router-auv3/{f}" for f in ("ca.pem", "ring.json", "tls.key", "tls.pem"))}
     for secret in ("auv3/signing.key", "auv3/frames.key", "auv3/tls.key", "router-auv3/tls.key",
                    "fleet.toml"):

@@ -181,7 +181,9 @@ def search(
     while not stop.done(iteration):
         op, level = ruins.pick(rng), noises.pick(rng)
         routed = int((current.owner >= 0).sum())
-        size = int(rng.integers(1, max(1, min(params.ruin_max, params.ruin_share * routed)) + 1))
+        # int(): Generator.integers truncates a float bound the same way (same draws)
+        most = int(max(1, min(params.ruin_max, params.ruin_share * routed)) + 1)
+        size = int(rng.integers(1, most))
         destroyed = RUIN_OPERATORS[op](current.copy(), rng, size)
         candidate = recreate(destroyed, current, rng, params.noise_levels[level], params.relocate)
         cand_obj = candidate.objective(tie)

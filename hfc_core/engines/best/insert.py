@@ -60,8 +60,8 @@ def fill(
         ok = usable[v] & (extra <= state.slack_s(v))
         score[v] = np.where(ok, _weighted(value[v], extra, exponent, floor_s), -np.inf)
 
-    for v in np.flatnonzero(open_v):
-        rescore(int(v))
+    for v in np.flatnonzero(open_v).tolist():
+        rescore(v)
     while True:
         flat = int(score.argmax())
         v, u = divmod(flat, inst.n)

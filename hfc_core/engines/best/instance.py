@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hfc_core.model.current import TidalCurrent
 from hfc_core.model.problem import Problem
 from hfc_core.model.tide_clock import TideClock
 
@@ -81,7 +82,7 @@ class Instance:
         for moves evaluated across all routes at once."""
         if "_stacked" not in self.__dict__:
             ids: dict[int, int] = {}
-            arrays = []
+            arrays: list[np.ndarray] = []
             for t in self.travel_s:
                 if id(t) not in ids:
                     ids[id(t)] = len(arrays)
@@ -139,14 +140,15 @@ def instance_from_problem(problem: Problem) -> Instance:
     priority = np.asarray(problem.priority, dtype=float)
     travel_s, clock = problem.travel_s, None
     if clocked(problem):
-        assert problem.travel is not None and problem.current is not None
+        # only a tide is unsteady (`clocked`)
+        assert problem.travel is not None and isinstance(problem.current, TidalCurrent)
         cache = problem.__dict__.setdefault("_mean_travel", {})
         for v in problem.vehicles:
             if v.speed_mps not in cache:
                 cache[v.speed_mps] = problem.travel.matrix(problem.xyz, problem.dist_m,
                                                            v.speed_mps, kind="mean")
         travel_s = tuple(cache[v.speed_mps] for v in problem.vehicles)
-        clock = TideClock(problem.current, problem.xyz,  # type: ignore[arg-type]
+        clock = TideClock(problem.current, problem.xyz,
                           [v.speed_mps for v in problem.vehicles], [0.0] * k,
                           np.asarray(problem.service_s), problem.travel.window_s[1], problem.land)
     return Instance(

@@ -20,6 +20,9 @@ mission time, which is the room the repair then fills with more tasks.
 
 from __future__ import annotations
 
+from enum import Enum
+from typing import Final
+
 import numpy as np
 
 from hfc_core.engines.best.instance import Instance
@@ -154,21 +157,31 @@ def best_relocate(state: State, tie: float) -> tuple[float, int, int, int, int] 
     return float(masked[to, r]), int(task[r]), int(veh[r]), to, int(state.ins_pos[to, task[r]])
 
 
+class _Missing(Enum):
+    """What a `PairTable` answers for a pair it holds no current result for (None is a
+    result: no improving move)."""
+
+    MISSING = 0
+
+
+_Move = tuple[float, int, int] | None  # (gain, index in a, index in b), or no improving move
+
+
 class PairTable:
     """One result per pair of routes, kept while both routes are what they were."""
 
-    MISSING = object()
+    MISSING: Final = _Missing.MISSING
 
     def __init__(self) -> None:
-        self._table: dict[tuple[int, int], tuple[list[int], list[int], object]] = {}
+        self._table: dict[tuple[int, int], tuple[list[int], list[int], _Move]] = {}
 
-    def get(self, state: State, a: int, b: int) -> object:
+    def get(self, state: State, a: int, b: int) -> _Move | _Missing:
         hit = self._table.get((a, b))
         if hit is None or hit[0] != state.routes[a] or hit[1] != state.routes[b]:
             return PairTable.MISSING
         return hit[2]
 
-    def put(self, state: State, a: int, b: int, result: object) -> None:
+    def put(self, state: State, a: int, b: int, result: _Move) -> None:
         # Copies: State.insert edits a route list in place.
         self._table[(a, b)] = (list(state.routes[a]), list(state.routes[b]), result)
 

@@ -34,8 +34,8 @@ from hfc_core.model.tide_clock import TideClock
 
 
 def _is_index(value: object, size: int) -> bool:
-    return (isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-            and 0 <= value < size)
+    return bool(isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+                and 0 <= value < size)
 
 
 class LiveSetup:

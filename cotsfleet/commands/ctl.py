@@ -1,0 +1,157 @@
+"""`cotsfleet ctl --run-dir DIR ORDER ...`: the operator's live order to a running mission.
+
+``recall|abort|pause|resume VEHICLE|all``, ``add-spot X Y PRIORITY``, ``drop-spot ID``. The
+order is signed with the operator's key (``DIR``'s ``credentials/operator``) and put on
+``fleet/ctl/order`` through the mission's router (``DIR/run.json``: `run_record`), under the
+operator's own bus login or certificate. The launcher numbers it and sends it into the water
+from the topside modem (`cotsfleet.mission.order_desk`); this waits for its answers on
+``fleet/ctl/order/answer`` (each opened with the run's ring: only the operator's key speaks
+there) and prints who acknowledged, until every vehicle the order names has answered or
+``--timeout`` wall seconds have passed. Across hosts the operator's host runs it: that is
+where the launcher, its run dir and the operator's key are (docs/operator.md).
+
+Exit codes: 0 every vehicle named acknowledged (or, with ``--timeout 0``, the launcher took
+the order), 1 refused or not acknowledged in time, 2 bad input or no running mission.
+"""
+
+from __future__ import annotations
+
+import argparse
+import queue
+import secrets
+import time
+from pathlib import Path
+
+from cotsfleet.errors import UsageError
+
+HELP = "the operator's live order to a running mission (recall, abort, pause, resume, ...)"
+USAGE_ORDERS = ("recall|abort|pause|resume VEHICLE|all, add-spot X Y PRIORITY, "
+                "drop-spot ID")
+ANSWER_WAIT_S = 10.0  # wall seconds for the launcher to take the order
+DEFAULT_TIMEOUT_S = 120.0  # wall seconds for the acknowledgements
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--run-dir", type=Path, required=True, metavar="DIR",
+                   help="the running mission's run dir (`cotsfleet run --run-dir`, or the one "
+                   "it printed)")
+    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S, metavar="S",
+                   help=f"wall seconds to wait for the acknowledgements (default "
+                   f"{DEFAULT_TIMEOUT_S:g}; 0: only until the launcher takes the order)")
+    p.add_argument("order", nargs="+", metavar="ORDER", help=USAGE_ORDERS)
+
+
+def _order(words: list[str]):
+    from fleet_bus.orders import OrderError, parse_words
+
+    try:
+        return parse_words(words)
+    except OrderError as exc:
+        raise UsageError(f"{exc} (orders: {USAGE_ORDERS})") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.timeout >= 0:
+        raise UsageError(f"--timeout must be 0 or more seconds, got {args.timeout:g}")
+    order = _order(args.order)
+    from cotsfleet.mission.run_record import NoMission, read_run_record
+    from fleet_bus.orders import ALL
+
+    try:
+        record = read_run_record(args.run_dir)
+    except NoMission as exc:
+        raise UsageError(str(exc)) from None
+    if order.target != ALL and order.target not in record.vehicles:
+        raise UsageError(f"no vehicle {order.target!r} in this mission; it has "
+                         f"{', '.join(record.vehicles)}")
+    return _send(record, order, args.timeout)
+
+
+def _send(record, order, timeout_s: float) -> int:
+    import zenoh
+
+    from fleet_bus import keys
+    from fleet_bus.auth import Refused
+    from fleet_bus.credentials import OPERATOR_ID, CredentialsError, load_auth
+    from fleet_bus.orders import Answer, encode_request
+    from fleet_bus.session import client_config
+
+    try:
+        auth = load_auth(record.operator_dir, OPERATOR_ID)
+        conf = client_config([record.endpoint], timeout_s=5.0, credentials=record.operator_dir)
+    except CredentialsError as exc:
+        raise UsageError(f"the operator's credentials: {exc}") from None
+    if auth.run_id != record.run_id:
+        raise UsageError(f"{record.operator_dir} is for run {auth.run_id}, the mission is "
+                         f"{record.run_id}")
+    ref = secrets.token_hex(8)
+    answers: queue.Queue[Answer] = queue.Queue(maxsize=256)
+
+    def on_answer(sample: zenoh.Sample) -> None:
+        try:  # only the operator's key speaks there; anything else is not the launcher
+            signer, payload = auth.open(keys.ORDER_ANSWER, sample.payload.to_bytes())
+            answer = Answer.decode(payload)
+        except (Refused, ValueError):
+            return
+        if signer == OPERATOR_ID and answer.ref == ref:
+            try:
+                answers.put_nowait(answer)
+            except queue.Full:
+                pass
+
+    try:
+        session = zenoh.open(conf)
+    except zenoh.ZError as exc:
+        raise UsageError(f"cannot reach the mission's router at {record.endpoint}: "
+                         f"{exc}") from None
+    with session:
+        sub = session.declare_subscriber(keys.ORDER_ANSWER, on_answer)
+        try:
+            time.sleep(0.2)  # the subscription reaches the router before the request
+            session.put(keys.ORDER_REQUEST,
+                        auth.seal(keys.ORDER_REQUEST, encode_request(order, ref)))
+            return _wait(answers, order, timeout_s)
+        finally:
+            sub.undeclare()
+
+
+def _wait(answers, order, timeout_s: float) -> int:
+    """Print the launcher's answers; the exit code (module docstring)."""
+    import queue as q
+
+    try:
+        first = answers.get(timeout=ANSWER_WAIT_S)
+    except q.Empty:
+        print(f"cotsfleet ctl: the launcher did not take {order.describe()} within "
+              f"{ANSWER_WAIT_S:g} s (is the mission still running?)")
+        return 1
+    if first.error:
+        print(f"cotsfleet ctl: refused by the launcher: {first.error}")
+        return 1
+    print(f"order #{first.seq} {first.order}: sent from the topside at mission time "
+          f"{first.issued_s:.0f} s, for {', '.join(first.targets)}")
+    if timeout_s == 0:
+        return 0
+    deadline, last, told = time.monotonic() + timeout_s, first, set()
+    while True:
+        for vid, t in sorted(last.acked.items()):
+            if vid not in told:
+                told.add(vid)
+                print(f"  {vid} acknowledged (heard by the topside at {t:.0f} s)")
+        for vid, why in sorted(last.refused.items()):
+            if vid not in told:
+                told.add(vid)
+                print(f"  {vid} refused it: {why}")
+        waiting = [v for v in last.targets if v not in told]
+        if not waiting:
+            return 1 if last.refused else 0
+        left = deadline - time.monotonic()
+        if left <= 0:
+            print(f"cotsfleet ctl: no acknowledgement from {', '.join(waiting)} within "
+                  f"{timeout_s:g} s (the topside resends until they answer or the order is "
+                  "stale)")
+            return 1
+        try:
+            last = answers.get(timeout=left)
+        except q.Empty:
+            continue

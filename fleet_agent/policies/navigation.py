@@ -1,0 +1,131 @@
+"""Navigation as it is: what the agent does when its fixes stop, and when its vehicle lags.
+
+The agent plans and tells the fleet where its vehicle is from the vehicle's navigation fixes
+only (`fleet_bus.vehicle_port.NavFix`); it never dead-reckons a position it was not given.
+The driver tells it, at every step, the age of the last fix (`nav_age_s`: a live helm's own
+figure, else the time since the last fix the driver handed over). Two rules, after
+`docs/onboard.md`:
+
+- *Navigation that stops.* While the age is within ``config.nav_hold_s`` nothing changes
+  (fixes come at the helm's rate). Past it, a vehicle under way keeps station where it is
+  (`StationKeep(WAIT)`: a vehicle without navigation must not fly on, and the last fix stays
+  where it is); the work at a spot goes on (the vehicle keeps station anyway). When fixes come
+  back it goes on from where the new fix says it is. Past ``config.nav_limit_s`` it gives the
+  mission up and heads home through the last position it was given (an abort, announced to
+  the fleet as the operator's is, so its spots are taken over), and says so: the event
+  ``navigation`` and the counter ``nav_lost``.
+- *A vehicle that lags its plan* (a current the plan did not know, a behaviour that refuses,
+  a slow helm): its projected end, mission time plus the time it still needs from where its
+  last fix puts it (`OwnVehicle.time_to_finish_s`), should stay where it was when the route
+  was set; it grows when the vehicle falls behind. Once it has grown by
+  ``config.late_after_s`` the vehicle is late: the event ``late``, the counter ``late``, and
+  its route refitted from where the vehicle really is (`Steer`, the battery fit from the last
+  fix). The baseline restarts whenever the route changes (a spot done, a replan) and after
+  each ``late``.
+
+Pure: no clock, no I/O; the agent keeps one `Navigation`, applies what `check` returns and
+commands its vehicle through `command_key` and `command` (the route's, or the hold).
+"""
+
+from __future__ import annotations
+
+import math
+
+from fleet_agent import records as rec
+from fleet_agent.config import AgentConfig
+from fleet_agent.intents import Count, Intent, Note, Owe, Steer, Tell
+from fleet_agent.knowledge import Knowledge
+from fleet_agent.motion import Activity, OwnVehicle
+from fleet_agent.outbox import Owed
+from fleet_bus.vehicle_port import HelmCommand, StationKeep, Work
+
+MOVING = (Activity.TRANSIT, Activity.RETURNING)
+HOLD = StationKeep(Work.WAIT, -1, 0.0)  # keep station where you are, until told otherwise
+
+
+class Navigation:
+    """One vehicle's watch on its navigation and on its progress (module docstring)."""
+
+    def __init__(self, config: AgentConfig) -> None:
+        self.hold_s, self.limit_s = config.nav_hold_s, config.nav_limit_s
+        self.late_s = config.late_after_s
+        self.holding = False  # keeping station for want of navigation
+        self.lost = False  # gave the mission up for want of navigation
+        self.paused = False  # the operator's pause (`policies.orders`): hold while under way
+        self.rejoining = False  # a lost journal (`policies.rejoin`): hold until rejoined
+        self._stale_since: float | None = None
+        self._base_end_s: float | None = None  # projected end when the route was set
+        self._base_route: tuple[int, ...] = ()
+
+    def _holds(self, own: OwnVehicle) -> bool:
+        return self.holding or ((self.paused or self.rejoining) and own.activity in MOVING
+                                and not own.aborted)
+
+    def command_key(self, own: OwnVehicle) -> object:
+        """What changes the vehicle's command: the route's (`OwnVehicle.command_key`), or the
+        hold while there is no navigation or the operator paused it."""
+        return HOLD if self._holds(own) else own.command_key()
+
+    def command(self, own: OwnVehicle) -> HelmCommand | None:
+        """The vehicle's command: the route's, or keeping station while it holds."""
+        return HOLD if self._holds(own) else own.command()
+
+    def check(self, know: Knowledge, now: float, nav_age_s: float | None) -> list[Intent]:
+        """What the age of the last fix (None: fresh) and the vehicle's progress call for."""
+        own = know.own
+        age = 0.0 if nav_age_s is None or math.isnan(nav_age_s) else max(0.0, nav_age_s)
+        active = not (own.done or own.aborted)
+        if age > self.hold_s and not self.lost:
+            return self._stale(know, now, age, active)
+        out: list[Intent] = []
+        if self._stale_since is not None:  # fixes came back
+            gap = max(0.0, now - self._stale_since)
+            out += [Tell(now, "navigation", detail=f"back after {gap:.0f} s; going on from "
+                         "the new fix"), Count("nav_back")]
+            self._stale_since, self.holding = None, False
+            if active:  # on from where the vehicle now is (the route refitted there)
+                out.append(Steer(tuple(own.route), "navigation"))
+            self._base_end_s = None
+        if self.paused or self.rejoining:
+            self._base_end_s = None  # a pause is not lateness; measured again on resume
+        elif active and not self.holding:
+            out += self._progress(know, now)
+        return out
+
+    def _stale(self, know: Knowledge, now: float, age: float, active: bool) -> list[Intent]:
+        """No fix for ``age`` > hold: keep station under way; past the limit, go home."""
+        own = know.own
+        out: list[Intent] = []
+        self._base_end_s = None
+        if self._stale_since is None:
+            self._stale_since = now - age
+            out += [Tell(now, "navigation", detail=f"no fix for {age:.0f} s: "
+                         + ("keeping station" if own.activity in MOVING else "working on")),
+                    Count("nav_stale")]
+        if age > self.limit_s:
+            self.lost, self.holding = True, False
+            out += [Count("nav_lost"),
+                    Tell(now, "navigation", detail=f"no fix for {age:.0f} s: heading home "
+                         "from the last fix")]
+            if active:  # an abort, as the operator's (`Agent._on_command`), said why
+                own.abort()
+                out += [Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
+                        Tell(now, "abort", detail=f"no navigation for {age:.0f} s")]
+            return out
+        self.holding = own.activity in MOVING
+        return out
+
+    def _progress(self, know: Knowledge, now: float) -> list[Intent]:
+        """Late: the projected end has grown by ``late_s`` since the route was set."""
+        own = know.own
+        route = tuple(own.route)
+        end = now + own.time_to_finish_s()
+        if self._base_end_s is None or route != self._base_route or not math.isfinite(end):
+            self._base_end_s, self._base_route = end, route
+            return []
+        behind = end - self._base_end_s
+        if behind <= self.late_s:
+            return []
+        self._base_end_s = None  # measured again from the refitted route
+        return [Tell(now, "late", detail=f"{behind:.0f} s behind its plan; refitted from "
+                     f"its last fix"), Count("late"), Steer(route, "late")]
