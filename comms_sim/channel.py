@@ -48,6 +48,7 @@ from comms_sim.config import PRESETS, ChannelConfig, Partition, TdmaConfig
 from comms_sim.link_event import BROADCAST, DROP_REASONS, LinkEvent
 from comms_sim.stats import LinkCounts, LinkStats
 from comms_sim.tdma import SUPERSEDABLE, QueuedFrame, SenderQueue, slot_start
+from fleet_bus.tdma import SpatialSchedule
 
 __all__ = ["Channel", "ChannelConfig", "LinkEvent", "Partition", "TdmaConfig", "PRESETS",
            "DROP_REASONS", "BROADCAST"]
@@ -97,7 +98,16 @@ class Channel:
     """See the module docstring. Calls must come in non-decreasing time; an earlier time is
     taken as the latest time already seen (a late packet on a real bus, not an error)."""
 
-    def __init__(self, config: ChannelConfig, rng: np.random.Generator) -> None:
+    def __init__(self, config: ChannelConfig, rng: np.random.Generator,
+                 schedule: SpatialSchedule | None = None) -> None:
+        """``schedule``: with a TDMA MAC, the fleet's spatial schedule (the one its agents
+        compute from the fleet plan: `fleet_bus.tdma.SpatialSchedule`), vehicle
+        ``config.tdma.order[i]`` being its vehicle ``i``; a node not listed is not held to it."""
+        if schedule is not None and (config.tdma is None or schedule.n != len(config.tdma.order)
+                                     or schedule.slot_s != config.tdma.slot_s):
+            raise ValueError("a spatial TDMA schedule needs the TDMA MAC with the whole roster "
+                             "in order and the schedule's slot length")
+        self._schedule = schedule
         self.config = config
         self._root_seed = int(rng.integers(0, 2**63))
         self._link_rngs: dict[tuple[str, str], np.random.Generator] = {}
@@ -291,7 +301,7 @@ class Channel:
         if tdma is None:
             return t
         return slot_start(t, self.config.airtime_s(nbytes), self._slots[src], len(self._slots),
-                          tdma.slot_s, tdma.guard_s)
+                          tdma.slot_s, tdma.guard_s, self._schedule)
 
     def _schedule_next(self, src: str, node: _Node, t_s: float) -> None:
         head = node.queue.head()

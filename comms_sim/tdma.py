@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 
-from fleet_bus.tdma import TdmaSchedule
+from fleet_bus.tdma import SpatialSchedule, TdmaSchedule
 
 SUPERSEDABLE = "pose"
 
@@ -51,7 +51,13 @@ class SenderQueue:
 
 
 def slot_start(t_s: float, airtime_s: float, slot: int, n_slots: int, slot_s: float,
-               guard_s: float) -> float:
+               guard_s: float, schedule: SpatialSchedule | None = None) -> float:
     """Earliest time >= ``t_s`` at which a frame of ``airtime_s`` can start in slot ``slot``
-    of an ``n_slots``-slot cycle and still end ``guard_s`` before the slot closes."""
+    of an ``n_slots``-slot cycle and still end ``guard_s`` before the slot closes; with a
+    spatial ``schedule``, in vehicle ``slot``'s slots of it (the agents' own arithmetic), and
+    at once for a node beyond its roster (not of the fleet: not held to its schedule)."""
+    if schedule is not None:
+        if slot >= schedule.n:
+            return t_s
+        return schedule.next_start(slot, t_s, airtime_s, guard_s)
     return TdmaSchedule(n_slots, slot_s).next_start(t_s, slot, airtime_s, guard_s)

@@ -71,7 +71,7 @@ class Agent:
         p = fleet.problem
         self.fleet, self.index, self.config = fleet, index, config
         self.id = p.vehicles[index].id
-        slots = Slots(index, p.n_vehicles, config.slot_s)
+        slots = Slots(index, p.n_vehicles, config.slot_s, fleet.schedule)
         dyn = fleet.dynamic
         beliefs = Beliefs(p if dyn is None else dyn.scenario, None if dyn is None else dyn.camera,
                           config, index, fleet.seed, slots.cycle_s, fleet.planner)
@@ -82,16 +82,11 @@ class Agent:
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)
         self.know.search = searching.belief_of(self.know, config)
         self.radio = Radio(slots, config, fleet.codec.max_ids, now)
-        chains = fleet.chains
-        assert chains is not None
-        seed = chain_seed if chain_seed is not None else \
-            (chains.seeds[index] if chains.seeds is not None else None)
-        if seed is None:
-            raise ValueError(f"{self.id} has no key chain: give its credentials' seed")
-        self.provenance = Provenance(fleet.codec, chains, index, seed, config.slot_s)
+        self.provenance = Provenance.of(fleet, index, chain_seed, config.slot_s)
         self.coop = CoopClock(now + config.coop_period_s * (1.0 + index / p.n_vehicles))
         self.nav = Navigation(config)  # fixes that stop, a vehicle that lags (`policies`)
-        assert fleet.orders is not None
+        assert fleet.orders is not None and fleet.chains is not None
+        chains = fleet.chains
         self.orders = Orders(fleet.orders, fleet.topside, chains.topside, chains.length, index,
                              config, journal)  # the operator's live orders
         self.nav.paused = self.orders.paused

@@ -25,6 +25,18 @@ class AgentConfig:
     # Radio (TDMA). 2.5 s holds a 64-byte frame at 1 kbps (0.81 s) plus 1.5 s of propagation
     # (2.2 km) and scheduling slack.
     slot_s: float = 2.5
+    # Spatial reuse of slots (`fleet_bus.tdma.SpatialSchedule`, docs/membership.md): two
+    # vehicles whose plan tracks stay this far apart (beyond the margin each may stray from
+    # it) share a slot; 0: one slot per vehicle (plain TDMA). 3000 m: a frame from within
+    # `hear_range_m` (1 km) keeps 97.7 % of its 99.3 % delivery with a co-slot sender 2 km
+    # beyond the receiver (the default modem on a reef: 6 dB/km absorption). The schedule is
+    # made anew for each epoch of about ``schedule_epoch_s`` from where the plan puts the
+    # vehicles then, each allowed ``schedule_margin_m`` off its track; vehicles parked at one
+    # place beyond ``park_group`` of them share slots in turn.
+    slot_reuse_m: float = 3000.0
+    schedule_margin_m: float = 300.0
+    schedule_epoch_s: float = 300.0
+    park_group: int = 4
     pose_every_cycles: int = 2  # a pose at least every this many own slots
     cleared_refresh_cycles: int = 8  # unprompted full-state push of the cleared set
     claim_repeats: int = 3  # each new claim/release is sent this many times
@@ -48,6 +60,12 @@ class AgentConfig:
     # that really went silent is lost within about 5 cycles (4 + the confirmer's slot) of
     # n * slot_s seconds (the bound grows linearly with the fleet: docs/wire.md).
     lost_after_cycles: float = 4.0
+    # Whom a vehicle expects to hear (`membership`): a peer within this range of it, on the
+    # positions last known (a 64-byte frame decodes 99 % of the time at 1 km with the default
+    # modem, 93 % at 1.5 km, 50 % at 2 km: docs/membership.md). Silence from farther away is
+    # no evidence of anything, and a witness farther than this from a silent peer cannot
+    # confirm its silence.
+    hear_range_m: float = 1000.0
     # Takeover: of the spots a peer declared lost leaves, those it would itself have reached
     # within this many seconds go to the end of the taker's route (a peer presumed lost may
     # only be out of earshot; see `fleet_agent.decisions`).
@@ -56,6 +74,11 @@ class AgentConfig:
     # the chance the peer is alive and unheard, from the measured reception, is at most this;
     # otherwise the takeover keeps every spot the taker holds (see `Decisions.takeover`).
     takeover_doubt: float = 1e-4
+    # Local replans: a lost peer's spots are replanned among at most this many survivors
+    # nearest them (`policies.takeover`); the cooperation operator offers the replanner at most
+    # ``coop_spots`` free spots, the cheapest detours within its spare battery.
+    takeover_peers: int = 6
+    coop_spots: int = 40
     # Planning (iteration budgets only: every agent must compute the same plans).
     plan_iterations: int = 500
     replan_iterations: int = 150
@@ -64,6 +87,11 @@ class AgentConfig:
     # median paper-preset run 1.82 s (1.35 s before), a whole in-process run of 24 AUVs x 600
     # spots 32 s against 12 s without (same priority there); off for sweeps of large fleets.
     plan_polish: bool = True
+    # A fleet of more than this many vehicles is planned region by region (sectors of spots
+    # around the starts, each with its share of the vehicles: `plans.regions`), so the initial
+    # plan costs in proportion to the fleet (one `best` run of 500 iterations: 27 s at 24
+    # AUVs x 600 spots, 208 s at 48 x 1200, beyond 30 min at 100 x 2500). 0: never.
+    plan_region_vehicles: int = 12
     coop_period_s: float = 120.0  # online cooperation operator: how often to look for work
     coop_min_slack_s: float = 60.0  # below this spare battery, do not even look
     battery_reserve_s: float = 1.0  # keep this much battery at the rendezvous
@@ -116,9 +144,9 @@ class AgentConfig:
     fleet_key_hex: str = ""  # HMAC key shared by the fleet (never sent on the bus)
 
     def __post_init__(self) -> None:
-        positive = ("slot_s", "lost_after_cycles", "coop_period_s", "nav_hold_s", "nav_limit_s",
-                    "late_after_s", "ctl_max_age_s", "status_period_s", "truth_period_s",
-                    "checkpoint_period_s")
+        positive = ("slot_s", "lost_after_cycles", "coop_period_s", "hear_range_m",
+                    "schedule_epoch_s", "nav_hold_s", "nav_limit_s", "late_after_s",
+                    "ctl_max_age_s", "status_period_s", "truth_period_s", "checkpoint_period_s")
         for name in positive:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
@@ -130,7 +158,12 @@ class AgentConfig:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 1):
                 raise ValueError(f"agent config: {name} must be an integer >= 1, got {value!r}")
-        for name in ("plan_iterations", "replan_iterations", "watch_every_cycles"):
+        for name in ("takeover_peers", "coop_spots", "park_group"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 1):
+                raise ValueError(f"agent config: {name} must be an integer >= 1, got {value!r}")
+        for name in ("plan_iterations", "replan_iterations", "watch_every_cycles",
+                     "plan_region_vehicles"):
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 0):
                 raise ValueError(f"agent config: {name} must be an integer >= 0, got {value!r}")
@@ -147,6 +180,7 @@ class AgentConfig:
                              f"{self.find_slots!r}")
         for name in ("coop_min_slack_s", "battery_reserve_s", "aggregation_radius_m",
                      "find_settle_cycles", "claim_settle_cycles", "takeover_wait_s",
+                     "slot_reuse_m", "schedule_margin_m",
                      "takeover_doubt", "map_sigma_m", "aggregation_extent_m",
                      "search_per_spot", "search_ring_min_m", "search_ring_max_m",
                      "search_spread_m", "search_empty_weight", "search_margin"):

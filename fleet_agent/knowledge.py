@@ -24,10 +24,11 @@ from fleet_agent.membership import Membership
 from fleet_agent.motion import OwnVehicle
 from fleet_agent.negotiation import Holdings
 from fleet_agent.plans import Planner
+from fleet_agent.reckoning import position_along
 from fleet_agent.replay import ReplayWindow
 from fleet_agent.search import SearchBelief
 from fleet_agent.wire import Digest
-from fleet_agent.witness import Track, Witness
+from fleet_agent.witness import Track, Witness, position_on
 from hfc_core.model.problem import Problem
 
 Point3 = tuple[float, float, float]
@@ -50,13 +51,22 @@ class Knowledge:
         self.k = p.n_vehicles
         self.cleared = ClearedSet(p.n_tasks, fleet.codec.segment_bits)
         self.holdings = Holdings(p.n_tasks, fleet.base_routes)
-        self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s)
+        # Whom this vehicle expects to hear, and when the others speak (`membership`).
+        self.hear_range_m = config.hear_range_m
+        self.members = Membership(self.k, index, config.lost_after_cycles * cycle_s, cycle_s,
+                                  timing=fleet.schedule, reach=self)
+        self._routes: dict[int, tuple[float, list[int]]] = {}  # peer -> (when, believed route)
+        self._held: dict[int, int] = {}
+        self._held_key: tuple[int, ...] | None = None
         # A claim has settled once any earlier claim of its spot has been heard and proven its
         # claimer's (`settled_s`; proving takes a cycle, `fleet_bus.tesla`).
         self.claim_settle_s = (config.claim_settle_cycles + 1.0) * cycle_s + config.slot_s + 1.0
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
+        # Spots a peer that fell silent had probably treated before (its clear may have died
+        # with it): left out of every plan of this vehicle (`policies.takeover`).
+        self.doubtful: set[int] = set()
         self.peer_digest: dict[int, Digest] = {}
         # What waits for a second peer's word, each peer's recent track, and how often each
         # peer said what could not be (`policies.plausible`).
@@ -134,8 +144,12 @@ class Knowledge:
         return self.beliefs.blocked(now)
 
     def unavailable(self, now: float) -> frozenset[int]:
-        """Cleared or blocked: what a replan must leave out."""
-        return frozenset(self.cleared) | self.blocked(now)
+        """Cleared, blocked, doubtful or held by a peer gone home: what a replan must leave
+        out."""
+        cleared = self.cleared
+        out = frozenset(cleared) | self.blocked(now) | frozenset(self.doubtful)
+        return out | self.held_home(t for t in range(self.problem.n_tasks)
+                                    if t not in out and t not in cleared)
 
     # -- holdings under the current membership view ----------------------------------------
 
@@ -144,19 +158,44 @@ class Knowledge:
 
     def held_map(self) -> dict[int, int]:
         """Spot -> holder, for every held spot nobody has cleared (an alias of a find is not
-        a spot: its aggregation is held under the find's own slot)."""
+        a spot: its aggregation is held under the find's own slot). Kept until the holdings,
+        a peer's status, the cleared set or the aliases change (it walks every spot): do not
+        change the dict returned."""
         alias = self.beliefs.alias
-        return {t: h for t, h in self.holdings.holders(self.members.alive).items()
-                if t not in self.cleared and t not in alias}
+        key = (self.holdings.version, self.members.alive_version, len(self.cleared), len(alias))
+        if key != self._held_key:
+            self._held = {t: h for t, h in self.holdings.holders(self.members.alive).items()
+                          if t not in self.cleared and t not in alias}
+            self._held_key = key
+        return self._held
 
     def held_by(self, v: int) -> list[int]:
-        return [t for t, h in self.held_map().items() if h == v]
+        """The spots ``v`` holds (nobody cleared them), in `held_map`'s order: from ``v``'s
+        own claims, not a walk over every spot (the route is checked against it at every
+        change)."""
+        alias, alive = self.beliefs.alias, self.members.alive
+        return [t for t in self.holdings.claimed_by(v) if t not in self.cleared
+                and t not in alias and self.holdings.holder(t, alive) == v]
 
     def free_spots(self, now: float = 0.0) -> set[int]:
+        """Spots nobody holds, nobody is known to have cleared and no plan may take. A spot
+        still claimed by a peer that has gone home is not free: the peer treated it or
+        released it before it left, and no release was heard, so its clear is on its way
+        (in a large fleet the cleared set spreads hop by hop: a vehicle once took such a spot
+        700 s after it was treated)."""
         held = self.held_map()
         blocked = self.blocked(now)
-        return {t for t in range(self.problem.n_tasks)
-                if t not in self.cleared and t not in held and t not in blocked}
+        free = {t for t in range(self.problem.n_tasks) if t not in self.cleared
+                and t not in held and t not in blocked and t not in self.doubtful}
+        return free - self.held_home(free)
+
+    def held_home(self, tasks: Iterable[int]) -> set[int]:
+        """Those of ``tasks`` still claimed by a peer that has gone home (`free_spots`)."""
+        home = {v for v in range(self.k) if v != self.index
+                and self.members.status(v) == mb.HOME}
+        if not home:
+            return set()
+        return {t for t in tasks if self.holdings.holder(t, home.__contains__) is not None}
 
     def settled_s(self, task: int) -> float:
         """When this vehicle may start work at ``task``: at once (0) on its initial plan,
@@ -175,6 +214,56 @@ class Knowledge:
                 if t not in self.cleared and self.holder(t) == self.index}
 
     # -- peers ------------------------------------------------------------------------------
+
+    def expects(self, listener: int, speaker: int, t_s: float) -> bool:
+        """Should ``listener`` have heard ``speaker`` around ``t_s`` were it alive: both where
+        they are believed to be then (`whereabouts`), within ``hear_range_m`` (`membership`
+        counts silences only where a frame was to be expected)."""
+        a, b = self.whereabouts(listener, t_s), self.whereabouts(speaker, t_s)
+        return (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 <= self.hear_range_m ** 2
+
+    def whereabouts(self, v: int, t_s: float) -> Point3:
+        """Where vehicle ``v`` is believed to be at ``t_s`` if alive: this vehicle where it
+        was then (`OwnVehicle.position_at`: a silence is judged where it began, and a judge
+        that has moved on since was within reach then); a peer heard since ``t_s`` where its
+        poses put it then; a peer dead-reckoned from its last pose along the route it is
+        believed to fly (`replans.live_peer`'s estimate), or where the fleet plan puts it
+        when none was heard (`fleet.tracks`)."""
+        if v == self.index:
+            return self.own.position_at(t_s)
+        pose = self.peer_pose.get(v)
+        if pose is None:
+            tracks = self.fleet.tracks
+            if not tracks:
+                return self.problem.vehicles[v].start
+            x, y = tracks[v].at(t_s)
+            return (x, y, 0.0)
+        if t_s < pose.t_s:  # heard since: where its poses put it then (`witness.Track`)
+            track = self.tracks.get(v)
+            at = position_on(track, t_s) if track else None
+            if at is not None:
+                return at
+        dt = max(0.0, t_s - pose.t_s)
+        # Cheap bound first: a vehicle moves at most its speed; most peers are far away.
+        far = self.hear_range_m + self.problem.vehicles[v].speed_mps * dt
+        here = self.own.pos
+        if (pose.pos[0] - here[0]) ** 2 + (pose.pos[1] - here[1]) ** 2 > (2 * far) ** 2:
+            return pose.pos
+        # Its last pose said it was done with its route: straight home, whatever spots of it
+        # we still believe it holds (their clears may not have reached us yet).
+        route = [] if pose.state in ("returning", "home", "aborted") \
+            else self._believed_route(v, t_s)
+        service_left = 0.5 * float(self.problem.service_s[route[0]]) \
+            if pose.state == "injecting" and route else 0.0
+        return position_along(self.problem, v, pose.pos, route, dt, service_left)
+
+    def _believed_route(self, v: int, t_s: float) -> list[int]:
+        """`peer_route`, kept a minute (it walks every spot's holder): dead reckoning needs
+        the route's shape, not its last claim."""
+        hit = self._routes.get(v)
+        if hit is None or abs(t_s - hit[0]) > 60.0:
+            hit = self._routes[v] = (t_s, self.peer_route(v))
+        return hit[1]
 
     def active_peers(self) -> list[int]:
         return [v for v in range(self.k)

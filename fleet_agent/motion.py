@@ -18,7 +18,9 @@ route the agent checks against the battery is timed as the planner and the check
 
 from __future__ import annotations
 
+import bisect
 import math
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
@@ -31,6 +33,12 @@ from hfc_core.model.feasibility import fits, room_s
 from hfc_core.model.paths import PathFn, as_point3
 from hfc_core.model.problem import Problem
 from hfc_core.model.travel import LegError
+
+# Where the vehicle was, kept for `position_at`: a point every TRAIL_STEP_S of mission time,
+# TRAIL_POINTS of them (2 h; older asks get the oldest point). Membership asks where this
+# vehicle was when a peer fell silent, which may be many of a large fleet's cycles ago.
+TRAIL_STEP_S = 30.0
+TRAIL_POINTS = 240
 
 Point3 = tuple[float, float, float]
 
@@ -118,6 +126,8 @@ class OwnVehicle:
         self.readings: dict[int, float | None] = {}  # looks' answers: injection time or None
         self._legs: dict[int, float] = {}  # first-leg times from (pos, t_s), memoised
         self._legs_from: tuple[Point3, float] | None = None
+        self.trail: deque[tuple[float, Point3]] = deque(maxlen=TRAIL_POINTS)
+        self._trail_t: deque[float] = deque(maxlen=TRAIL_POINTS)  # the trail's times
 
     # -- what it is doing ------------------------------------------------------------------
 
@@ -194,6 +204,21 @@ class OwnVehicle:
         self.sigma_m = self.frame.sigma_m if self.frame.enabled else nav.sigma_m
         self.yaw_deg, self.pitch_deg = nav.yaw_deg, nav.pitch_deg
         self.t_s = max(self.t_s, float(nav.t_s))
+        if not self.trail or self.t_s - self.trail[-1][0] >= TRAIL_STEP_S:
+            self.trail.append((self.t_s, self.pos))
+            self._trail_t.append(self.t_s)
+
+    def position_at(self, t_s: float) -> Point3:
+        """Where the vehicle was at ``t_s`` (its fixes, a point every `TRAIL_STEP_S`, linear
+        between them; now's position from its last point on)."""
+        trail = self.trail
+        if not trail or t_s >= trail[-1][0]:
+            return self.pos if not trail or t_s >= self.t_s else _between(
+                trail[-1], (self.t_s, self.pos), t_s)
+        i = bisect.bisect_right(self._trail_t, t_s)
+        if i == 0:
+            return trail[0][1]
+        return _between(trail[i - 1], trail[i], t_s)
 
     def at_time(self, t_s: float) -> None:
         self.t_s = max(self.t_s, float(t_s))
@@ -394,3 +419,11 @@ class OwnVehicle:
     def _moving(self) -> None:
         self.activity = Activity.TRANSIT if self.route else Activity.RETURNING
         self.busy_until_s = None
+
+
+def _between(a: tuple[float, Point3], b: tuple[float, Point3], t_s: float) -> Point3:
+    """The point at ``t_s`` on the straight line from ``a`` to ``b`` (time, position)."""
+    (ta, pa), (tb, pb) = a, b
+    w = 0.0 if tb <= ta else min(1.0, max(0.0, (t_s - ta) / (tb - ta)))
+    return (pa[0] + w * (pb[0] - pa[0]), pa[1] + w * (pb[1] - pa[1]),
+            pa[2] + w * (pb[2] - pa[2]))

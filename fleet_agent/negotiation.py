@@ -15,58 +15,128 @@ going to the lower vehicle index. So:
 
 from __future__ import annotations
 
-from typing import Callable, Iterable, Sequence
+from functools import lru_cache
+from collections.abc import Callable, Iterable, Sequence
 
 Alive = Callable[[int], bool]
+Record = tuple[int, bool]  # (time, is_claim)
+BASE: Record = (0, True)  # the initial plan's claim
+
+
+class BaseClaims:
+    """The initial plan's claims, the same for every vehicle of a fleet and never changed:
+    shared by all the agents of one process (`base_claims`), so a vehicle's own memory holds
+    only the claims and releases made since (a fleet of 100 kept 2500 records per agent,
+    each in a dict of its own, before)."""
+
+    def __init__(self, base_routes: tuple[tuple[int, ...], ...]) -> None:
+        owners: dict[int, list[int]] = {}
+        for v, route in enumerate(base_routes):
+            for task in route:
+                row = owners.setdefault(task, [])
+                if v not in row:
+                    row.append(v)
+        # spot -> the vehicles whose initial route has it (one, in a plan); in route order
+        self.owners: dict[int, tuple[int, ...]] = {t: tuple(vs) for t, vs in owners.items()}
+        self.rank: dict[int, int] = {t: i for i, t in enumerate(owners)}
+        self.routes = base_routes
+
+
+@lru_cache(maxsize=4)
+def base_claims(base_routes: tuple[tuple[int, ...], ...]) -> BaseClaims:
+    """One `BaseClaims` per initial plan in a process (a few plans at most: tests)."""
+    return BaseClaims(base_routes)
 
 
 class Holdings:
     def __init__(self, n_tasks: int, base_routes: Sequence[Sequence[int]]) -> None:
         self.n_tasks = n_tasks
-        # task -> vehicle -> (time, is_claim)
-        self._events: dict[int, dict[int, tuple[int, bool]]] = {}
-        for v, route in enumerate(base_routes):
-            for task in route:
-                self._events.setdefault(int(task), {})[v] = (0, True)
+        self.version = 0  # bumped by every change (what depends on holdings may be cached)
+        self.base = base_claims(tuple(tuple(int(t) for t in r) for r in base_routes))
+        # task -> vehicle -> (time, is_claim): the records made since the initial plan (a
+        # vehicle's record of a spot of its initial route replaces that claim)
+        self._events: dict[int, dict[int, Record]] = {}
+        # vehicle -> task -> claim time, for claims after the initial plan (reported in
+        # every status)
+        self._explicit: dict[int, dict[int, int]] = {}
+        # vehicle -> spots outside its initial route whose newest record is a claim
+        self._extra: dict[int, set[int]] = {}
+        # spot outside the initial plan -> its place in the order spots were first claimed
+        self._later: dict[int, int] = {}
+
+    def _record(self, task: int, v: int) -> Record | None:
+        rec = self._events.get(task, {}).get(v)
+        if rec is None and v in self.base.owners.get(task, ()):
+            return BASE
+        return rec
 
     def apply(self, v: int, t_s: int, tasks: Iterable[int], claim: bool) -> list[int]:
         """Record a claim (``claim``) or release by ``v`` at ``t_s``; returns the spots whose
         record changed."""
         changed = []
         for task in tasks:
-            row = self._events.setdefault(int(task), {})
-            old = row.get(v)
+            task = int(task)
+            old = self._record(task, v)
             new = (int(t_s), claim)
             # Newest wins; at equal times a release beats a claim (False < True).
             if old is None or (new[0], not new[1]) > (old[0], not old[1]):
-                row[v] = new
-                changed.append(int(task))
+                self._events.setdefault(task, {})[v] = new
+                changed.append(task)
+                mine = self._explicit.setdefault(v, {})
+                if claim and new[0] > 0:
+                    mine[task] = new[0]
+                else:
+                    mine.pop(task, None)
+                if v not in self.base.owners.get(task, ()):
+                    extra = self._extra.setdefault(v, set())
+                    (extra.add if claim else extra.discard)(task)
+                if task not in self.base.rank:
+                    self._later.setdefault(task, len(self._later))
+        if changed:
+            self.version += 1
         return changed
 
     def holder(self, task: int, alive: Alive) -> int | None:
         best: tuple[int, int] | None = None
-        for v, (t, is_claim) in self._events.get(task, {}).items():
+        row = self._events.get(task, {})
+        for v in self.base.owners.get(task, ()):
+            if v not in row and alive(v) and (best is None or v < best[1]):
+                best = (0, v)  # its initial plan's claim, not replaced since
+        for v, (t, is_claim) in row.items():
             if is_claim and alive(v) and (best is None or (t, v) < best):
                 best = (t, v)
         return None if best is None else best[1]
 
     def claim_time(self, task: int, v: int) -> int | None:
-        rec = self._events.get(task, {}).get(v)
+        rec = self._record(task, v)
         return rec[0] if rec is not None and rec[1] else None
+
+    def _order(self, task: int) -> int:
+        """A spot's place in `holders`: the initial plan's in route order, then the others in
+        the order they were first claimed."""
+        rank = self.base.rank.get(task)
+        return rank if rank is not None else len(self.base.rank) + self._later[task]
 
     def holders(self, alive: Alive) -> dict[int, int]:
         """task -> holder, for every held spot."""
         out = {}
-        for task in self._events:
+        for task in [*self.base.rank, *self._later]:
             h = self.holder(task, alive)
             if h is not None:
                 out[task] = h
         return out
 
+    def claimed_by(self, v: int) -> list[int]:
+        """Spots ``v`` claims (its newest record of each is a claim): those it may hold, in
+        the order `holders` lists spots."""
+        routes = self.base.routes
+        mine = {t for t in (routes[v] if 0 <= v < len(routes) else ())
+                if self._record(t, v) == BASE or self._events[t][v][1]}
+        return sorted(mine | self._extra.get(v, set()), key=self._order)
+
     def explicit_claims(self, v: int) -> dict[int, int]:
         """Spots ``v`` claimed after the initial plan: task -> claim time."""
-        return {task: row[v][0] for task, row in self._events.items()
-                if v in row and row[v][1] and row[v][0] > 0}
+        return dict(self._explicit.get(v, {}))
 
     def records(self) -> list[tuple[int, int, int, bool]]:
         """(task, vehicle, time, is_claim) of every non-initial record (for the journal)."""

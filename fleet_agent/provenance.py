@@ -14,7 +14,9 @@ from collections import Counter
 from dataclasses import dataclass
 from typing import cast
 
+from fleet_agent.fleet import Fleet
 from fleet_agent.radio import Slots
+from fleet_bus.tdma import SpatialSchedule
 from fleet_bus.tesla import CLOCK_MARGIN_S, FleetChains, Held, KeyChain, Sender
 from fleet_agent.wire import MAX_LEAD_S, Codec, Message, WireError
 
@@ -32,16 +34,31 @@ class Provenance:
     """This vehicle's chain and what it knows of its peers' (see the module docstring)."""
 
     def __init__(self, codec: Codec, chains: FleetChains, index: int, seed: bytes,
-                 slot_s: float) -> None:
+                 slot_s: float, schedule: SpatialSchedule | None = None) -> None:
+        """``schedule``: the fleet's (`Fleet.schedule`): a sender's cycles are its turns in
+        it, the same for the sender and every receiver (None: one slot per vehicle)."""
         n = len(chains.commitments)
         self.codec, self.index = codec, index
         self.chain = KeyChain(seed, chains.length)
         if self.chain.commitment != chains.commitments[index]:
             raise ValueError("this vehicle's key chain is not the one the fleet knows")
-        self.slots = {v: Slots(v, n, slot_s) for v in range(n)}
+        self.slots = {v: Slots(v, n, slot_s, schedule) for v in range(n)}
         self.senders = {v: Sender(chains.commitments[v], chains.length)
                         for v in range(n) if v != index}
         self.drops: Counter[str] = Counter()  # why frames were dropped (taken by the agent)
+
+    @staticmethod
+    def of(fleet: Fleet, index: int, chain_seed: bytes | None, slot_s: float) -> Provenance:
+        """Vehicle ``index``'s, with its chain's seed from its credentials (``chain_seed``) or,
+        where the fleet's chains are derived (a simulation), from the fleet."""
+        chains = fleet.chains
+        assert chains is not None
+        seed = chain_seed if chain_seed is not None else \
+            (chains.seeds[index] if chains.seeds is not None else None)
+        if seed is None:
+            vid = fleet.problem.vehicles[index].id
+            raise ValueError(f"{vid} has no key chain: give its credentials' seed")
+        return Provenance(fleet.codec, chains, index, seed, slot_s, fleet.schedule)
 
     def seal(self, msg: Message) -> bytes | None:
         """The frame of ``msg`` (None once the chain is spent: counted)."""

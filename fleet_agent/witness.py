@@ -7,6 +7,7 @@ recent track (to place its finds), and how often each peer said what could not b
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections import deque
 from dataclasses import dataclass, field
@@ -57,3 +58,17 @@ def extend(track: Track, t_s: float, pos: Point3) -> None:
         track[-1] = (t_s, pos)
     else:
         track.append((t_s, pos))
+
+
+def position_on(track: Track, t_s: float) -> Point3 | None:
+    """Where ``track`` puts its vehicle at ``t_s``: linear between the poses around it, the
+    first pose before it; None from its last pose on (reckon from there instead)."""
+    if not track or t_s >= track[-1][0]:
+        return None
+    i = bisect.bisect_right(track, t_s, key=lambda p: p[0])
+    if i == 0:
+        return track[0][1]
+    (ta, pa), (tb, pb) = track[i - 1], track[i]
+    w = 0.0 if tb <= ta else (t_s - ta) / (tb - ta)
+    return (pa[0] + w * (pb[0] - pa[0]), pa[1] + w * (pb[1] - pa[1]),
+            pa[2] + w * (pb[2] - pa[2]))

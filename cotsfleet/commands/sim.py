@@ -8,7 +8,7 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence, TextIO
 
 import msgspec
 
@@ -60,11 +60,16 @@ def run(args: argparse.Namespace) -> int:
             print("note: one run is simulated here; --jobs and --scheduler are for sweeps "
                   "(--runs N)", file=sys.stderr)
         m = mission_args(args)
+        progress = SimProgress(m.problem.n_tasks)
+        print(f"planning the fleet: {m.problem.n_vehicles} vehicles, {m.problem.n_tasks} "
+              "spots", file=sys.stderr, flush=True)
         try:
             result = simulate(m.problem, m.config, seed=m.seed, loss=m.loss, faults=m.faults,
-                              reef=m.reef, navigation=navigation_from_doc(m.scenario))
+                              reef=m.reef, navigation=navigation_from_doc(m.scenario),
+                              progress=progress)
         except FaultError as exc:  # a fault the simulation cannot make (`backend.check`)
             raise UsageError(str(exc)) from None
+        progress.close()
         report = msgspec.structs.replace(result.report, wall_s=round(result.wall_s, 3))
         path = args.report or out / "report.json"
         write_reports(report, path, result.events, m.scenario)
@@ -72,6 +77,53 @@ def run(args: argparse.Namespace) -> int:
         print(f"wall {result.wall_s:.2f} s")
         return 0
     return sweep(args, out)
+
+
+class SimProgress:
+    """A line on stderr every ``every_s`` wall seconds during a simulated mission: mission
+    time, spots cleared, wall time and an ETA (a tqdm-style line; a long `sim` of a hundred
+    vehicles says where it is instead of nothing for minutes)."""
+
+    def __init__(self, n_tasks: int, every_s: float = 5.0, stream: TextIO | None = None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.n_tasks, self.every_s = n_tasks, every_s
+        self.stream = stream if stream is not None else sys.stderr
+        self.clock = clock
+        self.t0 = clock()
+        self._next = self.t0
+        self._ledger: Any = None
+        self._horizon_s = 0.0
+        self._started: float | None = None
+
+    def bind(self, ledger: Any, horizon_s: float) -> None:
+        """The mission is planned and starts: what to count, and until when."""
+        self._ledger, self._horizon_s = ledger, horizon_s
+        self._started = self.clock()
+        print(f"planned in {self._started - self.t0:.1f} s; simulating {horizon_s:.0f} "
+              "mission seconds", file=self.stream, flush=True)
+
+    def __call__(self, t_s: float) -> None:
+        now = self.clock()
+        if now < self._next or self._started is None:
+            return
+        self._next = now + self.every_s
+        done = len(self._ledger.cleared) if self._ledger is not None else 0
+        wall = now - self._started
+        share = t_s / self._horizon_s if self._horizon_s > 0 else 1.0
+        eta = wall * (1.0 - share) / share if share > 0 else 0.0
+        print(f"sim: t={t_s:6.0f}/{self._horizon_s:.0f} s  cleared {done}/{self.n_tasks}  "
+              f"wall {_clock(wall)}  ETA {_clock(eta)} (at most: the mission may end sooner)",
+              file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self._started is not None:
+            print(f"simulated in {_clock(self.clock() - self._started)}", file=self.stream,
+                  flush=True)
+
+
+def _clock(s: float) -> str:
+    m, s = divmod(int(round(s)), 60)
+    return f"{m}:{s:02d}"
 
 
 def save_inputs(path: Path, events: Sequence[Event], scenario: dict[str, Any]) -> None:

@@ -124,8 +124,9 @@ class InProcessBackend:
         self.fleet = Fleet.build(problem, key, seed, self.config, planner, run_id=f"sim-{seed}",
                                  camera=None if reef is None else camera_figures(reef))
         self.loop = EventLoop()
-        self.channel = Channel(replace(channel or ChannelConfig(), extra_loss=loss),
-                               channel_rng(seed))
+        water = mac_of(replace(channel or ChannelConfig(), extra_loss=loss), self.fleet, problem)
+        self.channel = Channel(water, channel_rng(seed),
+                               self.fleet.schedule if water.tdma is not None else None)
         self.net = InProcessNetwork(self.channel, self.loop)
         self.net.add_listener(self._overhear)
         self.intruder = Intruder(problem, intruder_rng(seed))
@@ -139,6 +140,7 @@ class InProcessBackend:
         self.seats: dict[str, Seat] = {}
         self.oracle: dict[str, Any] = {}
         self.at_kill: dict[str, tuple[Status, frozenset[int]]] = {}  # status, cleared set
+        self.positions_at_kill: dict[str, dict[str, tuple[float, ...]]] = {}
         self._pending: list[Step] = []  # the fault plan (`fault_plan.plan`)
         self._stuck = 0
         self._topside_wake: Handle | None = None
@@ -286,6 +288,9 @@ class InProcessBackend:
             # What the dead agent knew (for tests); the fleet and the report only have what it
             # last published, as in a real mission.
             self.at_kill[f.vid] = (agent.status(now), frozenset(agent.know.cleared))
+            # Where everyone was (the truth): who was within reach of the dead vehicle.
+            self.positions_at_kill[f.vid] = {
+                v: tuple(s.agent.own.pos) for v, s in self.seats.items() if s.agent is not None}
             seat.driver = None
             if seat.handle is not None:
                 seat.handle.cancel()
@@ -379,6 +384,20 @@ class InProcessBackend:
                    if t in idx and idx[t] not in before)
 
 
+def mac_of(channel: ChannelConfig, fleet: Fleet, problem: Problem) -> ChannelConfig:
+    """The channel with its TDMA MAC, if it has one, set for the fleet's own schedule (the
+    spatial schedule every agent computes, `Fleet.schedule`, handed to the `Channel`): the
+    roster in order, the agents' slot, the guard cut to what that slot leaves after the
+    largest frame; so the water and the agents agree on every slot."""
+    if channel.tdma is None or fleet.schedule is None:
+        return channel
+    slot = fleet.schedule.slot_s
+    guard = min(channel.tdma.guard_s, slot - channel.airtime_s(channel.max_frame_bytes))
+    tdma = replace(channel.tdma, slot_s=slot, guard_s=max(0.0, guard),
+                   order=tuple(v.id for v in problem.vehicles))
+    return replace(channel, tdma=tdma)
+
+
 @dataclass
 class SimResult:
     report: MissionReport
@@ -408,7 +427,11 @@ def simulate(problem: Problem, config: AgentConfig | None = None, *,
              progress: Any = None, **kw: Any) -> SimResult:
     """One seeded in-process mission (keyword arguments of `InProcessBackend`)."""
     backend = InProcessBackend(problem, config or AgentConfig(), **kw)
+    horizon = horizon_s or horizon_of(problem)
+    bind = getattr(progress, "bind", None)
+    if bind is not None:  # a progress line that counts the spots cleared (`cotsfleet sim`)
+        bind(backend.ledger, horizon)
     outcome: Outcome = run_mission(problem, backend, faults, seed=backend.seed, step_s=STEP_S,
-                                   horizon_s=horizon_s or horizon_of(problem),
+                                   horizon_s=horizon,
                                    progress=progress, reef=backend.reef)
     return SimResult(outcome.report, outcome.wall_s, backend, backend.ledger)

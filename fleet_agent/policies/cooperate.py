@@ -1,7 +1,9 @@
 """The paper's cooperation operator (Algorithm 3), online: spare battery on free spots.
 
 Every ``coop_period_s`` (at once when `intents.SeekWork` asked), a vehicle with spare
-battery asks the replanner for its route with free spots inserted and claims those it gets.
+battery asks the replanner for its route with free spots inserted and claims those it gets;
+the spots offered are those in its reach (the cheapest detours that fit its spare battery,
+at most ``coop_spots``), so the replan's size does not grow with the fleet.
 On a map that is a prior, a find is worth what it holds and a predicted spot only what it is
 expected to: its finder weighs a free find against the route's predicted spots even without
 spare battery, and may give up a spot of its own for it (the replanner's call). On an exact
@@ -15,7 +17,8 @@ from dataclasses import dataclass
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Hold, Intent, Steer
 from fleet_agent.knowledge import Knowledge
-from fleet_agent.policies.replans import cooperation_route, detour_fits, live_self
+from fleet_agent.policies.replans import (cheapest_detours, cooperation_route, detour_fits,
+                                          live_self)
 from fleet_agent.policies.route import keeping_own
 
 
@@ -53,8 +56,15 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
     slack = own.slack_s(config.battery_reserve_s)
     if not finds and (slack < config.coop_min_slack_s or not detour_fits(own, free, slack)):
         return []
+    # Only the free spots in reach go to the replanner: the cheapest detours that fit the
+    # spare battery (and this vehicle's own finds), at most ``coop_spots``: the problem does
+    # not grow with the fleet's spots.
+    offered = cheapest_detours(own, free, slack, config.coop_spots)
+    offered += [t for t in free if t >= beliefs.n and beliefs.finder(t) == know.index
+                and t not in offered]
     mine = cooperation_route(know.planner, live_self(own), know.unavailable(now),
-                             know.held_map(), seed=know.fleet.seed * 1000 + 100 + know.index)
+                             know.held_map(), seed=know.fleet.seed * 1000 + 100 + know.index,
+                             offered=offered)
     out: list[Intent] = [Count("replans")]
     gained = [t for t in mine if t in free]
     if not gained:

@@ -105,12 +105,13 @@ def claims(know: Knowledge, sender: int, tasks: Iterable[int]) -> list[int]:
     pose = know.peer_pose.get(sender)
     here = pose.pos if pose is not None else spec.start
     budget = spec.battery_s - (pose.t_s if pose is not None else 0.0)
-    held = [t for t, h in know.held_map().items() if h == sender]
-    take = [t for t in tasks if t not in held and t not in know.cleared]
+    held = know.held_by(sender)  # from its own claims, not a walk over every spot
+    mine = set(held)
+    take = [t for t in tasks if t not in mine and t not in know.cleared]
     while take and (work_s(p, here, spec.speed_mps, take) > CLAIM_SLACK * budget
                     or work_s(p, here, spec.speed_mps, held + take) > HELD_SLACK * budget):
         take.pop()
-    return [t for t in tasks if t in held or t in know.cleared or t in take]
+    return [t for t in tasks if t in mine or t in know.cleared or t in take]
 
 
 def work_s(problem: Problem, here: Iterable[float], speed: float, spots: list[int]) -> float:

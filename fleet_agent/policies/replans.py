@@ -3,10 +3,14 @@
 Pure functions over what an agent knows. Both end in `hfc_core.replan` (through `Planner`,
 iteration budgets only, a seed shared where the fleet should agree):
 
-- takeover: all survivors (this vehicle at its true state, the others dead-reckoned), spots
-  held by live vehicles locked to them, the freed spots open; returns this vehicle's share;
+- takeover: the survivors nearest the freed spots (this vehicle at its true state, the others
+  dead-reckoned), spots they hold locked to them, the freed spots open; returns this
+  vehicle's share;
 - cooperation (the paper's operator, online): this vehicle alone, every spot held by another
   live vehicle off limits; returns its route with free spots inserted.
+
+Both are local: the replanner sees the spots in play and the vehicles near them only
+(`Planner.replan`'s ``scope``), so a replan costs the same in a fleet of 3 and of 100.
 """
 
 from __future__ import annotations
@@ -47,13 +51,41 @@ def live_peer(problem: Problem, v: int, pose: PeerPose | None, route: Sequence[i
 
 
 def takeover_share(planner: Planner, me: Live, peers: Sequence[Live], cleared: Collection[int],
-                   held: Mapping[int, int], seed: int) -> list[int]:
-    """This vehicle's new route after replanning all survivors over the free spots."""
+                   held: Mapping[int, int], seed: int,
+                   scope: Collection[int] | None = None) -> list[int]:
+    """This vehicle's new route after replanning ``me`` and ``peers`` over the free spots
+    (those in ``scope`` if given, with the spots ``me`` and ``peers`` hold)."""
     live = [me, *peers]
     present = {lv.index for lv in live}
     unavailable = frozenset(cleared) | frozenset(t for t, h in held.items() if h not in present)
-    routes = planner.replan(live, unavailable, held, seed)
+    if scope is not None:
+        scope = set(scope) | {t for t, h in held.items() if h in present}
+    routes = planner.replan(live, unavailable, held, seed, scope)
     return [t for t in routes.get(me.index, []) if t not in cleared]
+
+
+def nearest(points: Mapping[int, Sequence[float]], target: Sequence[float], count: int
+            ) -> list[int]:
+    """The ``count`` vehicles of ``points`` (index -> position) nearest ``target`` (x, y),
+    ties by index: who is "near" is decided the same way on every vehicle."""
+    def key(v: int) -> tuple[float, int]:
+        p = points[v]
+        return (round(float(np.hypot(p[0] - target[0], p[1] - target[1])), 3), v)
+    return sorted(sorted(points), key=key)[:count]
+
+
+def cheapest_detours(own: OwnVehicle, free: Collection[int], slack_s: float,
+                     count: int) -> list[int]:
+    """Up to ``count`` free spots that fit into the current route as detours within
+    ``slack_s`` (cheapest insertion, service included), cheapest first, ties by index: the
+    spots in this vehicle's reach (`detour_fits`)."""
+    if not free:
+        return []
+    cand = np.array(sorted(free), dtype=int)
+    cost = _detour_costs(own, cand)
+    ok = np.flatnonzero(cost <= slack_s)
+    order = ok[np.lexsort((cand[ok], cost[ok]))]
+    return [int(t) for t in cand[order[:count]]]
 
 
 def peer_etas(problem: Problem, v: int, pose: PeerPose | None, route: Sequence[int]
@@ -91,25 +123,32 @@ def after_own(route: Sequence[int], soon: Collection[int]) -> list[int]:
 
 
 def cooperation_route(planner: Planner, me: Live, cleared: Collection[int],
-                      held: Mapping[int, int], seed: int) -> list[int]:
-    """This vehicle's route with free spots inserted (single-vehicle replan)."""
+                      held: Mapping[int, int], seed: int,
+                      offered: Collection[int] | None = None) -> list[int]:
+    """This vehicle's route with free spots inserted (single-vehicle replan): any free spot,
+    or only those ``offered`` (with its own)."""
     mine = {t: h for t, h in held.items() if h == me.index}
     others = frozenset(t for t, h in held.items() if h != me.index)
-    routes = planner.replan([me], frozenset(cleared) | others, mine, seed)
+    scope = None if offered is None else set(offered) | set(mine) | set(me.route)
+    routes = planner.replan([me], frozenset(cleared) | others, mine, seed, scope)
     return [t for t in routes.get(me.index, []) if t not in cleared]
 
 
 def detour_fits(own: OwnVehicle, free: Collection[int], slack_s: float) -> bool:
     """Cheap pre-check before the replanner: does any free spot fit as a detour (cheapest
     insertion into the current route, service included) within ``slack_s``?"""
+    cost = _detour_costs(own, np.fromiter(free, dtype=int))
+    return bool((cost <= slack_s).any())
+
+
+def _detour_costs(own: OwnVehicle, cand: np.ndarray) -> np.ndarray:
+    """Seconds each spot of ``cand`` adds inserted where it costs least in the route."""
     p = own.problem
     nodes = list(own.route) + [p.end_node(own.index)]
     pos = np.asarray(own.pos)
-    cand = np.fromiter(free, dtype=int)
     first = nodes[0]
     detour = (np.linalg.norm(p.xyz[cand] - pos, axis=1) + p.dist_m[cand, first]
               - float(np.linalg.norm(p.xyz[first] - pos)))
     for a, b in zip(nodes[:-1], nodes[1:]):
         detour = np.minimum(detour, p.dist_m[a, cand] + p.dist_m[cand, b] - p.dist_m[a, b])
-    cost = detour / own.speed_mps + p.service_s[cand]
-    return bool((cost <= slack_s).any())
+    return detour / own.speed_mps + p.service_s[cand]

@@ -204,3 +204,30 @@ def test_release_frees_a_spot_and_a_newer_claim_retakes_it() -> None:
     assert h.holder(0, everyone) is None
     h.apply(1, 20, [0], True)
     assert h.holder(0, everyone) == 1
+
+
+def test_the_initial_plan_is_shared_but_each_vehicles_records_are_its_own() -> None:
+    routes = [[0, 1], [2], [3]]
+    a, b = Holdings(6, routes), Holdings(6, [list(r) for r in routes])
+    def everyone(v: int) -> bool:
+        return True
+
+    assert a.base is b.base  # one copy of the plan's claims per process
+    a.apply(0, 50, [1], False)
+    a.apply(1, 60, [4, 1], True)
+    assert a.holders(everyone) == {0: 0, 1: 1, 2: 1, 3: 2, 4: 1}
+    assert a.claimed_by(1) == [1, 2, 4]  # the plan's spots in route order, then later claims
+    assert a.claimed_by(0) == [0]
+    assert b.holders(everyone) == {0: 0, 1: 0, 2: 1, 3: 2}  # untouched by a's records
+    assert b.claimed_by(1) == [2] and b.records() == []
+
+
+def test_a_spot_in_two_initial_routes_goes_to_the_lower_index_then_the_other() -> None:
+    h = Holdings(3, [[0], [0, 1]])
+    def everyone(v: int) -> bool:
+        return True
+
+    assert h.holder(0, everyone) == 0
+    h.apply(0, 10, [0], False)
+    assert h.holder(0, everyone) == 1  # its time-0 claim stands
+    assert h.claimed_by(0) == [] and h.claimed_by(1) == [0, 1]

@@ -9,9 +9,12 @@ import math
 import numpy as np
 import pytest
 
+from fleet_agent import motion
 from fleet_agent.motion import Activity, Cleared, ReachedHome
 from fleet_agent.reckoning import position_along
 from fleet_agent.routing import fit_route
+from fleet_bus.vehicle_port import NavFix
+from hfc_core.model.paths import path_function
 from hfc_core.model.problem import Problem, Task, Vehicle as Spec
 from vehicle_loop import Loop, conduct
 
@@ -140,3 +143,18 @@ def test_dead_reckoning_walks_the_route() -> None:
     arrive = math.dist((0, 0, 0), p.xyz[0])
     pos = position_along(p, 0, (0.0, 0.0, 0.0), [0], arrive + 70.0)
     assert np.linalg.norm(np.subtract(pos, p.xyz[0])) == pytest.approx(10.0)
+
+
+def test_the_vehicle_knows_where_it_was() -> None:
+    """`position_at`: a point every TRAIL_STEP_S, linear between; now's position from the
+    last point on; before the trail, its oldest point (membership judges a silence where the
+    judge was when it began)."""
+    p = small_problem()
+    own = motion.OwnVehicle(p, 0, path_function(p), conduct())
+    for t in range(0, 400, 10):
+        own.fix(NavFix(float(t), (float(t), 0.0, 0.0)))
+    assert own.position_at(400.0) == own.pos == (390.0, 0.0, 0.0)
+    assert own.position_at(95.0)[0] == pytest.approx(95.0)  # between trail points 90 and 120
+    assert own.position_at(385.0)[0] == pytest.approx(385.0)  # between the last point and now
+    assert own.position_at(-50.0) == (0.0, 0.0, 0.0)
+    assert len(own.trail) == math.ceil(400 / motion.TRAIL_STEP_S)

@@ -85,3 +85,67 @@ def test_the_planning_hook_brackets_every_replanner_run(problem) -> None:
     planner.replan(live, frozenset(), {}, seed=4)
     assert calls == [True, False]
 
+
+
+# -- a cost that grows with the fleet, not faster -------------------------------------------
+
+def _area(n_vehicles: int, n_tasks: int, area_m: float, seed: int = 5):
+    import numpy as np
+
+    from reef_sim.scenarios.area import AreaParams, generate_area_doc
+
+    return problem_from_dict(generate_area_doc(
+        AreaParams(n_tasks=n_tasks, n_vehicles=n_vehicles, area_m=area_m, battery_s=3600.0),
+        np.random.default_rng(seed)))
+
+
+def test_regions_cover_every_spot_and_vehicle_once_and_one_region_when_small() -> None:
+    from fleet_agent.plans import reachable, regions
+
+    p = _area(30, 300, 4000.0)
+    parts = regions(p, 12)
+    assert len(parts) == 3
+    tasks = sorted(t for ts, _ in parts for t in ts)
+    vehicles = sorted(v for _, vs in parts for v in vs)
+    # Every spot a vehicle can reach alone, in one region; the others in none.
+    far = set(range(300)) - set(reachable(p).tolist())
+    assert tasks == sorted(set(range(300)) - far) and vehicles == list(range(30))
+    for t in far:
+        assert min(p.route_time_s(v, [t]) for v in range(30)) > p.vehicles[0].battery_s
+    assert all(ts and vs for ts, vs in parts)
+    assert regions(p, 12) == parts  # the same on every vehicle
+    assert regions(p, 0) == [(list(range(300)), list(range(30)))]
+    small = _area(3, 40, 1000.0)
+    assert regions(small, 12) == [(list(range(40)), list(range(3)))]
+
+
+def test_a_large_fleet_is_planned_region_by_region_and_every_route_fits() -> None:
+    p = _area(26, 260, 4000.0)
+    cfg = AgentConfig()
+    planner = Planner(p, 0, 60, 30, RESERVE_S, region_vehicles=12)
+    routes = planner.initial_routes()
+    flat = [t for r in routes for t in r]
+    assert len(flat) == len(set(flat)) and len(flat) > 0.8 * p.n_tasks
+    for v, r in enumerate(routes):
+        assert fits(p.route_time_s(v, r), p.vehicles[v].battery_s - RESERVE_S), v
+    assert cfg.plan_region_vehicles == 12
+
+
+def test_a_scoped_replan_touches_only_its_spots_and_fits_the_whole_problem() -> None:
+    from fleet_agent.plans import subproblem
+
+    p = _area(8, 200, 3000.0)
+    scope = list(range(0, 200, 5))
+    sub = subproblem(p, scope, [2, 5])
+    assert sub.n_tasks == len(scope) and [v.id for v in sub.vehicles] == ["auv3", "auv6"]
+    assert sub.dist_m[0, 1] == p.dist_m[scope[0], scope[1]]
+    assert sub.dist_m[sub.start_node(1), 3] == p.dist_m[p.start_node(5), scope[3]]
+    planner = Planner(p, 0, 0, 80, RESERVE_S)
+    live = [Live(v, p.vehicles[v].start, 3000.0) for v in (2, 5)]
+    held = {scope[0]: 5, scope[1]: 0}  # a spot of vehicle 0 (gone here) is free
+    out = planner.replan(live, frozenset({scope[2]}), held, seed=4, scope=scope)
+    planned = [t for r in out.values() for t in r]
+    assert planned and set(planned) <= set(scope) - {scope[2]}
+    assert scope[0] not in out[2]  # held by vehicle 5: only 5 may have it
+    for v, r in out.items():
+        assert fits(p.route_time_s(v, r), 3000.0 - RESERVE_S), v

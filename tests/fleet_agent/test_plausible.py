@@ -185,3 +185,16 @@ def test_a_fleet_without_liars_suspects_nobody() -> None:
         agent = world.agent(vid)
         assert not agent.know.suspicion, (vid, dict(agent.know.suspicion))
         assert not any(k.startswith("implausible_") for k in agent.counters), agent.counters
+
+
+def test_a_peers_track_says_where_it_was() -> None:
+    """`witness.position_on`: linear between its poses, the first before them, None from the
+    last on (membership judges a silence where each vehicle was when it began)."""
+    from fleet_agent.witness import extend, new_track, position_on
+
+    track = new_track((0.0, 0.0, 0.0))
+    for t in (100.0, 200.0, 300.0):
+        extend(track, t, (t, 2.0 * t, 0.0))
+    assert position_on(track, 150.0) == (150.0, 300.0, 0.0)
+    assert position_on(track, -5.0) == (0.0, 0.0, 0.0)
+    assert position_on(track, 300.0) is None and position_on(new_track(), 10.0) is None

@@ -3,13 +3,16 @@ insider who holds the fleet key but not another vehicle's chain."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from fleet_agent.agent import Agent
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
 from fleet_agent.io_types import Frame, Tick
-from fleet_bus.tesla import MAX_HELD, FleetChains, Held, KeyChain, Sender, tag
+from fleet_agent.radio import Slots
+from fleet_bus.tdma import SpatialSchedule, Track
+from fleet_bus.tesla import CLOCK_MARGIN_S, MAX_HELD, FleetChains, Held, KeyChain, Sender, tag
 from fleet_agent.wire import Abort, Claim, Pose, Digest
 from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.scenarios.field import paper_preset_doc
@@ -134,3 +137,28 @@ def test_the_agent_discloses_after_a_pose_when_it_has_nothing_else_to_say() -> N
                 sent += list(o.messages)
     assert "key" in sent
     assert all(not (x == "pose" and y == "pose") for x, y in zip(sent, sent[1:]))
+
+
+def test_a_senders_cycles_are_its_turns_on_the_spatial_schedule() -> None:
+    """Where slots are reused (vehicles 10 km apart, some parked in groups taking turns), the
+    cycle a receiver computes from a frame's seq is the turn the sender sealed it in, and its
+    key is not due out before the frame is heard."""
+    tracks = [Track(np.array([0.0, 900.0]), np.array([[0.0, 0.0], [10_000.0 * (v % 2), 0.0]]),
+                    900.0 if v < 6 else 1e9) for v in range(10)]
+    moving = SpatialSchedule(tracks, 2.5, reuse_m=3500.0, margin_m=300.0, epoch_s=300.0,
+                             park_group=2)
+    assert moving.cycle_s(1500.0) < 10 * 2.5  # slots are reused, or this tests nothing
+    # Four vehicles 10 km apart all share one colour: the cycle's floor of three slots.
+    apart = SpatialSchedule([Track(np.array([0.0]), np.array([[10_000.0 * v, 0.0]]), 1e9)
+                             for v in range(4)], 2.5, reuse_m=3500.0)
+    assert apart.cycle_s(0.0) == 3 * 2.5
+    for schedule in (moving, apart):
+        for v in range(schedule.n):
+            slots = Slots(v, schedule.n, 2.5, schedule)
+            for n in range(0, 120, 7):
+                opens = slots.time(n)
+                for seq in (int(opens), int(opens) + 1):  # a slot's first and second frames
+                    assert slots.cycle_of(seq) == n
+                    # sent within the second after seq, heard within a second more: in time
+                    assert slots.disclosure_s(n) > seq + 2.0 + CLOCK_MARGIN_S
+                assert slots.time(n + 1) > opens
