@@ -95,6 +95,11 @@ def test_the_web_viewer_listens_on_loopback_only_and_stops_with_the_station(busy
     finally:
         sinks.close()
     assert server is not None and server.poll() is not None
+    # The data port is the recording stream's, closed by its own thread: give a busy machine
+    # a few seconds to let go of it.
+    deadline = time.monotonic() + 5.0
+    while (listeners(url.port) or listeners(data.port)) and time.monotonic() < deadline:
+        time.sleep(0.1)
     assert listeners(url.port) == set() and listeners(data.port) == set()
 
 

@@ -125,9 +125,10 @@ def test_the_lost_vehicles_were_detected_in_time(mission):
     # before silence alone would give it away (4 cycles and a confirmation).
     assert det["auv2"]["auv1"] is not None and det["auv2"]["auv1"] <= CYCLE_S * 3
     # auv1 is the last vehicle working: auv3's silence is confirmed by a watcher (auv2,
-    # aborted, keeps sending poses): suspicion after 4 cycles, the watcher's next slot, the
-    # frame's airtime and propagation, and a host's scheduling jitter: within 6 cycles.
-    assert det["auv3"]["auv1"] is not None and det["auv3"]["auv1"] <= 6 * CYCLE_S
+    # aborted, keeps sending poses): docs/membership.md's bound, (4 + 2) cycles and a slot
+    # (suspicion after 4 cycles, the watcher's next slot, its word proven a cycle later by
+    # its disclosed key), and one cycle more for a busy host's scheduling jitter.
+    assert det["auv3"]["auv1"] is not None and det["auv3"]["auv1"] <= 7 * CYCLE_S + 2.5
     assert report["fleet"]["spots_taken_over"] > 0
 
 
