@@ -98,7 +98,7 @@ class Agent:
         self._next_status = now
         self._next_ckpt = now + config.checkpoint_period_s
         self._synced = -1  # the knowledge's version the route was last checked against
-        self._commanded: tuple[Any, ...] | None = None  # what the vehicle was last told
+        self._commanded: object = None  # what the vehicle was last told (its command's key)
         self._boot = self._outputs()
         lost = "damaged" if journal_damaged else None
         if journal:
@@ -353,7 +353,8 @@ class Agent:
         finish = v.time_to_finish_s()
         treated = [t for t, _ in know.treated]
         return Status(
-            t_s=float(now), id=self.id, state=v.state(), pos=tuple(v.pos),
+            t_s=float(now), id=self.id, state=v.state(),
+            pos=(float(v.pos[0]), float(v.pos[1]), float(v.pos[2])),
             battery_s=float(v.battery_left_s(now)),
             t_diff_s=float(v.battery_left_s(now) - finish),
             route=know.tids(v.route), treated=know.tids(treated),

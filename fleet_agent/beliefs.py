@@ -223,7 +223,7 @@ class Beliefs:
         finder, counter = divmod(slot - self.n, self.cap)
         if finder == self.index:  # our own slot, heard back (e.g. after a restart)
             self.own_found = max(self.own_found, counter + 1)
-        self.finds[slot] = Find(slot, tuple(float(c) for c in pos),  # type: ignore[arg-type]
+        self.finds[slot] = Find(slot, (float(pos[0]), float(pos[1]), float(pos[2])),
                                 float(priority), float(service_s), float(now),
                                 float(sigma_m))
         self._count += 1

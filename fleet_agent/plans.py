@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Callable, Collection, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Collection, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -111,8 +111,9 @@ class Planner:
 
         if problem.n_tasks == 0:
             return [()] * problem.n_vehicles
+        polish: dict[str, Any] = {} if self.polish else {"polish": None}  # None: no polish
         result = solve(problem, "best", max_iterations=self.plan_iterations, seed=seed,
-                       **({} if self.polish else {"polish": None}))
+                       **polish)
         return [tuple(int(t) for t in r) for r in result.plan.routes]
 
     def replan(self, vehicles: Sequence[Live], unavailable: frozenset[int],
@@ -158,7 +159,8 @@ class Planner:
         from hfc_core.model.live import IndexedVehicle
         from hfc_core.replan import replan_indexed
 
-        live = [IndexedVehicle(v.index, tuple(v.pos), max(0.0, v.battery_s - self.reserve_s),
+        live = [IndexedVehicle(v.index, (float(v.pos[0]), float(v.pos[1]), float(v.pos[2])),
+                               max(0.0, v.battery_s - self.reserve_s),
                                route=v.route, locked=v.locked) for v in vehicles]
         with _planning():
             return replan_indexed(problem, live, cleared=unavailable, held=held,

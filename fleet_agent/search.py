@@ -72,11 +72,11 @@ class BeliefParams:
             raise ValueError(f"cell_m must be > 0, got {self.cell_m!r}")
         if not 0.0 <= self.p_cots <= 1.0:
             raise ValueError(f"p_cots must be in 0..1, got {self.p_cots!r}")
-        ring = (self.ring_min_m, self.ring_max_m)
-        if (ring[0] is None) != (ring[1] is None):
+        r_in, r_out = self.ring_min_m, self.ring_max_m
+        if (r_in is None) != (r_out is None):
             raise ValueError("ring_min_m and ring_max_m go together")
-        if ring[0] is not None and not 0 <= ring[0] < ring[1]:  # type: ignore[operator]
-            raise ValueError(f"the ring needs 0 <= ring_min_m < ring_max_m, got {ring}")
+        if r_in is not None and r_out is not None and not 0 <= r_in < r_out:
+            raise ValueError(f"the ring needs 0 <= ring_min_m < ring_max_m, got {(r_in, r_out)}")
 
     @classmethod
     def for_generator(cls, n_predicted: int, n_unmapped: int, *, empty_share: float,
@@ -136,8 +136,8 @@ class SearchBelief:
         if not len(self.spots):
             return np.zeros((0, len(self._cells)))
         d = np.linalg.norm(self._cells[None, :, :] - self.spots[:, None, :], axis=2)
-        if p.ring_min_m is not None:
-            lo, hi = p.ring_min_m, float(p.ring_max_m)  # type: ignore[arg-type]
+        if p.ring_min_m is not None and p.ring_max_m is not None:
+            lo, hi = p.ring_min_m, p.ring_max_m
             k = ((d >= lo) & (d <= hi)) / (math.pi * (hi * hi - lo * lo))
             allowed = d.min(axis=0) >= lo  # never nearer than the ring's inside to any spot
             return k * allowed[None, :]

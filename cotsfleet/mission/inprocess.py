@@ -10,6 +10,7 @@ mission, frame for frame.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -95,13 +96,12 @@ class _SeatTelemetry:
         self.backend, self.seat = backend, seat
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
-        if topic == "truth":  # where the vehicle is, for the channel: as the relay learns it
-            truth: Truth = payload  # type: ignore[assignment]
-            self.backend.channel.set_position(self.seat.vid, truth.pos, truth.t_s)
-        elif topic == "status":
-            self.backend.ledger.add_status(payload)  # type: ignore[arg-type]
-        elif topic == "event":
-            self.backend.ledger.add_event(payload)  # type: ignore[arg-type]
+        if isinstance(payload, Truth):  # where the vehicle is, for the channel: as the relay
+            self.backend.channel.set_position(self.seat.vid, payload.pos, payload.t_s)
+        elif isinstance(payload, Status):
+            self.backend.ledger.add_status(payload)
+        elif isinstance(payload, Event):
+            self.backend.ledger.add_event(payload)
 
 
 class InProcessBackend:
@@ -159,11 +159,17 @@ class InProcessBackend:
                or (f.kind == "ctl" and f.unsigned) for f in faults):
             self.channel.set_position(INTRUDER, self.intruder.position(), 0.0)
         if any(f.kind == "ctl" for f in faults):  # the operator's modem, at the boat
-            self.net.attach(TOPSIDE, lambda data, t: self.topside.hear(data, t))
+            self.net.attach(TOPSIDE, self._topside_hear)
             self.channel.set_position(TOPSIDE, self.topside.position, 0.0)
         self._pending = plan(faults)
         for s in self._pending:
-            self.loop.call_at(s.t_s, lambda s=s: carry_out(s, self, self.loop.now()))
+            self.loop.call_at(s.t_s, partial(self._carry_out, s))
+
+    def _carry_out(self, step: Step) -> None:
+        carry_out(step, self, self.loop.now())
+
+    def _topside_hear(self, data: bytes, t_s: float) -> None:
+        self.topside.hear(data, t_s)  # an acknowledgement it heard (the report counts it)
 
     def now(self) -> float:
         return self.loop.now()
@@ -224,7 +230,7 @@ class InProcessBackend:
         seat = self.seats.get(vid)
         if seat is None:
             seat = self.seats[vid] = Seat(vid, journal)
-            self.net.attach(vid, lambda data, t, vid=vid: self._deliver(vid, data, t))
+            self.net.attach(vid, partial(self._deliver, vid))
         seat.journal = journal
         agent = Agent(self.fleet, index, self.config, now, journal.records)
         # The vehicle is where the agent last knew it was (a restarted agent: its last
@@ -236,8 +242,7 @@ class InProcessBackend:
                                   _SeatTelemetry(self, seat), journal,
                                   truth=vehicle.true_pose,
                                   truth_period_s=self.config.truth_period_s,
-                                  tap=None if self.tap is None else
-                                  lambda outputs, vid=vid: self.tap(vid, outputs))
+                                  tap=None if self.tap is None else partial(self.tap, vid))
         self._step(seat, lambda d: d.tick(now))
 
     def _deliver(self, vid: str, data: bytes, t_s: float) -> None:
@@ -298,7 +303,8 @@ class InProcessBackend:
         elif f.kind == "restart" and seat is not None and seat.driver is None:
             self._start_agent(f.vid, now, seat.journal.reopen())
         elif f.kind == "partition":
-            apply_control(LinkControl(partition=Partition(now, now + f.value, ((f.vid,),))),
+            alone = (frozenset((f.vid,)),)  # the vehicle cut off from everyone
+            apply_control(LinkControl(partition=Partition(now, now + f.value, alone)),
                           self.channel)
         elif f.kind == "stall" and seat is not None:
             seat.stall = f
@@ -366,7 +372,8 @@ class InProcessBackend:
         for a in survivors:
             v = a.own
             locked = (v.injecting,) if v.injecting is not None else ()
-            live.append(Live(a.index, tuple(v.pos), v.battery_left_s(now), tuple(v.route),
+            pos = (float(v.pos[0]), float(v.pos[1]), float(v.pos[2]))
+            live.append(Live(a.index, pos, v.battery_left_s(now), tuple(v.route),
                              locked))
         planner = Planner(self.problem, self.seed, 0, self.oracle_iterations,
                           self.config.battery_reserve_s)

@@ -29,10 +29,13 @@ T = TypeVar("T")
 
 
 class Sample(Protocol):
-    """What is read of a `zenoh.Sample`."""
+    """What is read of a `zenoh.Sample` (read-only, as zenoh's own properties are)."""
 
-    key_expr: Any
-    payload: Any
+    @property
+    def key_expr(self) -> Any: ...
+
+    @property
+    def payload(self) -> Any: ...
 
 
 class Intake:

@@ -643,7 +643,8 @@ class ProcessBackend:
                 self._stallers.append(t)
                 t.start()
         elif f.kind == "partition":
-            self._put_link(LinkControl(partition=Partition(now, now + f.value, ((f.vid,),))))
+            alone = (frozenset((f.vid,)),)  # the vehicle cut off from everyone
+            self._put_link(LinkControl(partition=Partition(now, now + f.value, alone)))
         elif f.kind == "loss":
             self._put_link(LinkControl(extra_loss=f.value))
         elif f.kind == "ctl" and f.unsigned:  # an insider: the fleet key, not the chain
@@ -745,8 +746,9 @@ class ProcessBackend:
             insider.busy()
             return
         status = self.intake.statuses().get(f.vid)
-        at = tuple(status.pos) if status is not None else \
-            tuple(self.problem.vehicles[self.problem.vehicle_index[f.vid]].start)
+        p = status.pos if status is not None else \
+            self.problem.vehicles[self.problem.vehicle_index[f.vid]].start
+        at = (float(p[0]), float(p[1]), float(p[2]))
         for frame in insider.insider.frames(f.kind, now):
             self._put_link(LinkControl(inject=frame, inject_at=at))
 
