@@ -13,9 +13,8 @@ without it:
 - ``empty journal``: auv2 killed at 900 s, its journal emptied, auv2 restarted at 1000 s;
 - ``cut journal``: the same with its journal cut to a third.
 
-The journal cases show today's agent: its recovery from a lost or damaged journal (learn the
-fleet's cleared set from the peers before acting, never claim work it did not do) is the
-lead's part of item 5, inside the agent; until it lands they show what is lost without it.
+In the journal cases the restarted agent learns the fleet's cleared set from its peers before
+it acts (`fleet_agent.policies.rejoin`) and never claims work it did not do.
 `crash_table` returns the rows and `main` writes the section ``crash_table`` of
 benchmarks/RESULTS.md; `tests/integration/test_crashes.py` runs the same cases.
 """
@@ -255,8 +254,11 @@ def main(seed: int, warp: float, names: tuple[str, ...]) -> None:
                   markdown_table(HEADER, rows) + f"\n\nPaper preset, seed {seed}, warp "
                   f"{warp:g}, real processes; crashes at {CRASH_AT_S:g} s (journal cases: "
                   f"auv2 killed at {KILL_AT_S:g} s, journal damaged, restarted at "
-                  f"{RESTART_AT_S:g} s). The journal cases show the agent without the "
-                  "recovery of issue 31 item 5 (the lead's).")
+                  f"{RESTART_AT_S:g} s). A restarted agent whose journal is empty or cut "
+                  "keeps station until it has learned the fleet's cleared set from its peers "
+                  "(`fleet_agent.policies.rejoin`): it treats nothing twice; what it lost is "
+                  "the work it did not do while down and holding (the 'lost' column: spots the "
+                  "mission without the crash treated and this one did not).")
 
 
 if __name__ == "__main__":
