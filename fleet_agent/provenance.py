@@ -17,6 +17,7 @@ from typing import cast
 from fleet_agent.fleet import Fleet
 from fleet_agent.radio import Slots
 from fleet_bus.tdma import SpatialSchedule
+from fleet_bus.states import DropReason
 from fleet_bus.tesla import CLOCK_MARGIN_S, FleetChains, Held, KeyChain, Sender
 from fleet_agent.wire import MAX_LEAD_S, Codec, Message, WireError
 
@@ -64,7 +65,7 @@ class Provenance:
         """The frame of ``msg`` (None once the chain is spent: counted)."""
         c = self.slots[self.index].cycle_of(msg.seq) + 1
         if c > self.chain.length:
-            self.drops["chain_spent"] += 1
+            self.drops[DropReason.CHAIN_SPENT] += 1
             return None
         before = self.chain.key(c - 1) if c > 1 else self.chain.commitment
         return self.codec.encode(msg, self.chain.key(c), before)
@@ -79,22 +80,22 @@ class Provenance:
             return Taken(None, ())
         msg, v = sealed.msg, sealed.msg.sender
         if v == self.index:
-            self.drops["self"] += 1  # our own frame played back: a replay
+            self.drops[DropReason.SELF] += 1  # our own frame played back: a replay
             return Taken(None, ())
         if msg.seq > now + MAX_LEAD_S:  # from the future: forged (see wire.MAX_LEAD_S)
-            self.drops["future"] += 1
+            self.drops[DropReason.FUTURE] += 1
             return Taken(None, ())
         cycle = self.slots[v].cycle_of(msg.seq)
         if now + CLOCK_MARGIN_S >= self.slots[v].disclosure_s(cycle):
-            self.drops["late_key"] += 1  # its key may be out: it proves nothing
+            self.drops[DropReason.LATE_KEY] += 1  # its key may be out: it proves nothing
             return Taken(None, ())
         sender = self.senders[v]
         sender.hold(Held(cycle + 1, sealed.data, sealed.tag, msg))
         if sealed.disclosed is not None and not sender.disclose(cycle, sealed.disclosed):
-            self.drops["forged_key"] += 1
+            self.drops[DropReason.FORGED_KEY] += 1
         proven, forged = sender.release()
         if forged:
-            self.drops["forged"] += len(forged)
+            self.drops[DropReason.FORGED] += len(forged)
         return Taken(msg, tuple(cast(Message, h.payload) for h in proven))
 
     def last_words(self, v: int) -> list[Message]:

@@ -16,41 +16,14 @@ from typing import Any
 import msgpack
 
 from fleet_bus import values as v
-from fleet_bus.states import VehicleState
+from fleet_bus.states import EventKind, VehicleState
 
 # Vehicle states (`fleet_bus.states.VehicleState`), under the names the callers know.
 TRANSIT, INJECTING, RETURNING, HOME, ABORTED, DEAD = VehicleState
 STATES = tuple(VehicleState)
 
 # Event kinds of the dashboard's event log.
-EVENT_KINDS = (
-    "cleared",  # this vehicle finished injecting a spot
-    "claim",  # claimed spots (cooperation or takeover)
-    "claim_lost",  # lost a conflicting claim and dropped the spots
-    "abort",  # this vehicle aborted (announced)
-    "suspect",  # a peer went silent; nothing is taken until another vehicle confirms it
-    "lost",  # this vehicle declared a peer lost (silence confirmed, or abort heard)
-    "revived",  # a peer declared lost was heard again
-    "takeover",  # spots of a lost vehicle taken into this vehicle's route
-    "replan",  # local route changed
-    "restart",  # the agent process restarted from its log
-    "rejoined",  # after a lost or damaged journal: the fleet's cleared set learned, going on
-    "refused",  # the vehicle did not carry out a command (detail: which, and why)
-    "navigation",  # fixes stopped (keeping station), came back, or stopped too long (home)
-    "late",  # the vehicle fell behind its plan (detail: by how much); refitted from its fix
-    # the operator's live orders (`fleet_bus.orders`, docs/operator.md)
-    "order",  # an order taken (detail: which, #number) or refused (detail: why)
-    "recall",  # recalled by the operator: heading home now, announced as an abort
-    "pause",  # paused by the operator: keeping station
-    "resume",  # resumed by the operator
-    "dropped",  # a spot the operator dropped: nobody treats it
-    # dynamic missions (a hidden reef): what the camera showed
-    "found",  # an aggregation the map missed (tasks: its find id; detail: "x,y,z rho r")
-    "empty",  # a predicted spot inspected and found empty
-    "inspected",  # a predicted spot inspected and found to hold COTS
-    "judged_treated",  # spots whose estimate could be an aggregation already treated: skipped
-    "search",  # an orbit around a spot just treated (tasks: it; detail: "x,y,z expected n")
-)
+EVENT_KINDS = tuple(k.value for k in EventKind)  # every kind an agent may report
 
 
 def position_detail(pos: tuple[float, ...]) -> str:

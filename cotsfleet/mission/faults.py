@@ -32,12 +32,15 @@ from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 from fleet_bus.orders import ALL, Order, OrderError, parse_words
+from fleet_bus.states import FaultKind
 
-VEHICLE_FAULTS = ("abort", "kill", "restart", "partition", "stall")
-OUTSIDER_ATTACKS = ("forge", "replay", "garbage")
-INSIDER_ATTACKS = ("all-cleared", "claim-own", "claim-all", "abort-as", "phantom", "busy-hold")
+_F = FaultKind  # the kinds as plain strings (what messages and reports print)
+VEHICLE_FAULTS = tuple(k.value for k in (_F.ABORT, _F.KILL, _F.RESTART, _F.PARTITION, _F.STALL))
+OUTSIDER_ATTACKS = tuple(k.value for k in (_F.FORGE, _F.REPLAY, _F.GARBAGE))
+INSIDER_ATTACKS = tuple(k.value for k in (_F.ALL_CLEARED, _F.CLAIM_OWN, _F.CLAIM_ALL, _F.ABORT_AS,
+                                          _F.PHANTOM, _F.BUSY_HOLD))
 ATTACKS = (*OUTSIDER_ATTACKS, *INSIDER_ATTACKS)
-FAULT_KINDS = (*VEHICLE_FAULTS, "loss", *ATTACKS, "ctl")
+FAULT_KINDS = tuple(k.value for k in FaultKind)  # `fleet_bus.states.FaultKind`: named once
 VEHICLE_FLAGS = ("aborted", "killed", "restarted", "stalled")  # a report's per-vehicle marks
 ATTACK_SPACING_S = 3.7  # between two hostile frames of one attack
 DEFAULT_PARTITION_S = 300.0
