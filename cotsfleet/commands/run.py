@@ -215,24 +215,3 @@ def _clock_warnings(clock: Clock) -> list[str]:
         out.append(f"planning holds ran out of their allowance: {clock.holds_expired} "
                    f"(busy flags refused meanwhile: {refused})")
     return out
-    if isinstance(clock.slowdowns, list) and clock.slowdowns:
-        slowest = min(s.warp for s in clock.slowdowns)
-        final = _number(clock.final_warp)
-        back = (f", back up to {final:g} once every host kept up"
-                if isinstance(clock.speedups, list) and clock.speedups and final is not None
-                else "")
-        out.append(f"the machine could not keep up with warp {clock.warp:g}: the clock "
-                   f"slowed to {slowest:g}{back} (effective {_number(clock.effective_warp)}); "
-                   f"worst lag {_number(clock.max_lag_s)} s")
-    for step_host, steps in (clock.wall_steps if isinstance(clock.wall_steps, dict)
-                             else {}).items():
-        out.append(f"the wall clock of {step_host}'s host stepped {steps} time(s); mission "
-                   "time runs on the monotonic clock and did not move")
-    if isinstance(clock.holds_expired, dict) and clock.holds_expired:
-        refused = clock.holds_refused if isinstance(clock.holds_refused, dict) else {}
-        out.append(f"planning holds ran out of their allowance: {clock.holds_expired} "
-                   f"(busy flags refused meanwhile: {refused})")
-    if isinstance(clock.slots_late, int) and clock.slots_late:
-        out.append(f"{clock.slots_late} frame(s) left a host after their TDMA slot; they "
-                   "were dated at the slot and the relay placed them there")
-    return out

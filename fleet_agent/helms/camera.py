@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 from typing import Iterable, Protocol
 
+from fleet_bus.vehicle_port import NavFix, Sighted
 from reef_sim.camera import SeenSpot
 
 Point3 = tuple[float, float, float]
@@ -121,3 +122,16 @@ def format_detection(kind: str, **fields: object) -> str:
             value = repr(round(value, 3))
         parts.append(f"{key}={value}")
     return ",".join(parts)
+
+
+def sightings(camera: Camera, fix: NavFix, true: Point3) -> list[Sighted]:
+    """What ``camera`` sees from the vehicle's true pose ``true``, each placed where the
+    vehicle believes it is (``fix``) plus what the camera measured from it: in the vehicle's
+    own navigation frame, as a real vehicle would report it."""
+    out = []
+    for spot in camera.sweep(true):
+        p = spot.pos
+        seen = (fix.pos[0] + (p[0] - true[0]), fix.pos[1] + (p[1] - true[1]),
+                fix.pos[2] + (p[2] - true[2]))
+        out.append(Sighted(fix.t_s, seen, float(spot.priority), float(spot.service_s)))
+    return out

@@ -54,6 +54,7 @@ from fleet_agent.helms.camera import (
     LookResult,
     format_detection,
     parse_detection,
+    sightings,
 )
 from fleet_agent.helms.duty import Duty
 from fleet_agent.helms.frames import LocalFrame, finite_points, yaw_from_compass
@@ -373,16 +374,9 @@ class MoosHelm:
                 return
             true = self.config.frame.to_scenario(
                 self._truth["X"], self._truth["Y"], -self._truth.get("DEPTH", 0.0))
-        camera = self.camera
-        if camera is None:  # no camera on this vehicle: nothing to see
-            return
-        for spot in camera.sweep(true):
-            pos, prio, service = spot.pos, spot.priority, spot.service_s
-            # Where the vehicle believes it is plus what the camera measured from it (in its
-            # own navigation frame).
-            seen = (fix.pos[0] + (pos[0] - true[0]), fix.pos[1] + (pos[1] - true[1]),
-                    fix.pos[2] + (pos[2] - true[2]))
-            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))
+        if self.camera is not None:  # no camera on this vehicle: nothing to see
+            for s in sightings(self.camera, fix, true):
+                self._reports.add(s)
 
     def _on_event(self, m: MoosMsg) -> None:
         text = m.text if not m.is_double else ""

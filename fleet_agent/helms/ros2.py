@@ -38,7 +38,8 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 
-from fleet_agent.helms.camera import Camera, DetectionError, LookResult, parse_detection
+from fleet_agent.helms.camera import (Camera, DetectionError, LookResult, parse_detection,
+                                      sightings)
 from fleet_agent.helms.duty import Duty
 from fleet_agent.helms.frames import LocalFrame, finite_points
 from fleet_agent.helms.reports import NavStats, ReportBuffer
@@ -363,15 +364,9 @@ class Ros2Helm:
             if self._truth is None:
                 return
             true = self._truth
-        camera = self.camera
-        if camera is None:  # no camera on this vehicle: nothing to see
-            return
-        for spot in camera.sweep(true):
-            pos, prio, service = spot.pos, spot.priority, spot.service_s
-            # where it lies in the vehicle's own navigation frame
-            seen = (fix.pos[0] + (pos[0] - true[0]), fix.pos[1] + (pos[1] - true[1]),
-                    fix.pos[2] + (pos[2] - true[2]))
-            self._reports.add(Sighted(fix.t_s, seen, float(prio), float(service)))
+        if self.camera is not None:  # no camera on this vehicle: nothing to see
+            for s in sightings(self.camera, fix, true):
+                self._reports.add(s)
 
     def _on_event(self, msg: String) -> None:
         text = msg.data
