@@ -11,11 +11,12 @@ present: on an exact map (no hidden reef) every predicted spot is known and noth
 
 from __future__ import annotations
 
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Iterable
 from dataclasses import dataclass
 
 from fleet_agent import membership as mb
+from fleet_agent.association import Estimate
 from fleet_agent.beliefs import Beliefs
 from fleet_agent.cleared import ClearedSet
 from fleet_agent.config import AgentConfig
@@ -30,6 +31,8 @@ from fleet_agent.search import SearchBelief
 from fleet_agent.wire import Digest
 from fleet_agent.witness import Track, Witness, position_on
 from hfc_core.model.problem import Problem
+
+MAX_INJECTIONS = 4096  # own injections' measured positions kept (Knowledge.injections)
 
 Point3 = tuple[float, float, float]
 
@@ -67,6 +70,10 @@ class Knowledge:
         # Spots a peer that fell silent had probably treated before (its clear may have died
         # with it): left out of every plan of this vehicle (`policies.takeover`).
         self.doubtful: set[int] = set()
+        # Finds left out of plans while a find some peer has cleared is unknown here and that
+        # peer may have been at them (`policies.discovery.await_gaps`): its FOUND was lost,
+        # and it may be the same aggregation under the other's name.
+        self.awaiting: frozenset[int] = frozenset()
         self.peer_digest: dict[int, Digest] = {}
         # What waits for a second peer's word, each peer's recent track, and how often each
         # peer said what could not be (`policies.plausible`).
@@ -76,6 +83,10 @@ class Knowledge:
         # Spots this vehicle judged treated by someone (`policies.discovery.fold_treated`),
         # and what the cleared set and the finds were when it last judged.
         self.folded: set[int] = set()
+        # Where this vehicle's camera measured what it injected (map frame, its sigma then):
+        # held against later sightings, so a drifted vehicle that injected a neighbour of its
+        # spot never injects that neighbour again (bounded: the oldest go first).
+        self.injections: deque[Estimate] = deque(maxlen=MAX_INJECTIONS)
         self.fold_key: tuple[int, int, int] = (-1, -1, -1)
         # Where missed aggregations are likely (`fleet_agent.search`; None: no search), the
         # spots this vehicle has weighed an orbit around, and its track since its last arrival.
@@ -144,10 +155,10 @@ class Knowledge:
         return self.beliefs.blocked(now)
 
     def unavailable(self, now: float) -> frozenset[int]:
-        """Cleared, blocked, doubtful or held by a peer gone home: what a replan must leave
-        out."""
+        """Cleared, blocked, doubtful, awaiting a lost find or held by a peer gone home: what
+        a replan must leave out."""
         cleared = self.cleared
-        out = frozenset(cleared) | self.blocked(now) | frozenset(self.doubtful)
+        out = frozenset(cleared) | self.blocked(now) | frozenset(self.doubtful) | self.awaiting
         return out | self.held_home(t for t in range(self.problem.n_tasks)
                                     if t not in out and t not in cleared)
 
@@ -186,7 +197,8 @@ class Knowledge:
         held = self.held_map()
         blocked = self.blocked(now)
         free = {t for t in range(self.problem.n_tasks) if t not in self.cleared
-                and t not in held and t not in blocked and t not in self.doubtful}
+                and t not in held and t not in blocked and t not in self.doubtful
+                and t not in self.awaiting}
         return free - self.held_home(free)
 
     def held_home(self, tasks: Iterable[int]) -> set[int]:

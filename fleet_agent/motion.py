@@ -193,7 +193,7 @@ class OwnVehicle:
 
     def fix(self, nav: NavFix) -> None:
         """A navigation fix: where the vehicle believes it is (in the map's frame)."""
-        self.frame.nav(nav.sigma_m)
+        self.frame.nav(nav.sigma_m, nav.pos)
         pos = self.frame.to_map(as_point3(nav.pos)) if self.frame.enabled else \
             as_point3(nav.pos)
         if nav.odometer_m is not None:

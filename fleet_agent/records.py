@@ -8,6 +8,7 @@ foreign record costs that record, never the journal).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Mapping, Union
 
@@ -33,13 +34,20 @@ class Clear:
     t_s: float
     tasks: tuple[int, ...]
     own: bool
+    # Where this vehicle's camera measured what it injected (x, y, sigma; map frame), if it
+    # said: what later sightings are held against (`policies.discovery.treated_estimates`).
+    at: tuple[float, float, float] | None = None
 
     @property
     def durable(self) -> bool:
         return self.own
 
     def doc(self) -> dict[str, Any]:
-        return {"k": "clr", "t": self.t_s, "ids": list(self.tasks), "own": self.own}
+        doc: dict[str, Any] = {"k": "clr", "t": self.t_s, "ids": list(self.tasks),
+                               "own": self.own}
+        if self.at is not None:
+            doc["at"] = [round(c, 2) for c in self.at]
+        return doc
 
 
 @dataclass(frozen=True)
@@ -156,13 +164,22 @@ def _ints(value: Any) -> tuple[int, ...]:
     return tuple(int(x) for x in value)
 
 
+def _at(value: Any) -> tuple[float, float, float]:
+    x, y, sigma = (float(c) for c in value)
+    if not all(math.isfinite(c) for c in (x, y, sigma)) or sigma < 0:
+        raise ValueError(f"not a position and sigma: {value!r}")
+    return x, y, sigma
+
+
 def parse(doc: Mapping[str, Any]) -> JournalRecord | None:
     """The record a journal document holds, or None if it is not one this agent can read."""
     try:
         k = doc.get("k")
         t = float(doc["t"])
         if k == "clr":
-            return Clear(t, _ints(doc["ids"]), bool(doc.get("own")))
+            at = doc.get("at")
+            return Clear(t, _ints(doc["ids"]), bool(doc.get("own")),
+                         None if at is None else _at(at))
         if k == "hold":
             return Hold(int(doc["v"]), int(doc["t"]), _ints(doc["ids"]), bool(doc["c"]))
         if k == "peer":

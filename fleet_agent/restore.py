@@ -15,6 +15,7 @@ from typing import Any, Mapping, Sequence
 
 from fleet_agent import membership as mb
 from fleet_agent import records as rec
+from fleet_agent.association import Estimate
 from fleet_agent.io_types import Outputs
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.outbox import Owed
@@ -29,6 +30,7 @@ class Snapshot:
 
     cleared: list[int] = field(default_factory=list)
     treated: list[tuple[int, float]] = field(default_factory=list)  # own, in order
+    injections: list[tuple[float, float, float]] = field(default_factory=list)  # Clear.at
     finds: list[rec.FoundSpot] = field(default_factory=list)
     holds: list[rec.Hold] = field(default_factory=list)
     finals: list[rec.PeerState] = field(default_factory=list)  # peers aborted or home
@@ -49,6 +51,8 @@ def fold(journal: Sequence[Mapping[str, Any]], n_tasks: int) -> Snapshot:
                 snap.bad_records += 1
             continue
         if isinstance(r, rec.Clear):
+            if r.own and r.at is not None:
+                snap.injections.append(r.at)
             for t in r.tasks:
                 if 0 <= t < n_tasks:
                     if t not in cleared:
@@ -79,6 +83,7 @@ def restore(snap: Snapshot, know: Knowledge, radio: Radio, base_route: Sequence[
     own = know.own
     know.cleared.update(snap.cleared)
     know.treated = list(snap.treated)
+    know.injections.extend(Estimate((x, y), s) for x, y, s in snap.injections)
     for f in snap.finds:
         know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s, f.sigma_m)
     for h in snap.holds:

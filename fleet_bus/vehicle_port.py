@@ -114,21 +114,29 @@ class Arrived:
 @dataclass(frozen=True)
 class Looked:
     """The look at spot ``task`` ended at ``t_s``: COTS ``present`` (with their priority rho
-    and injection time t, eq. 2, as the camera judges them) or not."""
+    and injection time t, eq. 2, as the camera judges them) or not; ``pos``: where the camera
+    saw them, in the vehicle's navigation frame as `Sighted` (None: the helm does not say).
+    A look is at a spot the vehicle was sent to, so what it shows is that spot: a landmark
+    whose identity a sighting along the track cannot promise (`fleet_agent.landmarks`)."""
 
     t_s: float
     task: int
     present: bool
     priority: float = 0.0
     service_s: float = 0.0
+    pos: Point3 | None = None
 
 
 @dataclass(frozen=True)
 class Injected:
-    """The injection at spot ``task`` ended at ``t_s``."""
+    """The injection at spot ``task`` ended at ``t_s``; ``pos``: where the camera measured
+    the COTS it injected, in the vehicle's navigation frame as `Sighted` (None: nothing was
+    there, or the helm does not say). A drifted vehicle sent to a spot may inject whatever
+    is in view there: the agent holds later sightings against where it really injected."""
 
     t_s: float
     task: int
+    pos: Point3 | None = None
 
 
 @dataclass(frozen=True)

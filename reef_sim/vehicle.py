@@ -326,10 +326,25 @@ class SimVehicle:
         if work.work is Work.LOOK:
             assert self.camera is not None
             seen = self.camera.look(work.task, self.pos)
-            return Looked(self.t_s, work.task, seen.present, seen.priority, seen.service_s)
+            i = self.camera.reef.of_task(work.task)
+            return Looked(self.t_s, work.task, seen.present, seen.priority, seen.service_s,
+                          self._measured(i) if seen.present and i is not None else None)
         spot = None if self.camera is None else self.camera.treated(work.task, self.pos)
         self.treatments.append(Treatment(self.t_s, work.task, self.pos, spot))
-        return Injected(self.t_s, work.task)
+        return Injected(self.t_s, work.task, None if spot is None else self._measured(spot))
+
+    def _measured(self, i: int) -> Point3:
+        """Where the camera, keeping station here, measures truth spot ``i`` (a look's or an
+        injection's aggregation), in the vehicle's frame: its truth moved by the navigation
+        error here and the camera's own (keyed as pass 0 of that spot: sweeps count their
+        passes from 1, so a look and the injection after it measure alike)."""
+        assert self.camera is not None
+        truth = self.camera.reef.spots[i].pos
+        if self.navigation is None:
+            return truth
+        ex, ey = self.navigation.error(self.pos, self.odometer_m)
+        cx, cy = self.navigation.camera_error(i, 0)
+        return (truth[0] + ex + cx, truth[1] + ey + cy, truth[2])
 
     def _sightings(self, t_s: float) -> list[VehicleReport]:
         if self.camera is None:

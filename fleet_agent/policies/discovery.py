@@ -17,10 +17,11 @@ from fleet_agent.intents import Count, Hold, Intent, Note, Owe, SeekWork, Tell
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Inspected
 from fleet_agent.outbox import FindsGap, Owed
+from fleet_agent.policies.plausible import been_there
 from fleet_agent.records import Clear, FoundSpot
 from fleet_agent.wire import MAX_TENTHS, SIGMA_UNIT_M, Codec, Found, sigma_code
 from fleet_bus.telemetry import position_detail
-from fleet_bus.vehicle_port import Looked, Sighted
+from fleet_bus.vehicle_port import Injected, Looked, Sighted
 
 
 def where(know: Knowledge, task: int) -> str:
@@ -38,6 +39,8 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
         return [Count("inspection_stale")]  # the look was abandoned meanwhile
     if r.present:
         know.beliefs.learn(r.task, True, r.priority, r.service_s)
+        if r.pos is not None and r.task < know.beliefs.n and _landmark(know, r.pos, r.task):
+            know.touch()  # the goals moved with the vehicle's frame
     if know.search is not None and r.task < know.beliefs.n:
         know.search.learn(r.task, r.present)
     ev = own.looked(r.task, r.service_s if r.present else None, r.t_s)
@@ -65,8 +68,8 @@ def inspected(know: Knowledge, config: AgentConfig, ev: Inspected) -> list[Inten
 def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted,
                now: float) -> list[Intent]:
     """An aggregation along the track (`association`, docs/search.md): a predicted spot now
-    known (and, when surely one, a landmark for the vehicle's navigation), a find already
-    known, something already treated, or news."""
+    known, a find already known, something already treated (by anyone, or where this
+    vehicle's camera measured an injection of its own), or news."""
     if not config.discovery:
         return [Count("sightings_ignored")]
     b, own = know.beliefs, know.own
@@ -79,10 +82,10 @@ def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted
         return _discover(know, codec, seen, est, now)
     kind, spot = what
     if kind == "task" and sure:
-        if own.frame.landmark(seen.pos, b.scenario.tasks[spot].pos,
-                              params.map_sigma_m ** 2 + params.camera_sigma_m ** 2
-                              + params.extent_var / 2):
-            know.touch()  # the goals moved with the vehicle's frame
+        # No landmark from a sighting along the track: which aggregation it is rests on the
+        # frame being right, and where the map missed aggregations near its spots a wrong
+        # one moves the frame with a small variance, then confirms itself (a look is at the
+        # spot it names: `on_looked` takes that one).
         if b.state[spot] == UNKNOWN and spot not in know.cleared:
             b.learn(spot, True, seen.priority, seen.service_s)
             if know.search is not None:
@@ -90,13 +93,36 @@ def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted
     return [] if sure else [Count("sightings_ambiguous")]  # a look will tell which
 
 
+def _landmark(know: Knowledge, seen_vehicle: tuple[float, ...], task: int) -> bool:
+    """The camera saw predicted spot ``task`` at ``seen_vehicle`` (the vehicle's frame): a
+    landmark for the frame (`fleet_agent.landmarks`), of the variance of the map's position,
+    the camera's offset and a point of the aggregation about its centre."""
+    params = know.beliefs.params
+    return know.own.frame.landmark(seen_vehicle, know.beliefs.scenario.tasks[task].pos,
+                                   params.map_sigma_m ** 2 + params.camera_sigma_m ** 2
+                                   + params.extent_var / 2)
+
+
+def injected_at(know: Knowledge, r: Injected) -> tuple[float, float, float] | None:
+    """Where the camera measured what this injection treated, as an estimate in the map's
+    frame (kept in ``know.injections``; for the journal: x, y, sigma), or None."""
+    if r.pos is None or know.beliefs.exact:
+        return None
+    est = sighting(know.own.frame.to_map(r.pos), know.own.sigma_m, know.beliefs.params)
+    know.injections.append(est)
+    return (*est.xy, est.sigma_m)
+
+
 def treated_estimates(know: Knowledge, finds_only: bool = False,
                       but: int | None = None) -> list[Estimate]:
     """Where the spots taken as treated are (`association.probably_treated`): every cleared
     spot but those this vehicle saw empty and those it only judged treated (`fold_treated`:
-    no chains of judgements), each as its estimate; ``finds_only``: the finds of them."""
+    no chains of judgements), each as its estimate, and where this vehicle's camera measured
+    what it injected; ``finds_only``: the finds of them (a predicted spot is held only
+    against treated finds: the map says its spots are distinct, and a look tells them
+    apart)."""
     b = know.beliefs
-    out = []
+    out = [] if finds_only else list(know.injections)
     for t in know.cleared:
         if t == but or t in know.folded or (t < b.n and (finds_only or b.state[t] == EMPTY)):
             continue
@@ -118,6 +144,10 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     if key == know.fold_key:
         return []
     know.fold_key = key
+    awaiting = await_gaps(know, now)
+    if awaiting != know.awaiting:
+        know.awaiting = awaiting
+        know.touch()
     params = b.params
     all_treated = treated_estimates(know)
     finds_treated = treated_estimates(know, finds_only=True)
@@ -141,6 +171,29 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     know.fold_key = (len(know.cleared), len(b.finds), len(b.alias))
     return [Count("spots_judged_treated", len(new)), Note(Clear(now, tuple(new), own=False)),
             Tell(now, "judged_treated", tuple(new))]
+
+
+def await_gaps(know: Knowledge, now: float) -> frozenset[int]:
+    """The finds not to plan yet (docs/search.md, "Never twice"): a peer has cleared a find
+    this vehicle has never heard of (its FOUND frame was lost; the cleared set came through,
+    and the gap is asked for: `FindsGap`), so where it was is unknown; any open find here
+    that peer's heard track passed near (`plausible.been_there`'s reach), or any at all when
+    none of its track was heard, may be that aggregation under the other's name, and waits
+    until the FOUND arrives (the cleared set or the finds change: judged again)."""
+    b = know.beliefs
+    gaps = [t for t in know.cleared if t >= b.n and t not in b.finds]
+    if not gaps:
+        return frozenset()
+    finders = {b.finder(t) for t in gaps}
+    out = set()
+    for s in b.finds:
+        if s in know.cleared or s in b.alias:
+            continue
+        for f in finders:
+            if f not in know.tracks or been_there(know, f, s, now):
+                out.add(s)
+                break
+    return frozenset(out)
 
 
 def _discover(know: Knowledge, codec: Codec, seen: Sighted, est: Estimate,

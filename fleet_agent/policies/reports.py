@@ -45,7 +45,8 @@ def take(know: Knowledge, config: AgentConfig, codec: Codec, r: VehicleReport,
         if done is None:
             return [Count("injection_stale")]
         know.treat(done.task, done.t_s)
-        return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True)),
+        at = discovery.injected_at(know, r)
+        return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True, at=at)),
                 Tell(done.t_s, "cleared", (done.task,), detail=discovery.where(know, done.task)),
                 *searching.after_injection(know, config, done.task)]
     elif isinstance(r, Looked):

@@ -19,9 +19,11 @@ from fleet_agent.helms.sim import camera_figures
 from fleet_agent.io_types import Helm, Tick
 from fleet_agent.landmarks import MapFrame
 from fleet_agent.motion import Activity
-from fleet_agent.policies import searching
+from fleet_agent import records as rec
+from fleet_agent.policies import discovery, searching
+from fleet_agent.restore import fold
 from fleet_agent.wire import MAX_SIGMA_M, Codec, Digest, Found
-from fleet_bus.vehicle_port import GoTo, Injected, NavFix, Sighted
+from fleet_bus.vehicle_port import Arrived, GoTo, Injected, Looked, NavFix, Sighted
 from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
 from reef_sim.scenarios.field import GeneratorParams
@@ -111,7 +113,6 @@ def test_a_treated_aggregation_seen_again_is_not_injected(fleet):
     again = (pos[0] + 6.0, pos[1], pos[2])
     agent.step(Tick(3.0), [Sighted(3.0, again, 50.0, 60.0)])
     assert len(b.finds) == 1 and agent.counters.get("sightings_ignored", 0) == 0
-    from fleet_agent.policies import discovery
 
     codec = fleet.codec
 
@@ -132,6 +133,52 @@ def test_a_treated_aggregation_seen_again_is_not_injected(fleet):
     assert other in know.cleared and other in know.folded
     assert agent.counters["spots_judged_treated"] == 1
     assert peer not in agent.own.route and other not in agent.own.route
+
+
+def test_where_an_injection_really_was_is_held_against_later_sightings(fleet):
+    """A drifted vehicle sent to a spot may inject a neighbour in view there: the camera's
+    measure of what it injected (`Injected.pos`) is a treated estimate, so that neighbour
+    seen later is no news; the journal keeps it for a restart."""
+    agent = Agent(fleet, 0, CONFIG)
+    know = agent.know
+    head = agent.own.route[0]
+    p = fleet.dynamic.scenario.tasks[head].pos
+    agent.step(Tick(1.0), [NavFix(1.0, p, sigma_m=DRIFT_SIGMA), Arrived(1.0, head)])
+    agent.step(Tick(2.0), [Looked(2.0, head, True, 50.0, 60.0)])
+    neighbour = (p[0] + 25.0, p[1], p[2])  # what it really injected, 25 m off its spot
+    agent.step(Tick(70.0), [Injected(70.0, head, neighbour)])
+    assert head in know.cleared and len(know.injections) == 1
+    finds = len(know.beliefs.finds)
+    agent.step(Tick(80.0), [Sighted(80.0, (neighbour[0] + 2.0, p[1], p[2]), 50.0, 60.0)])
+    assert len(know.beliefs.finds) == finds
+    assert agent.counters["sightings_treated"] == 1
+    clr = rec.parse(rec.Clear(70.0, (head,), True, (*neighbour[:2], 3.0)).doc())
+    assert isinstance(clr, rec.Clear) and clr.at == (*neighbour[:2], 3.0)
+    snap = fold([{"k": "start", "t": 0.0}, clr.doc()], fleet.problem.n_tasks)
+    assert snap.injections == [(*neighbour[:2], 3.0)]
+
+
+def test_a_find_waits_while_a_peers_cleared_find_is_unknown(fleet):
+    """Under loss a peer's cleared set may arrive without its FOUND: the find it cleared
+    could be the aggregation this vehicle found under its own name. Its own find waits (out
+    of every plan) until the peer's find is heard, then is judged as usual: here one
+    aggregation, so treated, never planned."""
+    agent = Agent(fleet, 1, CONFIG)
+    know, b = agent.know, agent.know.beliefs
+    pos = off_map(fleet)
+    agent.step(Tick(1.0), [NavFix(1.0, pos), Sighted(1.0, pos, 50.0, 60.0)])
+    (mine,) = b.finds
+    theirs = b.n + 2 * CONFIG.find_slots  # auv3's first find: cleared, never heard
+    know.clear([theirs])
+    agent.step(Tick(2.0))
+    assert know.awaiting == {mine} and mine in know.unavailable(2.0)
+    assert mine not in know.free_spots(2.0)
+    codec = fleet.codec
+    msg = codec.decode(codec.encode(Found(2, 1, Digest(1, 0), theirs, pos, 50.0, 60.0)))
+    discovery.on_found(know, msg, 3.0)
+    agent.step(Tick(4.0))
+    assert know.awaiting == frozenset()
+    assert mine in know.cleared and mine not in agent.own.route
 
 
 def test_a_predicted_spot_is_judged_treated_only_by_a_treated_find(fleet):
@@ -177,32 +224,67 @@ def test_with_exact_navigation_the_frame_never_moves():
     assert frame.offset == (0.0, 0.0)
 
 
-def test_a_sure_sighting_of_a_predicted_spot_moves_the_goals(fleet):
-    """A drifted vehicle (3 m per axis) sees a predicted spot 3 m east of the map's: its
-    frame's offset is the Kalman update toward 3 m east, and the next goal it is sent to moves
-    by it, in its own frame."""
+def test_a_look_at_a_predicted_spot_moves_the_goals(fleet):
+    """A drifted vehicle (3 m per axis) looks at its first spot and its camera shows the
+    COTS 3 m east of the map's: its frame's offset is the Kalman update toward 3 m east, and
+    the next goal it is sent to moves by it, in its own frame."""
     exact = dataclasses.replace(CONFIG, map_sigma_m=0.5, aggregation_extent_m=1.0)
     f = build(exact)
     agent = Agent(f, 0, exact)
     head = agent.own.route[0]
-    before = agent.own.command()
-    assert isinstance(before, GoTo)
-    sc = f.dynamic.scenario
-    d = np.linalg.norm(sc.xyz[:, None, :2] - sc.xyz[None, :, :2], axis=2)
-    np.fill_diagonal(d, np.inf)
-    spot = max((t for t in range(sc.n_tasks) if t != head), key=lambda t: d[t].min())
-    p = sc.tasks[spot].pos  # the loneliest spot: surely the one seen
-    agent.step(Tick(1.0), [NavFix(1.0, agent.own.pos, sigma_m=DRIFT_SIGMA),
-                           Sighted(1.0, (p[0] + 3.0, p[1], p[2]), 50.0, 60.0)])
+    p = f.dynamic.scenario.tasks[head].pos
+    agent.step(Tick(1.0), [NavFix(1.0, p, sigma_m=DRIFT_SIGMA), Arrived(1.0, head)])
+    assert agent.own.inspecting == head
+    agent.step(Tick(2.0), [Looked(2.0, head, True, 50.0, 60.0, (p[0] + 3.0, p[1], p[2]))])
     assert agent.own.frame.fixes == 1
     ox, oy = agent.own.frame.offset
     r = 0.5 ** 2 + 0.5 ** 2 + 1.0 ** 2 / 4  # map, camera, a point of the aggregation
     assert ox == pytest.approx(3.0 * 9 / (9 + r)) and oy == pytest.approx(0.0, abs=1e-9)
+    agent.step(Tick(70.0), [Injected(70.0, head)])
     after = agent.own.command()
     assert isinstance(after, GoTo)
     goal = after.waypoints[-1]
     target = agent.own.problem.xyz[after.target]
     assert goal[0] - target[0] == pytest.approx(ox) and goal[1] - target[1] == pytest.approx(oy)
+
+
+def test_a_sighting_along_the_track_never_moves_the_frame(fleet):
+    """Which spot a sighting is rests on the frame itself (a missed aggregation near a
+    spot, taken for it, would move the frame and then confirm itself): only looks do."""
+    exact = dataclasses.replace(CONFIG, map_sigma_m=0.5, aggregation_extent_m=1.0)
+    f = build(exact)
+    agent = Agent(f, 0, exact)
+    sc = f.dynamic.scenario
+    d = np.linalg.norm(sc.xyz[:, None, :2] - sc.xyz[None, :, :2], axis=2)
+    np.fill_diagonal(d, np.inf)
+    spot = max(range(sc.n_tasks), key=lambda t: d[t].min())
+    p = sc.tasks[spot].pos  # the loneliest spot: surely the one seen
+    agent.step(Tick(1.0), [NavFix(1.0, agent.own.pos, sigma_m=DRIFT_SIGMA),
+                           Sighted(1.0, (p[0] + 3.0, p[1], p[2]), 50.0, 60.0)])
+    assert agent.own.frame.fixes == 0 and agent.own.frame.offset == (0.0, 0.0)
+    assert agent.know.beliefs.state[spot] == "present"  # what it saw is still learnt
+
+
+def test_the_frame_grows_with_the_way_from_its_landmark_not_from_the_start():
+    """After a landmark far from the start, a vehicle crossing at a constant distance from
+    home keeps its own sigma, but its error changes by the drift rate times the way from
+    the landmark (heading and scale biases): the frame's variance says so. And heading back
+    toward the start (its sigma falls smoothly) is no position fix."""
+    frame = MapFrame()
+    k = 0.01
+    frame.nav(0.0, (0.0, 0.0))
+    frame.nav(k * 500.0, (500.0, 0.0))  # the rate is read: 1 % per metre
+    assert frame.rate2 == pytest.approx(k * k)
+    assert frame.landmark((505.0, 0.0), (500.0, 0.0), 0.5)
+    small = frame.var
+    frame.nav(k * 500.0, (0.0, 500.0))  # a quarter circle around home: the same sigma
+    way = math.dist((505.0, 0.0), (0.0, 500.0))
+    assert frame.var == pytest.approx(small + k * k * way ** 2)
+    offset = frame.offset
+    frame.nav(k * 490.0, (0.0, 490.0))  # 10 m back toward home: no fix
+    assert frame.offset == offset
+    frame.nav(1.0, (0.0, 480.0))  # a USBL fix: the frame starts again
+    assert frame.offset == (0.0, 0.0) and frame.sigma_m == pytest.approx(1.0)
 
 
 # -- search -------------------------------------------------------------------------------------
