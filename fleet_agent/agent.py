@@ -97,6 +97,8 @@ class Agent:
         self.restarted = bool(journal)
         self._next_status = now
         self._next_ckpt = now + config.checkpoint_period_s
+        self._peers: dict[str, str] = {}
+        self._peers_at = -1  # the membership version `_peers` was built at
         self._synced = -1  # the knowledge's version the route was last checked against
         self._commanded: object = None  # what the vehicle was last told (its command's key)
         self._boot = self._outputs()
@@ -360,11 +362,21 @@ class Agent:
             route=know.tids(v.route), treated=know.tids(treated),
             cleared_known=len(know.cleared), priority_collected=know.priority_of(treated),
             distance_m=float(v.distance_m),
-            peers={know.vid(u): s for u, (s, _) in know.members.snapshot().items()},
+            peers=self._peer_statuses(),
             claims=know.tids(sorted(know.standing_claims())),
             counters={**self.counters, "largest_frame": self.largest_frame},
             lag_s=self._take_lag(),
             suspects={know.vid(u): n for u, n in sorted(know.suspicion.items())})
+
+    def _peer_statuses(self) -> dict[str, str]:
+        """Each peer's status by id: rebuilt only when a status changed (a status is sent
+        every few seconds by every vehicle; rebuilding it each time made the fleet's cost
+        grow with the square of its size)."""
+        members = self.know.members
+        if self._peers_at != members.version:
+            self._peers = {self.know.vid(u): p.status for u, p in members.peers.items()}
+            self._peers_at = members.version
+        return dict(self._peers)
 
     def _take_lag(self) -> float:
         lag, self.lag_s = self.lag_s, 0.0

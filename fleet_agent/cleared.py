@@ -77,20 +77,22 @@ class ClearedSet:
         width = max(1, math.ceil(bits / 8))
         return ((self._bits >> lo) & ((1 << bits) - 1)).to_bytes(width, "little")
 
-    def merge_segment(self, segment: int, data: bytes) -> list[int]:
-        """OR a received segment in; returns the spots that were new here."""
+    def news_in(self, segment: int, data: bytes) -> list[int]:
+        """The spots a received segment holds that this set lacks (ascending; nothing
+        changes here). Bitwise: a frame's cost follows its news, not the segment's size."""
         lo = segment * self.segment_bits
-        width = min(self.segment_bits, self.n_tasks - lo)
-        incoming = int.from_bytes(data, "little") & ((1 << width) - 1)
-        new = (incoming << lo) & ~self._bits
+        width = max(0, min(self.segment_bits, self.n_tasks - lo))
+        new = ((int.from_bytes(data, "little") & ((1 << width) - 1)) << lo) & ~self._bits
         out: list[int] = []
         while new:
             low = new & -new
-            task = low.bit_length() - 1
-            self.add(task)
-            out.append(task)
+            out.append(low.bit_length() - 1)
             new ^= low
         return out
+
+    def merge_segment(self, segment: int, data: bytes) -> list[int]:
+        """OR a received segment in; returns the spots that were new here."""
+        return self.update(self.news_in(segment, data))
 
     def missing_from(self, segment: int, data: bytes) -> bool:
         """Whether a peer's segment lacks a spot this set has (so a push would help it)."""

@@ -85,10 +85,7 @@ def _cleared(know: Knowledge, msg: ClearedSegment, now: float) -> list[Intent]:
     """A segment of a peer's cleared set: what it is news of and plausible is taken (a
     grow-only set), the rest waits for a second word; a peer that lacks some of ours is owed
     a push."""
-    lo = msg.segment * know.cleared.segment_bits
-    bits = int.from_bytes(msg.bits, "little")
-    news = [lo + i for i in range(bits.bit_length()) if bits >> i & 1
-            and lo + i < know.problem.n_tasks and lo + i not in know.cleared]
+    news = know.cleared.news_in(msg.segment, msg.bits)
     out: list[Intent] = []
     take, waiting = plausible.cleared(know, msg.sender, news, now)
     new = know.clear(take)

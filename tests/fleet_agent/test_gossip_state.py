@@ -57,6 +57,16 @@ def test_a_merge_never_unclears() -> None:
     assert s.merge_segment(0, ClearedSet(90).segment(0)) == []
 
 
+def test_news_in_a_segment_is_what_this_set_lacks_and_changes_nothing() -> None:
+    s, theirs = ClearedSet(300, segment_bits=128), ClearedSet(300, segment_bits=128)
+    s.update([130, 140])
+    theirs.update([129, 130, 255, 140])
+    assert s.news_in(1, theirs.segment(1)) == [129, 255]
+    assert sorted(s) == [130, 140]
+    assert s.news_in(9, b"\xff" * 16) == []  # a segment beyond the set: nothing, no error
+    assert s.merge_segment(1, theirs.segment(1)) == [129, 255] and len(s) == 4
+
+
 def test_digest_tells_sets_apart_and_is_order_free() -> None:
     a, b = ClearedSet(90), ClearedSet(90)
     a.update([5, 9, 40])
