@@ -1,5 +1,6 @@
-"""The operator's topside modem: numbers the operator's orders, sends them into the water until
-acknowledged, discloses its key chain, and keeps what the report says of them.
+"""The operator's topside modem: numbers the operator's orders (and its add-spots apart:
+`fleet_bus.orders.Order.added` names the spot's slot on every vehicle), sends them into the
+water until acknowledged, discloses its key chain, and keeps what the report says of them.
 
 Pure (no I/O, no clock): a backend calls `submit` when the operator orders, `frames(now)` at
 `next_s` (and right after a submit) and transmits what it returns from the topside's position
