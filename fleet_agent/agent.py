@@ -73,8 +73,8 @@ class Agent:
         self.id = p.vehicles[index].id
         slots = Slots(index, p.n_vehicles, config.slot_s, fleet.schedule)
         dyn = fleet.dynamic
-        beliefs = Beliefs(p if dyn is None else dyn.scenario, None if dyn is None else dyn.camera,
-                          config, index, fleet.seed, slots.cycle_s, fleet.planner)
+        beliefs = Beliefs(fleet.given, None if dyn is None else dyn.camera, config, index,
+                          fleet.seed, slots.cycle_s, fleet.planner, p)
         self.own = OwnVehicle(p, index, fleet.paths, Conduct(
             self._settled_s, beliefs.unknown, 0.0 if dyn is None else dyn.camera.inspect_s,
             config.battery_reserve_s), now)

@@ -12,11 +12,20 @@ one aggregation seen twice (`same_aggregation`, grouped as connected components 
 finds, so every vehicle folds the same aliases from the same finds whatever their order): the
 lowest index of a group is the spot, the others aliases nobody plans.
 
-The planner works on a *working problem* of fixed size (n predicted + every slot): a predicted
+After the finds' slots come the operator's (``operator_slots``, also on an exact map): the
+spot of the operator's add-spot number ``a`` (`fleet_bus.orders.Order.added`) is task index
+``n + k * cap + a`` on every vehicle, from the signed order alone (never gossiped: a vehicle's
+word cannot add one). It is planned like a find at the operator's figures (the depth of the
+nearest predicted spot, the map's mean injection time) and injected without a look: the
+operator saw it.
+
+The planner works on a *working problem* of fixed size (n predicted + every slot, the
+operator's included): a predicted
 spot at its expected value (eq. 9's priority term taken in expectation: p * rho, and time
 inspect_s + p * t), a present one at its real figures, a find at its figures, an unused slot a
 placeholder at the first station that is never offered to the planner (`blocked`). The problem
-is rebuilt when beliefs change (distances only when a find adds a position).
+is rebuilt when beliefs change (distances only when a find or an added spot adds a position).
+On an exact map without operator slots the working problem is the scenario itself.
 """
 
 from __future__ import annotations
@@ -79,26 +88,47 @@ def find_ids(scenario: Problem, config: AgentConfig) -> range:
     return range(base, base + scenario.n_vehicles * config.find_slots)
 
 
+def operator_ids(scenario: Problem, config: AgentConfig) -> range:
+    """The task ids the operator's added spots go by in telemetry (after the finds' ids, also
+    on an exact map)."""
+    base = find_ids(scenario, config).stop
+    return range(base, base + config.operator_slots)
+
+
+def spot_depth(scenario: Problem, xy: tuple[float, float]) -> float:
+    """The depth of the predicted spot nearest ``xy`` (an added spot's, which the operator
+    gives as X Y only; 0 on a map without spots)."""
+    if not scenario.n_tasks:
+        return 0.0
+    xyz = scenario.xyz[:scenario.n_tasks]
+    d = (xyz[:, 0] - xy[0]) ** 2 + (xyz[:, 1] - xy[1]) ** 2
+    return float(xyz[int(np.argmin(d)), 2])
+
+
 class Beliefs:
     """Predicted spots' states, finds and aliases, and the working problem they make.
 
     Without a ``camera`` the map is exact (a mission without a hidden reef): every predicted
     spot is known as the map gives it, nothing is looked at or found, and the working problem
-    is the scenario itself, planned by the fleet's own ``planner``."""
+    is the scenario and the operator's slots (``working``, the fleet's, planned by its own
+    ``planner`` until the operator adds a spot)."""
 
     def __init__(self, scenario: Problem, camera: Camera | None, config: AgentConfig,
-                 index: int, seed: int, cycle_s: float, planner: Planner | None = None) -> None:
+                 index: int, seed: int, cycle_s: float, planner: Planner | None = None,
+                 working: Problem | None = None) -> None:
         self.scenario, self.camera, self.config = scenario, camera, config
         self.params = config.association
         self.index, self.seed = index, seed
         self.exact = camera is None
         self.n = scenario.n_tasks
         self.cap = 0 if self.exact else config.find_slots
-        self.size = self.n + scenario.n_vehicles * self.cap
+        self.op_from = self.n + scenario.n_vehicles * self.cap  # the operator's first slot
+        self.size = self.op_from + config.operator_slots
         self.settle_s = config.find_settle_cycles * cycle_s
         self.state = [PRESENT if self.exact else UNKNOWN] * self.n
         self.real: dict[int, tuple[float, float]] = {}  # present predicted: (rho, t)
         self.finds: dict[int, Find] = {}
+        self.added: dict[int, Find] = {}  # the operator's spots, by slot
         self.alias: dict[int, int] = {}  # slot -> the slot it is an alias of
         self.own_found = 0
         self.finds_dropped = 0  # own finds beyond find_slots (memory stays bounded)
@@ -107,11 +137,15 @@ class Beliefs:
         self._count = 0
         self._hash = 0
         self._base_id = find_ids(scenario, config).start
+        self._op_base_id = operator_ids(scenario, config).start
+        self._service_s = float(np.mean(scenario.service_s)) if self.n else 60.0
         self._pred_xyz = np.array([t.pos for t in scenario.tasks], dtype=float).reshape(-1, 3)
-        self._problem: Problem | None = scenario if self.exact else None
-        self._planner: Planner | None = planner if self.exact else None
+        if self.exact and working is None and self.size == self.n:
+            working = scenario  # nothing beyond the map: the scenario is the working problem
+        self._problem: Problem | None = working if self.exact else None
+        self._planner: Planner | None = planner if self._problem is not None else None
         self._dist: np.ndarray | None = None
-        self._dist_finds = -1  # number of finds the cached distances include
+        self._dist_key = (-1, -1)  # finds and added spots the cached distances include
         self.version = 0
 
     # -- queries ---------------------------------------------------------------------------
@@ -121,18 +155,29 @@ class Beliefs:
         return task < self.n and self.state[task] == UNKNOWN
 
     def task_id(self, slot: int) -> int:
+        if slot >= self.op_from:
+            return self._op_base_id + slot - self.op_from
         return self._base_id + slot - self.n
 
     def is_find_id(self, task_id: int) -> bool:
         return task_id >= self._base_id
+
+    def is_find_slot(self, slot: int) -> bool:
+        """Is ``slot`` one of the finds' (not a predicted spot, not the operator's)?"""
+        return self.n <= slot < self.op_from
+
+    def known(self, task: int) -> bool:
+        """A predicted spot, a find or an added spot this vehicle knows of."""
+        return task < self.n or task in self.finds or task in self.added
 
     def canonical(self, task: int) -> int:
         return self.alias.get(task, task)
 
     def blocked(self, now: float) -> frozenset[int]:
         """Spots the planner must not offer: unused slots, aliases, finds still settling."""
-        out = [s for s in range(self.n, self.size) if s not in self.finds or s in self.alias
+        out = [s for s in range(self.n, self.op_from) if s not in self.finds or s in self.alias
                or self.finds[s].learned_s + self.settle_s > now]
+        out += [s for s in range(self.op_from, self.size) if s not in self.added]
         return frozenset(out)
 
     def next_settle_s(self, now: float) -> float | None:
@@ -151,6 +196,8 @@ class Beliefs:
         finder's."""
         if task < self.n:
             return predicted(self.scenario.tasks[task].pos, self.params)
+        if task in self.added:
+            return self.added[task].estimate
         return self.finds[task].estimate
 
     def resolve(self, seen: Estimate) -> tuple[tuple[str, int] | None, bool]:
@@ -162,6 +209,7 @@ class Beliefs:
             if self.state[t] != EMPTY]
         cands += [(("find", s), f.estimate) for s, f in sorted(self.finds.items())
                   if s not in self.alias]
+        cands += [(("find", s), f.estimate) for s, f in sorted(self.added.items())]
         return resolve(seen, cands, self.params)
 
     def _near(self, seen: Estimate, n: int) -> list[int]:
@@ -209,7 +257,7 @@ class Beliefs:
                  now: float, sigma_m: float = 0.0) -> bool:
         """A find (own or heard); True if news. A slot already known with other figures is a
         conflict (counted, the first kept): finds never change once named."""
-        if not self.n <= slot < self.size:
+        if not self.is_find_slot(slot):
             return False
         if not self._wet(pos):
             self.refused += 1  # a planner fed a spot on land would fail: keep it out
@@ -231,6 +279,33 @@ class Beliefs:
         self._merge()
         self._changed()
         return True
+
+    def op_slot(self, added: int) -> int | None:
+        """The slot of the operator's add-spot number ``added``, or None (beyond the slots)."""
+        return self.op_from + added if 0 <= added < self.size - self.op_from else None
+
+    def add_spot(self, slot: int, pos: Point3, priority: float, now: float,
+                 service_s: float | None = None) -> str | None:
+        """The operator's spot at ``pos`` in operator slot ``slot``: None if added (or
+        known already, alike), else why not: ``no_room`` (not an operator slot, or one taken
+        by other figures) or ``on_land`` (no vehicle could go there)."""
+        if not self.op_from <= slot < self.size:
+            return "no_room"
+        if not self._wet(pos):
+            return "on_land"
+        spot = Find(slot, (float(pos[0]), float(pos[1]), float(pos[2])), float(priority),
+                    self._service_s if service_s is None else float(service_s), float(now))
+        old = self.added.get(slot)
+        if old is not None:
+            return None if (old.pos, old.priority, old.service_s) == (
+                spot.pos, spot.priority, spot.service_s) else "no_room"
+        self.added[slot] = spot
+        self._changed()
+        return None
+
+    def added_at(self, x: float, y: float) -> Point3:
+        """Where an added spot at ``x, y`` is (the nearest predicted spot's depth)."""
+        return (float(x), float(y), spot_depth(self.scenario, (x, y)))
 
     def _wet(self, pos: Point3) -> bool:
         """Finite and in the water (the working problem must stay plannable)."""
@@ -283,7 +358,9 @@ class Beliefs:
     def _tasks(self) -> list[Task]:
         out = []
         for i, t in enumerate(self.scenario.tasks):
-            if self.state[i] == PRESENT:
+            if self.exact:
+                rho, service = t.priority, t.service_s
+            elif self.state[i] == PRESENT:
                 rho, service = self.real[i]
             elif self.state[i] == EMPTY:
                 rho, service = 0.0, 0.0
@@ -297,7 +374,7 @@ class Beliefs:
             out.append(Task(t.id, t.pos, rho, service))
         station = self.scenario.vehicles[0].start
         for s in range(self.n, self.size):
-            f = self.finds.get(s)
+            f = self.finds.get(s) or self.added.get(s)
             if f is None or s in self.alias:
                 out.append(Task(self.task_id(s), f.pos if f else station, 0.0, 0.0))
             else:
@@ -319,7 +396,8 @@ class Beliefs:
     def _build(self) -> Problem:
         sc = self.scenario
         tasks = self._tasks()
-        if self._dist is None or self._dist_finds != len(self.finds):
+        key = (len(self.finds), len(self.added))
+        if self._dist is None or self._dist_key != key:
             xyz = np.zeros((len(tasks) + 2 * sc.n_vehicles, 3))
             xyz[:len(tasks)] = [t.pos for t in tasks]
             xyz[len(tasks):] = sc.xyz[sc.n_tasks:]
@@ -329,14 +407,19 @@ class Beliefs:
                 from hfc_core.model.geometry import distance_matrix
 
                 self._dist = distance_matrix(xyz)
-            self._dist_finds = len(self.finds)
+            if self.exact:  # the map's own metric between its points, whatever it was
+                keep = [*range(self.n), *range(len(tasks), len(xyz))]
+                self._dist[np.ix_(keep, keep)] = sc.dist_m
+            self._dist_key = key
         return Problem.build(f"{sc.name}-believed", sc.vehicles, tasks,
                              [poly.tolist() for poly in sc.forbidden], dist_m=self._dist,
                              current=sc.current)
 
 
-def initial_working_problem(scenario: Problem, camera: Camera, config: AgentConfig) -> Problem:
-    """The working problem before anything is seen (what every vehicle starts from)."""
+def initial_working_problem(scenario: Problem, camera: Camera | None,
+                            config: AgentConfig) -> Problem:
+    """The working problem before anything is seen or added (what every vehicle starts
+    from; without a ``camera``, the scenario and the operator's slots)."""
     return Beliefs(scenario, camera, config, 0, 0, 1.0).problem
 
 
@@ -349,4 +432,6 @@ __all__ = [
     "Find",
     "expected_problem",
     "initial_working_problem",
+    "operator_ids",
+    "spot_depth",
 ]

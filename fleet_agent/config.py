@@ -119,6 +119,12 @@ class AgentConfig:
     # The operator's live orders (`policies.orders`): one issued longer ago than this is
     # refused as stale (a recording kept back and played later, a topside far behind).
     ctl_max_age_s: float = 600.0
+    # Spots the operator may add (`add-spot`): slots after the finds' in the working problem,
+    # also on an exact map (the fleet's bitmaps cover them; more adds are refused, no_room).
+    operator_slots: int = 4
+    # A paused vehicle goes home once holding station longer would leave it less than this
+    # beyond the time home from where it keeps station (the planner's reserve kept too).
+    pause_margin_s: float = 60.0
     # Matching under uncertainty (`fleet_agent.association`, docs/search.md): how far a
     # predicted spot may be from its aggregation on the map (per axis, 1 sigma; a property of
     # the survey: 0.5 for the dynamic generator's exact maps) and an aggregation's radius.
@@ -175,10 +181,12 @@ class AgentConfig:
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"agent config: {name} must be true or false, got "
                                  f"{getattr(self, name)!r}")
-        if not (isinstance(self.find_slots, int) and 0 <= self.find_slots <= 64):
-            raise ValueError(f"agent config: find_slots must be an integer 0..64, got "
-                             f"{self.find_slots!r}")
+        for name in ("find_slots", "operator_slots"):
+            if not (isinstance(getattr(self, name), int) and 0 <= getattr(self, name) <= 64):
+                raise ValueError(f"agent config: {name} must be an integer 0..64, got "
+                                 f"{getattr(self, name)!r}")
         for name in ("coop_min_slack_s", "battery_reserve_s", "aggregation_radius_m",
+                     "pause_margin_s",
                      "find_settle_cycles", "claim_settle_cycles", "takeover_wait_s",
                      "slot_reuse_m", "schedule_margin_m",
                      "takeover_doubt", "map_sigma_m", "aggregation_extent_m",

@@ -37,7 +37,9 @@ class Fleet:
 
     In a dynamic mission ``problem`` is the working problem before anything is seen
     (`fleet_agent.beliefs`: predicted spots at their expected value, then a slot per possible
-    find) and the initial plan is made on the expected values."""
+    find and the operator's slots) and the initial plan is made on the expected values. On an
+    exact map it is the scenario and the operator's slots (the scenario itself without them),
+    and the initial plan is made on the scenario (``scenario``: the map as given)."""
 
     problem: Problem
     codec: Codec
@@ -52,6 +54,12 @@ class Fleet:
     chains: FleetChains | None = None  # every vehicle's key chain (`fleet_bus.tesla`)
     orders: OrderCodec | None = None  # the operator's orders' frames (`fleet_bus.orders`)
     topside: TopsideSchedule = TopsideSchedule()  # the topside's key intervals
+    scenario: Problem | None = None  # the map as given (None: ``problem`` itself)
+
+    @property
+    def given(self) -> Problem:
+        """The scenario as given, without the slots of the working problem."""
+        return self.scenario if self.scenario is not None else self.problem
 
     @staticmethod
     def build(problem: Problem, key: bytes, seed: int, config: AgentConfig,
@@ -69,17 +77,21 @@ class Fleet:
             fleet = Fleet._build_dynamic(problem, key, seed, config, run_id, camera, modem,
                                          chains)
         else:
-            codec = Fleet.wire_of(problem, key, run_id, config, None, modem)
+            working = initial_working_problem(problem, None, config)
+            codec = Codec.for_problem(working, key, run_id,
+                                      max_frame_bytes=modem.max_frame_bytes)
             planner = planner or Planner.from_config(problem, seed, config)
             routes = planner.initial_routes()
+            if working is not problem:  # the operator's slots: replans are on the working one
+                planner = Planner.from_config(working, seed, config)
             tracks = tuple(nominal_tracks(problem, routes))
             schedule = schedule_of(tracks, config)
-            fleet = Fleet(problem, codec, planner, path_function(problem), seed, routes,
+            fleet = Fleet(working, codec, planner, path_function(working), seed, routes,
                           modem=modem, tracks=tracks, schedule=schedule,
                           chains=chains_for(problem, schedule, key, run_id, chains))
         return replace(fleet, orders=OrderCodec(key, run_id, tuple(
             v.id for v in problem.vehicles)), topside=TopsideSchedule.for_fleet(
-            problem.n_vehicles * config.slot_s))
+            problem.n_vehicles * config.slot_s), scenario=problem)
 
     @staticmethod
     def wire_of(problem: Problem, key: bytes, run_id: str, config: AgentConfig,
@@ -87,7 +99,8 @@ class Fleet:
         """The wire codec every agent of this mission builds (`build`), without the initial
         plan: what a launcher needs to speak the fleet's frames (its insider attacks)."""
         if camera is None:
-            return Codec.for_problem(problem, key, run_id, max_frame_bytes=modem.max_frame_bytes)
+            return Codec.for_problem(initial_working_problem(problem, None, config), key,
+                                     run_id, max_frame_bytes=modem.max_frame_bytes)
         working = initial_working_problem(problem, camera, config)
         return _dynamic_codec(working, problem.n_tasks, key, run_id, modem)
 

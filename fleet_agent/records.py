@@ -156,8 +156,26 @@ class OrderTaken:
         return {"k": "ord", "t": self.t_s, "n": self.seq, "verb": self.verb}
 
 
+@dataclass(frozen=True)
+class SpotAdded:
+    """The operator's add-spot taken at ``t_s``: the spot in operator slot ``slot``, where,
+    rho and t (`beliefs.Beliefs.add_spot`). Durable: the order is taken once, so a restarted
+    agent rebuilds the spot from this record, never from the order again."""
+
+    t_s: float
+    slot: int
+    pos: tuple[float, float, float]
+    priority: float
+    service_s: float
+    durable: bool = True
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "add", "t": self.t_s, "s": self.slot, "pos": list(self.pos),
+                "r": self.priority, "d": self.service_s}
+
+
 JournalRecord = Union[Start, Clear, Hold, PeerState, Aborted, Home, Restarted, Checkpoint,
-                      FoundSpot, OrderTaken]
+                      FoundSpot, OrderTaken, SpotAdded]
 
 
 def _ints(value: Any) -> tuple[int, ...]:
@@ -192,10 +210,12 @@ def parse(doc: Mapping[str, Any]) -> JournalRecord | None:
             return Restarted(t)
         if k == "start":
             return Start(t, int(doc.get("i", -1)))
-        if k == "find":
+        if k in ("find", "add"):
             pos = tuple(float(c) for c in doc["pos"])
             if len(pos) != 3:
                 return None
+            if k == "add":
+                return SpotAdded(t, int(doc["s"]), pos, float(doc["r"]), float(doc["d"]))
             return FoundSpot(t, int(doc["s"]), pos, float(doc["r"]),
                              float(doc["d"]), sigma_m=float(doc.get("sig", 0.0)))
         if k == "ckpt":

@@ -1,6 +1,7 @@
 """How an agent comes back from its journal after a restart: a pure fold into a `Snapshot`.
 
-What comes back: the cleared set, its own treatments, the finds it knew, every claim and
+What comes back: the cleared set, its own treatments, the finds it knew, the spots the
+operator added (`records.SpotAdded`: the order itself is taken once), every claim and
 release it heard, peers' final states (aborted, home), whether it had aborted or got home,
 and its last checkpoint (position, distance, route, sequence number, replay high-water
 marks). `fold` reads records only; `restore` applies it to the agent. Time
@@ -21,7 +22,8 @@ from fleet_agent.knowledge import Knowledge
 from fleet_agent.outbox import Owed
 from fleet_agent.radio import Radio
 
-KNOWN_KINDS = ("start", "clr", "hold", "peer", "abort", "home", "restart", "ckpt", "find")
+KNOWN_KINDS = ("start", "clr", "hold", "peer", "abort", "home", "restart", "ckpt", "find",
+               "add")
 
 
 @dataclass
@@ -32,6 +34,7 @@ class Snapshot:
     treated: list[tuple[int, float]] = field(default_factory=list)  # own, in order
     injections: list[tuple[float, float, float]] = field(default_factory=list)  # Clear.at
     finds: list[rec.FoundSpot] = field(default_factory=list)
+    added: list[rec.SpotAdded] = field(default_factory=list)  # the operator's spots
     holds: list[rec.Hold] = field(default_factory=list)
     finals: list[rec.PeerState] = field(default_factory=list)  # peers aborted or home
     aborted: bool = False
@@ -62,6 +65,8 @@ def fold(journal: Sequence[Mapping[str, Any]], n_tasks: int) -> Snapshot:
                         snap.treated.append((t, r.t_s))
         elif isinstance(r, rec.FoundSpot):
             snap.finds.append(r)
+        elif isinstance(r, rec.SpotAdded):
+            snap.added.append(r)
         elif isinstance(r, rec.Hold):
             snap.holds.append(r)
         elif isinstance(r, rec.PeerState) and r.status in (mb.ABORTED, mb.HOME):
@@ -86,6 +91,8 @@ def restore(snap: Snapshot, know: Knowledge, radio: Radio, base_route: Sequence[
     know.injections.extend(Estimate((x, y), s) for x, y, s in snap.injections)
     for f in snap.finds:
         know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s, f.sigma_m)
+    for a in snap.added:
+        know.beliefs.add_spot(a.slot, a.pos, a.priority, a.t_s, a.service_s)
     for h in snap.holds:
         know.holdings.apply(h.v, h.t_s, list(h.tasks), h.claim)
     for p in snap.finals:
@@ -94,7 +101,7 @@ def restore(snap: Snapshot, know: Knowledge, radio: Radio, base_route: Sequence[
     for peer in know.members.peers.values():
         peer.evidence_s = max(peer.evidence_s, now)
         peer.since_s = max(peer.since_s, now)
-    know.rebind()  # finds back in the working problem before the route aims at them
+    know.rebind()  # finds and added spots back in the working problem before the route
     ck = snap.checkpoint
     if ck is not None:
         radio.last_seq = ck.seq

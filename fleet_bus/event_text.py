@@ -21,7 +21,7 @@ LEVELS = {"abort": "WARN", "recall": "WARN", "lost": "WARN", "suspect": "WARN",
 # Kinds an operator reads after a mission (the terminal, report.md); the others (claims,
 # clears, replans, inspections) are many and their sums are in the report's figures.
 NOTABLE = ("abort", "suspect", "lost", "revived", "takeover", "claim_lost", "restart", "rejoined",
-           "refused", "found", "order", "recall", "pause", "resume", "dropped")
+           "refused", "found", "order", "recall", "pause", "resume", "dropped", "added")
 
 
 def spot_list(ids: Sequence[int], word: str = "spot") -> str:
@@ -66,6 +66,13 @@ def _found(e: Event) -> str:
             + (f" (find {e.tasks[0]})" if len(e.tasks) == 1 else ""))
 
 
+def _added(e: Event) -> str:
+    pos, rho = _position(e), find_priority(e.detail)
+    return (f"{e.id} added {spot_list(e.tasks)} on the operator's order"
+            + (f" at {where(pos)}" if pos is not None else "")
+            + (f", priority {rho:g}" if rho is not None else ""))
+
+
 def _cleared(e: Event) -> str:
     pos = _position(e)
     if pos is not None and len(e.tasks) == 1:
@@ -104,7 +111,7 @@ _WORDS: dict[str, Callable[[Event], str]] = {
     "claim": lambda e: f"{e.id} claimed {spot_list(e.tasks)}",
     "claim_lost": lambda e: f"{e.id} gave up {spot_list(e.tasks)} to "
                             f"{e.peer or 'a peer'}'s earlier claim",
-    "abort": lambda e: f"{e.id} aborted its mission",
+    "abort": lambda e: f"{e.id} aborted its mission{_detail(e)}",
     "suspect": lambda e: f"{e.id} has not heard {e.peer or 'a peer'} for a while and "
                          "suspects it is lost",
     "lost": _lost,
@@ -122,6 +129,7 @@ _WORDS: dict[str, Callable[[Event], str]] = {
     "pause": lambda e: f"{e.id} keeps station: paused by the operator",
     "resume": lambda e: f"{e.id} goes on: resumed by the operator",
     "dropped": lambda e: f"{e.id} dropped {spot_list(e.tasks)} on the operator's order",
+    "added": _added,
 }
 EVENT_WORDS = frozenset(_WORDS)
 

@@ -122,7 +122,7 @@ class FleetLedger:
         # (vehicle, id) -> when it was treated: the earliest report (an event is stamped when
         # the injection ended; a status that lists it may come first, stamped later)
         self.treated_at: dict[tuple[str, int], tuple[float, int]] = {}
-        self.positions: dict[int, Point] = {}  # find id -> where it was reported
+        self.positions: dict[int, Point] = {}  # find (or added spot) id -> where reported
         self.found: set[int] = set()  # find ids reported
         self.empty: set[int] = set()  # predicted spots inspected and found empty
         self._order = 0
@@ -142,7 +142,7 @@ class FleetLedger:
             self.events.pop(0)
             self.events_dropped += 1
         self.events.append(e)
-        if e.kind in ("found", "cleared") and len(e.tasks) == 1:
+        if e.kind in ("found", "cleared", "added") and len(e.tasks) == 1:
             pos = detail_position(e.detail)
             if pos is not None:
                 self.positions.setdefault(e.tasks[0], pos)

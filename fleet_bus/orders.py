@@ -3,7 +3,10 @@
 An order (`Order`) is ``recall``, ``abort``, ``pause`` or ``resume`` of one vehicle or all,
 ``add-spot X Y PRIORITY`` or ``drop-spot ID``, numbered by the operator (``seq``, one counter
 per operator: the vehicles refuse a number they took before) and dated (``issued_s``, mission
-time: the vehicles refuse one older than their ``ctl_max_age_s``).
+time: the vehicles refuse one older than their ``ctl_max_age_s``). An add-spot also carries
+its own number among the operator's add-spots (``added``, from 0): every vehicle names the
+spot by it (the operator's slot ``added`` of `fleet_agent.beliefs`), so all name it alike
+whatever order they hear the orders in, and all refuse it alike once the slots are full.
 
 Under water an order travels from the topside modem (at the boat) as an ORDER frame, and the
 vehicles pass it on verbatim. An insider vehicle holds the fleet key, so the fleet MAC cannot
@@ -15,14 +18,15 @@ sent in topside interval ``i`` (``TopsideSchedule``) carries a 4-byte tag under 
 key, and KEY frames carry nothing else), and the vehicles pass those on too. A vehicle acts
 on an order once a disclosed key proves its tag; a frame heard after its key could be out
 proves nothing (``late``). The lag leaves the vehicles room to pass a frame on while its key
-is still secret. Costs: 42 B for the largest ORDER frame (8 B of them the disclosed key and
+is still secret. Costs: 43 B for the largest ORDER frame (8 B of them the disclosed key and
 the tag), 18 B a KEY frame; an order is acted on ``lag`` intervals after it was sent at most
 (60 s with 30 s intervals), earlier if a key comes sooner.
 
 Frames (big-endian; kinds 15, 14, 13 of wire version 3, which vehicle frames never use):
 
     ORDER  0x3F | 0xFF | sent_s u32 | seq u32 | issued_s u32 | verb u8 | target u8 |
-           args (add-spot: x dm i32, y dm i32, priority tenths u16; drop-spot: spot u16) |
+           args (add-spot: x dm i32, y dm i32, priority tenths u16, added u8;
+                 drop-spot: spot u16) |
            disclosed key 8 | tag 4 | MAC 4
     KEY    0x3E | 0xFF | sent_s u32 | disclosed key 8 | MAC 4
     ACK    0x3D | vehicle index | sent_s u32 | seq u32 | result u8 | MAC 4
@@ -57,11 +61,14 @@ KIND_ORDER, KIND_KEY, KIND_ACK = 15, 14, 13
 KEY_BYTES, TAG_BYTES, MAC_BYTES = 8, 4, 4
 # Why a vehicle refused an order (counters `ctl_<reason>`, ACK results 1..); ACKED: taken.
 ACKED = 0
-REFUSALS = ("unsigned", "replayed", "stale", "malformed", "unknown_spot", "no_room")
+# ``no_room``: an add-spot beyond the vehicles' operator slots; ``on_land``: one no vehicle
+# can reach (appended: the ACK results of the others keep their numbers).
+REFUSALS = ("unsigned", "replayed", "stale", "malformed", "unknown_spot", "no_room", "on_land")
+MAX_ADDED = 255  # an add-spot's own number is one byte
 MAX_SEQ = 2**32 - 1
 _HEAD = struct.Struct(">BBI")  # version|kind, sender, sent_s
 _ORDER = struct.Struct(">IIBB")  # seq, issued_s, verb, target
-_ADD = struct.Struct(">iiH")  # x, y in decimetres, priority in tenths
+_ADD = struct.Struct(">iiHB")  # x, y in decimetres, priority in tenths, added
 _DROP = struct.Struct(">H")
 _ACK = struct.Struct(">IB")  # seq, result
 MAX_ORDER_BYTES = _HEAD.size + _ORDER.size + _ADD.size + KEY_BYTES + TAG_BYTES + MAC_BYTES
@@ -75,7 +82,8 @@ class OrderError(ValueError):
 class Order:
     """``verb`` for ``target`` (a vehicle id or `ALL`; add-spot and drop-spot are the fleet's),
     numbered ``seq`` by the operator and issued at mission time ``issued_s``; ``x, y,
-    priority`` for add-spot, ``spot`` (a scenario spot index) for drop-spot."""
+    priority`` and ``added`` (its number among the operator's add-spots, from 0) for
+    add-spot, ``spot`` (a scenario spot index) for drop-spot."""
 
     verb: str
     target: str = ALL
@@ -85,6 +93,7 @@ class Order:
     y: float = 0.0
     priority: float = 0.0
     spot: int = -1
+    added: int = 0
 
     def __post_init__(self) -> None:
         if self.verb not in VERBS:
@@ -99,6 +108,8 @@ class Order:
             if not (all(math.isfinite(c) and abs(c) < 2e8 for c in (self.x, self.y))
                     and 0 < self.priority <= 6553.5):
                 raise OrderError("add-spot takes X Y in metres and a priority in (0, 6553.5]")
+            if not 0 <= self.added <= MAX_ADDED:
+                raise OrderError(f"add-spot number {self.added} out of range")
         if self.verb == "drop-spot" and not 0 <= self.spot < 65536:
             raise OrderError("drop-spot takes a spot id")
 
@@ -112,7 +123,7 @@ class Order:
     def to_doc(self) -> dict:
         return {"verb": self.verb, "target": self.target, "seq": self.seq,
                 "issued_s": self.issued_s, "x": self.x, "y": self.y,
-                "priority": self.priority, "spot": self.spot}
+                "priority": self.priority, "spot": self.spot, "added": self.added}
 
     @staticmethod
     def from_doc(doc: dict) -> "Order":
@@ -120,7 +131,7 @@ class Order:
             return Order(str(doc["verb"]), str(doc.get("target", ALL)), int(doc.get("seq", 0)),
                          float(doc.get("issued_s", 0.0)), float(doc.get("x", 0.0)),
                          float(doc.get("y", 0.0)), float(doc.get("priority", 0.0)),
-                         int(doc.get("spot", -1)))
+                         int(doc.get("spot", -1)), int(doc.get("added", 0)))
         except (KeyError, TypeError, ValueError) as exc:
             raise OrderError(f"not an order: {exc}") from None
 
@@ -302,7 +313,7 @@ class OrderCodec:
         body = _ORDER.pack(order.seq, int(order.issued_s), VERBS.index(order.verb), target)
         if order.verb == "add-spot":
             body += _ADD.pack(round(order.x * 10), round(order.y * 10),
-                              round(order.priority * 10))
+                              round(order.priority * 10), order.added)
         elif order.verb == "drop-spot":
             body += _DROP.pack(order.spot)
         data = head + body + bytes(disclosed)
@@ -354,8 +365,8 @@ class OrderCodec:
             raise OrderError("malformed") from None
         try:
             if verb == "add-spot" and len(args) == _ADD.size:
-                x, y, p = _ADD.unpack(args)
-                order = Order(verb, who, seq, issued, x / 10, y / 10, p / 10)
+                x, y, p, added = _ADD.unpack(args)
+                order = Order(verb, who, seq, issued, x / 10, y / 10, p / 10, added=added)
             elif verb == "drop-spot" and len(args) == _DROP.size:
                 order = Order(verb, who, seq, issued, spot=_DROP.unpack(args)[0])
             elif verb in VEHICLE_VERBS and not args:

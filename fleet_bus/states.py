@@ -62,6 +62,7 @@ class EventKind(StrEnum):
     PAUSE = "pause"  # paused by the operator: keeping station
     RESUME = "resume"  # resumed by the operator
     DROPPED = "dropped"  # a spot the operator dropped: nobody treats it
+    ADDED = "added"  # a spot the operator added (tasks: its id; detail: "x,y,z rho r")
     # dynamic missions (a hidden reef): what the camera showed
     FOUND = "found"  # an aggregation the map missed (tasks: its find id; detail: "x,y,z rho r")
     EMPTY = "empty"  # a predicted spot inspected and found empty

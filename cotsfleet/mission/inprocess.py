@@ -363,18 +363,20 @@ class InProcessBackend:
         agents = {v: s.agent for v, s in self.seats.items()}
         survivors = [a for v, a in agents.items() if v != vid and a is not None
                      and not a.own.done and not a.own.aborted]
+        n = self.problem.n_tasks  # the map's spots (not the operator's added ones)
+        idx = self.problem.task_index
         cleared = frozenset(t for a in agents.values() if a is not None
-                            for t, _ in a.know.treated) | frozenset(
-            self.problem.task_index[x] for vid, s in self.seats.items()
+                            for t, _ in a.know.treated if t < n) | frozenset(
+            idx[x] for vid, s in self.seats.items()
             if s.agent is None and vid in self.ledger.statuses
-            for x in self.ledger.statuses[vid].treated)
+            for x in self.ledger.statuses[vid].treated if x in idx)
         live = []
         for a in survivors:
             v = a.own
-            locked = (v.injecting,) if v.injecting is not None else ()
+            locked = (v.injecting,) if v.injecting is not None and v.injecting < n else ()
             pos = (float(v.pos[0]), float(v.pos[1]), float(v.pos[2]))
-            live.append(Live(a.index, pos, v.battery_left_s(now), tuple(v.route),
-                             locked))
+            live.append(Live(a.index, pos, v.battery_left_s(now),
+                             tuple(t for t in v.route if t < n), locked))
         planner = Planner(self.problem, self.seed, 0, self.oracle_iterations,
                           self.config.battery_reserve_s)
         routes = planner.replan(live, cleared, {}, seed=self.seed) if live else {}

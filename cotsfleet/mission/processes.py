@@ -88,7 +88,7 @@ from fleet_bus.orders import TOPSIDE, OrderCodec, TopsideSchedule
 from fleet_bus.process import ROUTER_READY
 from fleet_bus.query_limits import QueryGate, gate_queryable
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
-from fleet_agent.beliefs import find_ids
+from fleet_agent.beliefs import find_ids, operator_ids
 from hfc_core.model.problem import Problem
 from reef_sim.truth import reef_from_doc
 
@@ -232,8 +232,11 @@ class ProcessBackend:
         self._closed = False
         self._closing = threading.Event()  # ends stall threads (they SIGCONT on the way out)
         self._stallers: list[threading.Thread] = []
-        # Dynamic missions: finds are named by ids past the scenario's (`beliefs.find_ids`).
-        finds = find_ids(problem, opts.agent_config) if "truth" in scenario else range(0)
+        # Dynamic missions: finds are named by ids past the scenario's (`beliefs.find_ids`);
+        # the operator's added spots by ids past those, in every mission (`operator_ids`).
+        added = operator_ids(problem, opts.agent_config)
+        finds = range(find_ids(problem, opts.agent_config).start if "truth" in scenario
+                      else added.start, added.stop)
         self.intake = Intake(problem, self.ids, self.run_id, finds, self._busy,
                              self.intruder.overhear)
         self.queries = QueryGate(None)  # who asks the operator what (`start`: with the key)

@@ -1,5 +1,6 @@
-"""The operator's topside modem: numbers the operator's orders, sends them into the water until
-acknowledged, discloses its key chain, and keeps what the report says of them.
+"""The operator's topside modem: numbers the operator's orders (and its add-spots apart:
+`fleet_bus.orders.Order.added` names the spot's slot on every vehicle), sends them into the
+water until acknowledged, discloses its key chain, and keeps what the report says of them.
 
 Pure (no I/O, no clock): a backend calls `submit` when the operator orders, `frames(now)` at
 `next_s` (and right after a submit) and transmits what it returns from the topside's position
@@ -20,8 +21,8 @@ from typing import Any, Sequence
 
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
-from fleet_bus.orders import (ACKED, ALL, REFUSALS, AckFrame, Order, OrderCodec, OrderError,
-                              TopsideSchedule)
+from fleet_bus.orders import (ACKED, ALL, MAX_ADDED, REFUSALS, AckFrame, Order, OrderCodec,
+                              OrderError, TopsideSchedule)
 from fleet_bus.tesla import KeyChain
 from hfc_core.model.problem import Problem
 
@@ -49,6 +50,7 @@ class Topside:
         self.refused: dict[str, int] = {}  # requests the topside itself refused, by reason
         self.acks_heard = 0
         self._next_seq = 1
+        self._next_added = 0  # the operator's add-spots, numbered apart (`Order.added`)
         self._keys_until = 0  # the last interval in which a KEY frame is owed
         self._last_interval = 0  # the interval of the last `frames` call
 
@@ -57,9 +59,14 @@ class Topside:
         if order.target != ALL and order.target not in self.codec.vehicles:
             self.refused["unknown_vehicle"] = self.refused.get("unknown_vehicle", 0) + 1
             raise OrderError(f"no vehicle {order.target!r} in this mission")
+        added = self._next_added if order.verb == "add-spot" else 0
+        if order.verb == "add-spot" and added > MAX_ADDED:
+            self.refused["too_many_adds"] = self.refused.get("too_many_adds", 0) + 1
+            raise OrderError(f"the topside numbers at most {MAX_ADDED + 1} add-spots")
         numbered = Order(order.verb, order.target, self._next_seq, int(now), order.x, order.y,
-                         order.priority, order.spot)
+                         order.priority, order.spot, added)
         self._next_seq += 1
+        self._next_added += order.verb == "add-spot"
         self.orders[numbered.seq] = Sent(numbered)
         self._last_interval = 0  # send it now, not at the next interval
         return numbered
@@ -174,6 +181,6 @@ def forged_frame(codec: OrderCodec, schedule: TopsideSchedule, length: int, orde
     """`forged_order` from the parts a launcher holds (the fleet key's codec, the schedule)."""
     fake = KeyChain(b"an insider's own made-up seed", length)
     numbered = Order(order.verb, order.target, 4_000_000_000, int(now), order.x, order.y,
-                     order.priority, order.spot)
+                     order.priority, order.spot, order.added)
     i = schedule.interval(now)
     return codec.order(numbered, now, fake.key(i), fake.key(max(1, i - 1)))

@@ -7,7 +7,9 @@ at most ``coop_spots``), so the replan's size does not grow with the fleet.
 On a map that is a prior, a find is worth what it holds and a predicted spot only what it is
 expected to: its finder weighs a free find against the route's predicted spots even without
 spare battery, and may give up a spot of its own for it (the replanner's call). On an exact
-map a cooperation never costs the vehicle a spot of its own (`route.keeping_own`).
+map a cooperation never costs the vehicle a spot of its own (`route.keeping_own`), unless it
+gains a spot the operator added: every vehicle weighs those, with or without spare battery,
+as a finder weighs its find.
 """
 
 from __future__ import annotations
@@ -51,8 +53,12 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
     # vehicle whose plan fills its battery would pass an aggregation it has just seen. Only
     # the finder: every vehicle that hears of a find is told to look when it has settled, and
     # claims made in the same cycle race; under loss the loser may never hear it lost
-    # (duplicates in benchmarks/dynamic.py at 30 % loss when all looked).
-    finds = any(t >= beliefs.n and beliefs.finder(t) == know.index for t in free)
+    # (duplicates in benchmarks/dynamic.py at 30 % loss when all looked). The operator's
+    # added spots are weighed by every vehicle: nobody found them, the operator asked for
+    # them, and the claim contest (earliest claim, settled before work) leaves one vehicle.
+    weigh = [t for t in free if (beliefs.is_find_slot(t) and beliefs.finder(t) == know.index)
+             or t in beliefs.added]
+    finds = bool(weigh)
     slack = own.slack_s(config.battery_reserve_s)
     if not finds and (slack < config.coop_min_slack_s or not detour_fits(own, free, slack)):
         return []
@@ -60,8 +66,7 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
     # spare battery (and this vehicle's own finds), at most ``coop_spots``: the problem does
     # not grow with the fleet's spots.
     offered = cheapest_detours(own, free, slack, config.coop_spots)
-    offered += [t for t in free if t >= beliefs.n and beliefs.finder(t) == know.index
-                and t not in offered]
+    offered += [t for t in weigh if t not in offered]
     mine = cooperation_route(know.planner, live_self(own), know.unavailable(now),
                              know.held_map(), seed=know.fleet.seed * 1000 + 100 + know.index,
                              offered=offered)
@@ -70,7 +75,9 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
     if not gained:
         return out
     out.append(Hold(tuple(gained), True))
-    if not beliefs.exact:  # a spot of ours is worth what it is expected to hold
+    if not beliefs.exact or any(t in beliefs.added for t in gained):
+        # a spot of ours is worth what it is expected to hold; the operator's is worth what
+        # the operator said, maybe more than one of ours (the replanner's call)
         return out + [Steer(tuple(mine), "cooperation")]
     held = [t for t in own.route if t not in know.cleared]
     planned = keeping_own(own, config.battery_reserve_s, mine, held, ())

@@ -126,7 +126,7 @@ def treated_estimates(know: Knowledge, finds_only: bool = False,
     for t in know.cleared:
         if t == but or t in know.folded or (t < b.n and (finds_only or b.state[t] == EMPTY)):
             continue
-        if t >= b.n and t not in b.finds:
+        if t >= b.n and t not in b.finds and t not in b.added:
             continue
         out.append(b.estimate(t))
     return out
@@ -136,11 +136,12 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     """Never treat a spot twice (docs/search.md, "Never twice"): a spot nobody has cleared
     whose estimate could be an aggregation already treated is cleared too (a find held
     against every treated spot, a predicted spot against treated finds: the map says its
-    spots are distinct). Run when the cleared set or the finds change."""
+    spots are distinct; an operator's added spot is held as a find is). Run when the cleared
+    set, the finds or the added spots change."""
     b = know.beliefs
     if b.exact:
         return []
-    key = (len(know.cleared), len(b.finds), len(b.alias))
+    key = (len(know.cleared), len(b.finds) + len(b.added), len(b.alias))
     if key == know.fold_key:
         return []
     know.fold_key = key
@@ -154,7 +155,7 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     if not all_treated:
         return []
     new = []
-    for s, f in b.finds.items():
+    for s, f in [*b.finds.items(), *b.added.items()]:
         if s in know.cleared or s in b.alias:
             continue
         if probably_treated(f.estimate, all_treated, params):
@@ -168,7 +169,7 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
         return []
     know.folded.update(new)
     know.clear(new)
-    know.fold_key = (len(know.cleared), len(b.finds), len(b.alias))
+    know.fold_key = (len(know.cleared), len(b.finds) + len(b.added), len(b.alias))
     return [Count("spots_judged_treated", len(new)), Note(Clear(now, tuple(new), own=False)),
             Tell(now, "judged_treated", tuple(new))]
 
@@ -222,6 +223,8 @@ def on_found(know: Knowledge, msg: Found, now: float) -> list[Intent]:
     b = know.beliefs
     if b.exact:
         return [Count("drop_found_static")]
+    if not b.is_find_slot(msg.slot):
+        return [Count("drop_found_not_a_find")]  # the operator's slots: from its orders only
     conflicts, refused = b.conflicts, b.refused
     out: list[Intent] = []
     if b.add_find(msg.slot, msg.pos, msg.priority, msg.service_s, now, msg.sigma_m):

@@ -22,6 +22,11 @@ figure, else the time since the last fix the driver handed over). Two rules, aft
   its route refitted from where the vehicle really is (`Steer`, the battery fit from the last
   fix). The baseline restarts whenever the route changes (a spot done, a replan) and after
   each ``late``.
+- *A vehicle the operator paused* keeps station (`command`) until resumed, but never past its
+  battery: once what is left of it, less the planner's reserve, is within
+  ``config.pause_margin_s`` of the time home from where it keeps station, it gives the mission
+  up and heads home (an abort, announced so its spots are taken over), and says so: the event
+  ``abort`` (detail: why) and the counter ``pause_battery_home``.
 
 Pure: no clock, no I/O; the agent keeps one `Navigation`, applies what `check` returns and
 commands its vehicle through `command_key` and `command` (the route's, or the hold).
@@ -49,6 +54,7 @@ class Navigation:
     def __init__(self, config: AgentConfig) -> None:
         self.hold_s, self.limit_s = config.nav_hold_s, config.nav_limit_s
         self.late_s = config.late_after_s
+        self.reserve_s, self.pause_margin_s = config.battery_reserve_s, config.pause_margin_s
         self.holding = False  # keeping station for want of navigation
         self.lost = False  # gave the mission up for want of navigation
         self.paused = False  # the operator's pause (`policies.orders`): hold while under way
@@ -78,6 +84,8 @@ class Navigation:
         if age > self.hold_s and not self.lost:
             return self._stale(know, now, age, active)
         out: list[Intent] = []
+        if self.paused and active and self._holds(own):
+            out += self._pause_battery(know, now)
         if self._stale_since is not None:  # fixes came back
             gap = max(0.0, now - self._stale_since)
             out += [Tell(now, "navigation", detail=f"back after {gap:.0f} s; going on from "
@@ -114,6 +122,20 @@ class Navigation:
             return out
         self.holding = own.activity in MOVING
         return out
+
+    def _pause_battery(self, know: Knowledge, now: float) -> list[Intent]:
+        """Paused: home once holding longer would leave too little battery to get there."""
+        own = know.own
+        home_s = own.leg_time_s(own.pos, own.rendezvous)
+        left_s = own.battery_left_s(now) - self.reserve_s
+        if left_s - home_s > self.pause_margin_s:
+            return []
+        self.paused = False
+        own.abort()
+        return [Count("pause_battery_home"), Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1),
+                Note(rec.Aborted(now)),
+                Tell(now, "abort", detail=f"paused with {max(0.0, left_s):.0f} s of battery "
+                     f"left, {home_s:.0f} s from home: heading home")]
 
     def _progress(self, know: Knowledge, now: float) -> list[Intent]:
         """Late: the projected end has grown by ``late_s`` since the route was set."""

@@ -14,8 +14,12 @@ passed on by a peer. It is held until the topside discloses the key of the frame
 - acted on when it names this vehicle or all: ``recall`` goes home now, announced as an abort
   is (peers take its spots over as after an abort) and said as a recall; ``abort`` is the
   operator's abort; ``pause`` keeps station (`policies.navigation`'s hold) until ``resume``;
-  ``drop-spot`` marks the spot done for everyone, never treated; ``add-spot`` is refused where
-  the mission has no room for spots found during it (``no_room``).
+  ``drop-spot`` marks the spot done for everyone, never treated; ``add-spot`` puts the spot
+  in the operator's slot its number names (`Order.added`; `beliefs`: the same task index on
+  every vehicle, so the fleet's claims and cleared set cover it as any spot, and one vehicle
+  treats it), journals it (``"k": "add"``: a restarted agent rebuilds it) and looks for work;
+  refused as ``no_room`` beyond the operator's slots (``operator_slots``), as ``on_land``
+  where no vehicle could go.
 
 A vehicle passes on (once each) every ORDER frame whose key is still secret by its next slot,
 every topside key it learns, and every other vehicle's ACK, and acknowledges each order it
@@ -37,6 +41,7 @@ from fleet_agent.policies.navigation import Navigation
 from fleet_agent import records as rec
 from fleet_bus.orders import (ACKED, ALL, REFUSALS, AckFrame, KeyFrame, Order, OrderCodec,
                               OrderError, OrderFrame, TopsideSchedule)
+from fleet_bus.telemetry import position_detail
 from fleet_bus.tesla import CLOCK_MARGIN_S, Held, Sender
 
 MAX_LEAD_S = 30.0  # a topside frame dated further ahead of this vehicle's clock is refused
@@ -175,7 +180,23 @@ class Orders:
             new = know.clear([task])
             return [Note(rec.Clear(now, (task,), own=False)), Owe(Owed.CLEARED, 1),
                     Tell(now, "dropped", (task,)), SeekWork()] if new else []
-        return "no_room"  # add-spot: see the module docstring
+        return self._add(order, now, know)
+
+    @staticmethod
+    def _add(order: Order, now: float, know: Knowledge) -> list[Intent] | str:
+        """The operator's add-spot: its slot from its number, the same on every vehicle."""
+        b = know.beliefs
+        slot = b.op_slot(order.added)
+        if slot is None:
+            return "no_room"
+        why = b.add_spot(slot, b.added_at(order.x, order.y), order.priority, now)
+        if why is not None:
+            return why
+        spot = b.added[slot]
+        know.touch()
+        return [Note(rec.SpotAdded(now, slot, spot.pos, spot.priority, spot.service_s)),
+                Tell(now, "added", (slot,), detail=f"{position_detail(spot.pos)} rho "
+                     f"{spot.priority:g}"), SeekWork()]
 
     # -- frames out --------------------------------------------------------------------------
 

@@ -71,7 +71,7 @@ def _known_or_its_own(beliefs: Beliefs, sender: int, t: int) -> bool:
     before the FOUND frame arrives). A slot of someone else's we have not heard of waits for a
     second word: otherwise one CLEARED frame with every bit set would wipe out, ahead of
     time, every find the fleet is yet to make."""
-    return t < beliefs.n or t in beliefs.finds or (beliefs.cap > 0 and beliefs.finder(t) == sender)
+    return beliefs.known(t) or (beliefs.is_find_slot(t) and beliefs.finder(t) == sender)
 
 
 def been_there(know: Knowledge, sender: int, task: int, now: float) -> bool:

@@ -99,3 +99,32 @@ def test_orders_are_checked_before_the_mission(problem) -> None:
     for bad in ("launch:auv1@100", "recall@100", "add-spot:1:2@100", "drop-spot:x@5"):
         with pytest.raises(FaultError):
             parse_faults(ctls=[bad])
+
+
+def test_an_added_spot_is_planned_and_treated_once_by_one_vehicle(problem, alone) -> None:
+    xyz = problem.xyz[:problem.n_tasks]
+    x, y = float(xyz[:, 0].mean()), float(xyz[:, 1].mean())
+    r = simulate(problem, CONFIG, seed=1, faults=parse_faults(
+        ctls=[f"add-spot:{x:.0f}:{y:.0f}:80@300"]))
+    added = [e for e in r.events if e.kind == "added"]
+    assert {e.id for e in added} == {"auv1", "auv2", "auv3"}
+    (spot,) = {tuple(e.tasks) for e in added}  # one id fleet-wide
+    treated = [e for e in r.events if e.kind == "cleared" and tuple(e.tasks) == spot]
+    assert len(treated) == 1  # by one vehicle, once
+    assert r.report.fleet.duplicate_treatments == 0 and r.report.fleet.vehicles_home == 3
+    c = r.report.commands
+    assert c is not None and set(c.sent[0].acked) == {"auv1", "auv2", "auv3"}
+    assert c.sent[0].order == f"add-spot at {x:.0f},{y:.0f} priority 80" and c.refused == {}
+
+
+def test_a_kill_after_an_add_spot_keeps_the_reference_replan_on_the_map(problem) -> None:
+    # The perfect-information replan at a death is made on the map's spots: a survivor's
+    # route holding the operator's spot (an index past them) must not break it.
+    xyz = problem.xyz[:problem.n_tasks]
+    x, y = float(xyz[:, 0].mean()), float(xyz[:, 1].mean())
+    r = simulate(problem, CONFIG, seed=1, faults=parse_faults(
+        ctls=[f"add-spot:{x:.0f}:{y:.0f}:80@300"], kills=["auv2@900"]))
+    oracle = r.backend.oracle
+    assert oracle["vid"] == "auv2" and oracle["priority"] > 0
+    assert all(t < problem.n_tasks for t in oracle["cleared_before"])
+    assert r.report.fleet.duplicate_treatments == 0

@@ -39,10 +39,11 @@ def test_codec_round_trip_and_sizes() -> None:
     for words in (["recall", "auv2"], ["pause", "all"], ["add-spot", "512.3", "-40", "80.5"],
                   ["drop-spot", "17"]):
         o = parse_words(words)
-        o = Order(o.verb, o.target, 7, 100, o.x, o.y, o.priority, o.spot)
+        o = Order(o.verb, o.target, 7, 100, o.x, o.y, o.priority, o.spot,
+                  3 if o.verb == "add-spot" else 0)
         f = codec.read(codec.order(o, 130, b"a" * 8, b"b" * 8))
         assert isinstance(f, OrderFrame) and f.order == o and f.disclosed == b"b" * 8
-        assert len(codec.order(o, 130, b"a" * 8, b"b" * 8)) <= MAX_ORDER_BYTES <= 42
+        assert len(codec.order(o, 130, b"a" * 8, b"b" * 8)) <= MAX_ORDER_BYTES <= 43
     assert isinstance(codec.read(codec.key(90, b"c" * 8)), KeyFrame)
     assert codec.read(codec.ack(1, 90, 7, 0)) == AckFrame(1, 90, 7, 0)
     other = OrderCodec(b"y" * 16, "run", ("auv1", "auv2"))

@@ -137,7 +137,7 @@ def test_spot_colours_vehicle_marks_and_event_log(recorded):
     assert mark.latest("Points2D:colors") == [rgba(palette.LABEL_TEXT)]
     assert "/map/vehicles/auv1/mark" not in ents
     texts = [row["TextLog:text"][0] for _, row in ents["/events"].sorted_rows()]
-    assert "auv2 aborted its mission" in texts
+    assert "auv2 aborted its mission (fault)" in texts  # the why, as the event said it
     assert "auv1 took over spots 13 and 14 from auv2" in texts or \
         "auv1 took over spot 14 from auv2" in texts
     assert "auv1 treated spot 10" in texts and "auv1 reached its rendezvous" in texts
