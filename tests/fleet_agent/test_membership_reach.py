@@ -49,11 +49,25 @@ def member(me: int, x: dict[int, float], cycle: float = 10.0, **kw: object) -> M
 def test_a_suspect_out_of_reach_stays_suspected_whatever_the_witnesses_say() -> None:
     x = {0: 0.0, 1: 5000.0, 2: 5500.0, 3: 5200.0}  # 1 is 5 km from us, 2 and 3 near it
     m = member(0, x)
-    m.heard(1, 0.0, 0.5)
-    assert 1 in m.check(40.0)
+    m.heard(1, 0.0, 0.5)  # long ago, near; its last frames reached us only relayed
+    m.relayed(1, 10.0, 12.0)
+    assert 1 in m.check(50.0)
     for w in (2, 3):
-        assert m.confirm(w, never(4, 1), sent_s=45.0, now_s=46.0) == []
+        assert m.confirm(w, never(4, 1), sent_s=55.0, now_s=56.0) == []
     assert m.status(1) == SUSPECT and m.alive(1)  # its claims still stand here
+
+
+def test_a_vehicle_that_took_the_last_frame_itself_judges_whatever_it_believes() -> None:
+    """Reception is reach: the belief of where the suspect was when it fell silent (a turn's
+    reckoning along a believed route) put a neighbour 763 m away at 1021 m at 100 vehicles,
+    and it never judged. A witness must still be believed within reach."""
+    x = {0: 0.0, 1: 1200.0, 2: 1500.0, 3: 5000.0}  # believed out of our reach; 2 near it
+    m = member(0, x)
+    m.heard(1, 10.0, 10.5)  # its last frame: we heard it ourselves
+    assert 1 in m.check(50.0)
+    assert m.confirm(3, never(4, 1), sent_s=55.0, now_s=56.0) == []  # 3: far from it
+    assert m.confirm(2, never(4, 1), sent_s=57.0, now_s=58.0) == [1]
+    assert m.status(1) == LOST
 
 
 def test_a_witness_out_of_the_suspects_reach_confirms_nothing() -> None:
@@ -83,8 +97,9 @@ def test_the_heard_window_speaks_first_of_the_silences_its_sender_judges() -> No
     x = {v: 10_000.0 * v for v in range(n)}  # everyone far apart...
     x[33] = 300.0  # ...but vehicle 33, near vehicle 0
     m = member(0, x)
-    for v in range(1, n):
-        m.heard(v, 10.0, 10.5)
+    for v in range(1, n):  # the far ones' last frames reached us relayed, 33's directly
+        m.heard(v, 0.0 if v != 33 else 10.0, 0.5 if v != 33 else 10.5)
+        m.relayed(v, 10.0, 10.5)
     m.check(60.0)  # everyone silent since 10 s: all suspected, only 33 within reach
     field = m.heard_field(61.0)
     assert field.offset == 33
