@@ -87,6 +87,7 @@ from fleet_bus.credentials import (OPERATOR_ID, ROUTER_ID, STATION_ID, Credentia
 from fleet_bus.orders import TOPSIDE, OrderCodec, TopsideSchedule
 from fleet_bus.process import ROUTER_READY
 from fleet_bus.query_limits import QueryGate, gate_queryable
+from fleet_bus.states import FaultKind
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
 from fleet_agent.beliefs import find_ids
 from hfc_core.model.problem import Problem
@@ -243,11 +244,12 @@ class ProcessBackend:
 
     def check(self, faults: Sequence[Fault]) -> None:
         for f in faults:
-            if f.kind == "ctl" and self.modem.name != "water":
+            if f.kind == FaultKind.CTL and self.modem.name != "water":
                 raise FaultError(f"{f.describe()}: the operator's orders go into the water "
                                  "through the relay (--modem water); the emulated "
                                  "Micro-Modems do not carry the topside's frames yet")
-            if f.kind in ("kill", "restart", "stall") and f.vid in self.opts.remote:
+            if f.kind in (FaultKind.KILL, FaultKind.RESTART, FaultKind.STALL) \
+                    and f.vid in self.opts.remote:
                 raise FaultError(f"{f.describe()}: a {f.kind} needs the agent's process "
                                  "here; not for --remote vehicles")
 
@@ -276,7 +278,7 @@ class ProcessBackend:
         listen = self._start_router(creds)
         session = self._session = zenoh.open(client_config([self.endpoint],
                                                            credentials=creds / OPERATOR_ID))
-        if any(f.kind == "replay" for f in faults):  # the modem intruder's material only
+        if any(f.kind == FaultKind.REPLAY for f in faults):  # the modem intruder's material only
             self._closers.append(session.declare_subscriber(topics.RX.all.key, self.intake.rx))
         desk = self.desk = self._order_desk(creds, config)
         self._closers += [
@@ -624,36 +626,36 @@ class ProcessBackend:
         """A fault at ``now`` (`fault_plan.FleetControl`)."""
         self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value, f.words))
         self.out(f"t={now:6.0f} s  fault: {f.describe()}")
-        if f.kind == "abort":
+        if f.kind == FaultKind.ABORT:
             self._command(f.vid, ABORT)
-        elif f.kind == "kill":
+        elif f.kind == FaultKind.KILL:
             child = self.children.get(f.vid)
             if child is not None:
                 self.procs.signal(child, signal.SIGKILL)
                 child.popen.wait(5.0)
             self.dead.add(f.vid)
             self._busy(f.vid, False)  # a hold of the killed process ends with it
-        elif f.kind == "restart":
+        elif f.kind == FaultKind.RESTART:
             self.procs.spawn(f.vid, self._agent_argv(f.vid), env=self._agent_env(f.vid))
             self.dead.discard(f.vid)
-        elif f.kind == "stall":
+        elif f.kind == FaultKind.STALL:
             child = self.children.get(f.vid)
             if child is not None and child.popen.poll() is None:
                 t = threading.Thread(target=self._stall, args=(child, f), daemon=True,
                                      name=f"stall-{f.vid}")
                 self._stallers.append(t)
                 t.start()
-        elif f.kind == "partition":
+        elif f.kind == FaultKind.PARTITION:
             alone = (frozenset((f.vid,)),)  # the vehicle cut off from everyone
             self._put_link(LinkControl(partition=Partition(now, now + f.value, alone)))
-        elif f.kind == "loss":
+        elif f.kind == FaultKind.LOSS:
             self._put_link(LinkControl(extra_loss=f.value))
-        elif f.kind == "ctl" and f.unsigned:  # an insider: the fleet key, not the chain
+        elif f.kind == FaultKind.CTL and f.unsigned:  # an insider: the fleet key, not the chain
             assert self.desk is not None and self.desk.topside is not None
             top = self.desk.topside
             frame = forged_frame(top.codec, top.schedule, top.chain.length, f.order(), now)
             self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
-        elif f.kind == "ctl":
+        elif f.kind == FaultKind.CTL:
             assert self.desk is not None
             answer = self.desk.submit(f.order(), now)
             if answer.error:
@@ -743,7 +745,7 @@ class ProcessBackend:
             self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
             return
         insider = self._insiders[f.vid]  # its leaked credentials
-        if f.kind == "busy-hold":
+        if f.kind == FaultKind.BUSY_HOLD:
             insider.busy()
             return
         status = self.intake.statuses().get(f.vid)
