@@ -10,9 +10,9 @@ family with one topic per vehicle, and the links' (``fleet/link/<src>/<dst>``) a
 `LinkTopics`.
 
 The bytes are the records' own encodings (`fleet_bus.telemetry`, `fleet_bus.link`,
-`fleet_bus.commands`, `fleet_bus.mission`, `fleet_bus.orders`): a topic adds none of its own
-(docs/wire.md, "The bus"). Frames (``fleet/tx``, ``fleet/rx``) are opaque bytes here: the
-wire codec of the agents (`fleet_agent.wire`) judges them and counts what it drops.
+`fleet_bus.commands`, `fleet_bus.mission`, `fleet_bus.orders`): a topic adds none of its
+own (docs/architecture.md, "Topics"). Frames (``fleet/tx``, ``fleet/rx``) are opaque bytes
+here: the wire codec of the agents (`fleet_agent.wire`) judges them and counts what it drops.
 """
 
 from __future__ import annotations
