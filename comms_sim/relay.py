@@ -35,14 +35,13 @@ from comms_sim.control import apply_control
 from comms_sim.link_event import LinkEvent
 from comms_sim.seeds import channel_rng
 from comms_sim.water import SimClock, Water
-from fleet_bus import keys
+from fleet_bus import keys, topics
 from fleet_bus.auth import BusAuth, Refused, seal
 from fleet_bus.clock import MissionClock
-from fleet_bus.link import LinkControl, LinkRecord, TxTag, encode_stats
+from fleet_bus.link import LinkRecord, TxTag
 from fleet_bus.mission import ClockRecord, ClockSync, fetch_mission
 from fleet_bus.process import RELAY_READY, ready
 from fleet_bus.query_limits import QueryGate, gate_queryable
-from fleet_bus.telemetry import Truth
 
 Put = Callable[[str, bytes, "bytes | None"], None]  # key, payload, attachment
 READY = RELAY_READY
@@ -113,7 +112,7 @@ class Relay:
         there in the channel if the relay's clock has passed it (bus latency, a host that ran
         late: counted ``late_tx``), at the relay's time if not yet or if undated; dated more
         than `MAX_LATE_S` back, it is sent now and counted ``misdated_tx``."""
-        frame = self._open(keys.tx_key(vid), envelope) if vid else envelope
+        frame = self._open(topics.TX.of(vid).key, envelope) if vid else envelope
 
         def submit(channel: Channel, now: float) -> list[LinkEvent]:
             self.counters["tx"] += 1
@@ -139,7 +138,8 @@ class Relay:
         self.water.act(submit)
 
     def on_truth(self, vid: str, envelope: bytes) -> None:
-        payload = self._open(keys.truth_key(vid), envelope) if vid else envelope
+        topic = topics.TRUTH.of(vid)
+        payload = self._open(topic.key, envelope) if vid else envelope
         with self._lock:
             self.counters["truth"] += 1
             if payload is None:
@@ -148,7 +148,7 @@ class Relay:
                 self.counters["unknown_truth"] += 1
                 return
             try:
-                truth = Truth.decode(payload)
+                truth = topic.decode(payload)
                 self.channel.set_position(vid, truth.pos, self.clock.now())
             except ValueError:
                 self.counters["malformed_truth"] += 1
@@ -156,14 +156,14 @@ class Relay:
             self._located.add(vid)
 
     def on_ctl(self, envelope: bytes) -> None:
-        payload = self._open(keys.LINK_CTL, envelope)
+        payload = self._open(topics.LINK_CTL.key, envelope)
 
         def control(channel: Channel, now: float) -> list[LinkEvent]:
             self.counters["ctl"] += 1
             if payload is None:
                 return []
             try:
-                control = LinkControl.decode(payload, now)
+                control = topics.LINK_CTL.decode(payload, now)
                 if control.partition is not None and not control.clear_partitions and \
                         len(channel.partitions) >= MAX_PARTITIONS:
                     self.counters["ctl_too_many_partitions"] += 1
@@ -182,14 +182,14 @@ class Relay:
 
     def stats_payload(self) -> bytes:
         with self._lock:
-            return encode_stats(self.channel.stats(), {
+            return topics.LINK_STATS.encode((self.channel.stats(), {
                 "relay": dict(self.counters), "t_s": self.clock.now(),
                 "max_late_s": round(self.max_late_s, 3),
                 "refused": dict(self.auth.verifier.refused) if self.auth else {},
                 "extra_loss": self.channel.extra_loss,
                 "partitions": [p.to_dict() for p in self.channel.partitions],
                 "queries": self.queries.counts() if self.queries is not None else {},
-                "clock": self._clock_counts()})
+                "clock": self._clock_counts()}))
 
     def _clock_counts(self) -> dict[str, float]:
         sync = self.clock_sync
@@ -213,9 +213,10 @@ class Relay:
     def _publish(self, events: list[LinkEvent]) -> None:
         for event in events:
             if event.delivered and self._deliver:
-                self._put(keys.rx_key(event.dst), event.frame, delivery_attachment(event))
-            self._put(keys.link_event_key(event.src, event.dst), link_record(event).encode(),
-                      None)
+                rx = topics.RX.of(event.dst)
+                self._put(rx.key, rx.encode(event.frame), delivery_attachment(event))
+            link = topics.LINK.of(event.src, event.dst)
+            self._put(link.key, link.encode(link_record(event)), None)
 
 
 def link_record(event: LinkEvent) -> LinkRecord:
@@ -270,16 +271,17 @@ def serve(session: zenoh.Session, channel: Channel, clock: SimClock, stop: threa
             relay.on_ctl(sample.payload.to_bytes())
 
     relay.queries = QueryGate(auth)  # each asker rationed and counted
-    on_stats = gate_queryable(relay.queries, keys.LINK_STATS, lambda query: query.reply(
-        keys.LINK_STATS, seal(auth, keys.LINK_STATS, relay.stats_payload())))
+    stats = topics.LINK_STATS.key
+    on_stats = gate_queryable(relay.queries, stats, lambda query: query.reply(
+        stats, seal(auth, stats, relay.stats_payload())))
 
     try:
         with contextlib.ExitStack() as stack:
             if take_tx:
-                stack.enter_context(session.declare_subscriber(keys.TX_ALL, on_tx))
-            stack.enter_context(session.declare_subscriber(keys.TRUTH_ALL, on_truth))
-            stack.enter_context(session.declare_subscriber(keys.LINK_CTL, on_ctl))
-            stack.enter_context(session.declare_queryable(keys.LINK_STATS, on_stats))
+                stack.enter_context(session.declare_subscriber(topics.TX.all.key, on_tx))
+            stack.enter_context(session.declare_subscriber(topics.TRUTH.all.key, on_truth))
+            stack.enter_context(session.declare_subscriber(topics.LINK_CTL.key, on_ctl))
+            stack.enter_context(session.declare_queryable(stats, on_stats))
             if on_ready is not None:
                 on_ready(relay)
             relay.run(stop)

@@ -50,7 +50,9 @@ from fleet_agent.radio import Radio, Slots
 from fleet_agent.restore import fold, restore
 from fleet_agent.routing import fit_route
 from fleet_agent.wire import Message, radio_kind
+from fleet_bus.commands import Command as OperatorCommand
 from fleet_bus.orders import is_topside_frame
+from fleet_bus.states import EventKind
 from fleet_bus.telemetry import Status
 from fleet_bus.vehicle_port import VehicleReport
 from hfc_core.model.problem import Problem
@@ -118,8 +120,8 @@ class Agent:
         self.nav.rejoining = self.rejoin.waiting
         if lost is not None:
             self.count(f"journal_{lost}")
-            self._boot.event(now, "restart", detail=f"journal {lost}: keeping station until "
-                             "the fleet's cleared set is learned")
+            self._boot.event(now, EventKind.RESTART, detail=f"journal {lost}: keeping station "
+                             "until the fleet's cleared set is learned")
         self.know.rebind()
 
     def _settled_s(self, task: int) -> float:
@@ -151,7 +153,7 @@ class Agent:
             self._apply(discovery.fold_treated(self.know, now), now, out)
         self.know.rebind()
         for v in self.know.members.check(now):  # silence makes a suspect, nothing more
-            out.event(now, "suspect", peer=self.know.vid(v))
+            out.event(now, EventKind.SUSPECT, peer=self.know.vid(v))
         if self.active and not self.rejoin.waiting and self.coop.due(now,
                                                                      self.config.coop_period_s):
             self._apply(cooperate(self.know, self.config, now), now, out)
@@ -240,7 +242,7 @@ class Agent:
             out.record(rec.Hold(self.index, t, tuple(changed), h.claim, durable=True))
             self.radio.outbox.owe(Owed.CLAIM, Holding(h.claim, t, tuple(changed)))
             if h.claim:
-                out.event(now, "claim", changed)
+                out.event(now, EventKind.CLAIM, changed)
 
     def _steer(self, s: Steer, now: float, out: Outputs) -> None:
         """Fit the route to the battery; release what this vehicle holds and will not treat."""
@@ -251,7 +253,7 @@ class Agent:
         if fitted != self.own.route:
             self.own.set_route(fitted)
             if s.why != "sync":
-                out.event(now, "replan", detail=s.why)
+                out.event(now, EventKind.REPLAN, detail=s.why)
 
     # -- the vehicle -----------------------------------------------------------------------
 
@@ -297,11 +299,11 @@ class Agent:
         self._apply(hearing.confirmed(self.know, self.config, msg, now, self.active), now, out)
         self._apply(hearing.content(self.know, self.config, msg, now, self.active), now, out)
 
-    def _on_command(self, name: str, now: float, out: Outputs) -> None:
-        if name == "abort" and self.active:
+    def _on_command(self, name: OperatorCommand, now: float, out: Outputs) -> None:
+        if name == OperatorCommand.ABORT and self.active:
             self.own.abort()
             self._apply([Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
-                         Tell(now, "abort")], now, out)
+                         Tell(now, EventKind.ABORT)], now, out)
 
     # -- the modem out ---------------------------------------------------------------------
 

@@ -34,6 +34,7 @@ from typing import Any, Callable, Protocol, Sequence
 
 from fleet_agent.agent import Agent
 from fleet_agent.io_types import Command, Frame, Helm, Input, Output, Publish, Record, Send, Tick
+from fleet_bus.commands import Command as OperatorCommand
 from fleet_bus.telemetry import Event, Status, Truth
 from fleet_bus.modem_port import ModemPort
 from fleet_bus.vehicle_port import NavFix, VehiclePort
@@ -75,7 +76,7 @@ class AgentDriver:
     def frame(self, data: bytes, now: float) -> None:
         self.step(Frame(data, now))
 
-    def command(self, name: str, now: float) -> None:
+    def command(self, name: OperatorCommand, now: float) -> None:
         self.step(Command(name, now))
 
     def step(self, inp: Input) -> None:

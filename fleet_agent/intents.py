@@ -14,6 +14,7 @@ from typing import Union
 
 from fleet_agent.outbox import Owed
 from fleet_agent.records import JournalRecord
+from fleet_bus.states import EventKind
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,7 @@ class Tell:
     """An event for the log (``tasks`` as task indices; ``peer`` a vehicle id)."""
 
     t_s: float
-    kind: str
+    kind: EventKind
     tasks: tuple[int, ...] = ()
     peer: str = ""
     detail: str = ""

@@ -6,6 +6,8 @@ from dataclasses import dataclass
 from typing import Any, Callable, Iterable, Union
 
 from fleet_agent.records import JournalRecord
+from fleet_bus.commands import Command as OperatorCommand
+from fleet_bus.states import EventKind
 from fleet_bus.telemetry import Event, Status, Truth
 from fleet_bus.vehicle_port import HelmCommand
 
@@ -27,9 +29,9 @@ class Frame:
 
 @dataclass(frozen=True)
 class Command:
-    """Fault injection from the operator: ``"abort"``."""
+    """Fault injection from the operator: ``abort``."""
 
-    name: str
+    name: OperatorCommand
     now: float
 
 
@@ -85,7 +87,7 @@ class Outputs(list):
     def record(self, rec: JournalRecord) -> None:
         self.append(Record(rec.doc(), rec.durable))
 
-    def event(self, t_s: float, kind: str, tasks: Iterable[int] = (), peer: str = "",
+    def event(self, t_s: float, kind: EventKind, tasks: Iterable[int] = (), peer: str = "",
               detail: str = "") -> None:
         self.append(Publish("event", Event(float(t_s), self.vid, kind, self._tids(tasks),
                                            peer, detail)))

@@ -30,6 +30,7 @@ from fleet_agent.replay import ReplayWindow
 from fleet_agent.search import SearchBelief
 from fleet_agent.wire import Digest
 from fleet_agent.witness import Track, Witness, position_on
+from fleet_bus.states import VehicleState
 from hfc_core.model.problem import Problem
 
 MAX_INJECTIONS = 4096  # own injections' measured positions kept (Knowledge.injections)
@@ -263,10 +264,10 @@ class Knowledge:
             return pose.pos
         # Its last pose said it was done with its route: straight home, whatever spots of it
         # we still believe it holds (their clears may not have reached us yet).
-        route = [] if pose.state in ("returning", "home", "aborted") \
-            else self._believed_route(v, t_s)
+        done = (VehicleState.RETURNING, VehicleState.HOME, VehicleState.ABORTED)
+        route = [] if pose.state in done else self._believed_route(v, t_s)
         service_left = 0.5 * float(self.problem.service_s[route[0]]) \
-            if pose.state == "injecting" and route else 0.0
+            if pose.state == VehicleState.INJECTING and route else 0.0
         return position_along(self.problem, v, pose.pos, route, dt, service_left)
 
     def _believed_route(self, v: int, t_s: float) -> list[int]:

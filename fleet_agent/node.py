@@ -37,7 +37,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
-import msgpack
 import zenoh
 
 from fleet_agent.agent import Agent
@@ -51,15 +50,16 @@ from fleet_agent.helms.choice import BEFORE_S, HelmChoice, PendingClock, open_ve
 from fleet_agent.helms.sim import camera_figures, sim_vehicle
 from fleet_agent.modems.choice import ModemChoice
 from fleet_agent.modems.water import ZenohWater
-from fleet_bus import keys
-from fleet_bus.auth import BusAuth, seal, unseal
+from fleet_bus import topics
+from fleet_bus.auth import BusAuth, unseal
 from fleet_bus.clock import Clock, MissionClock
-from fleet_bus.commands import STOP, decode_command
+from fleet_bus.commands import STOP, Command
 from fleet_bus.credentials import CredentialsError, load_frame_chains, load_frame_seed
 from fleet_bus.mission import ClockSync, Mission, fetch_mission
 from fleet_bus.modem_port import ModemPort, ModemReport, Received
 from fleet_bus.process import AGENT_READY, ready
-from fleet_bus.telemetry import Event, Status, Truth, encode_busy
+from fleet_bus.telemetry import Event, Ready, Status, Truth
+from fleet_bus.topics import Publisher, TopicError
 from fleet_bus.vehicle_port import VehiclePort
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.model.errors import ScenarioError
@@ -110,33 +110,37 @@ class Inbox:
 
 
 class ZenohTelemetry:
-    """Puts the driver's telemetry on the bus under this vehicle's keys."""
+    """Puts the driver's telemetry on the bus under this vehicle's keys, each record on its
+    own topic (`fleet_bus.topics`: a truth can only go to ``fleet/truth/<id>``)."""
 
     def __init__(self, session: zenoh.Session, vid: str, auth: BusAuth | None = None) -> None:
-        self._auth = auth
-        self._telemetry = {topic: (key, session.declare_publisher(key)) for topic, key in
-                           ((t, f"{keys.PREFIX}/{t}/{vid}") for t in keys.TELEMETRY_KINDS)}
-        self._busy_key = keys.busy_key(vid)
-        self._busy = session.declare_publisher(self._busy_key)
+        self._truth = Publisher(session, topics.TRUTH.of(vid), auth)
+        self._status = Publisher(session, topics.STATUS.of(vid), auth)
+        self._event = Publisher(session, topics.EVENT.of(vid), auth)
+        self._busy = Publisher(session, topics.BUSY.of(vid), auth)
 
     def publish(self, topic: str, payload: Status | Event | Truth) -> None:
-        key, publisher = self._telemetry[topic]
-        publisher.put(seal(self._auth, key, payload.encode()))
+        """``payload`` on its record's topic (``topic`` names the same kind)."""
+        if isinstance(payload, Truth):
+            self._truth.put(payload)
+        elif isinstance(payload, Status):
+            self._status.put(payload)
+        else:
+            self._event.put(payload)
 
     def planning(self, busy: bool) -> None:
         """Tell the operator this process starts (ends) a planner run: it holds the shared
         clock meanwhile, so the burst costs no mission time (`fleet_agent.plans`)."""
-        self._busy.put(seal(self._auth, self._busy_key, encode_busy(busy)))
+        self._busy.put(busy)
 
 
 def _announce_ready(session: zenoh.Session, vid: str, auth: BusAuth | None,
                     until: threading.Event) -> None:
     """Put the signed ready announcement every `ALIVE_EVERY_S` until ``until`` is set (the
     operator may subscribe after the first one, e.g. a launcher restarted)."""
-    key = keys.alive_key(vid)
-    doc = msgpack.packb({"id": vid, "run_id": auth.run_id if auth else ""})
+    topic, ready = topics.ALIVE.of(vid), Ready(vid, auth.run_id if auth else "")
     while True:
-        session.put(key, seal(auth, key, doc))
+        topic.put(session, auth, ready)
         if until.wait(ALIVE_EVERY_S):
             return
 
@@ -155,13 +159,15 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
     mission_time = PendingClock()  # -1 until the clock record comes
     hear = inbox.hear
 
+    ctl = topics.CTL.of(vid)
+
     def take_ctl(sample: zenoh.Sample) -> None:
-        payload = unseal(auth, keys.ctl_key(vid), sample.payload.to_bytes())
+        payload = unseal(auth, ctl.key, sample.payload.to_bytes())
         if payload is not None:
             inbox.put("ctl", payload)
 
     with Journal(journal_path) as journal, zenoh.open(conf) as session, \
-            session.declare_subscriber(keys.ctl_key(vid), take_ctl):
+            session.declare_subscriber(ctl.key, take_ctl):
         port: ModemPort | None = None
         if modem.name == "water":  # listening from the start, as the relay may be early
             port = ZenohWater(session, vid, hear, mission_time, auth)
@@ -179,7 +185,7 @@ def main(conf: zenoh.Config, vid: str, config: AgentConfig, journal_path: Path,
         clocked = threading.Event()
         threading.Thread(target=_announce_ready, args=(session, vid, auth, clocked),
                          name="ready", daemon=True).start()
-        with session.liveliness().declare_token(keys.alive_key(vid)):
+        with session.liveliness().declare_token(topics.ALIVE.of(vid).key):
             sync = ClockSync(session, auth, stop)  # the operator's clock, measured
             try:
                 clock = sync.join(mission_timeout_s)
@@ -321,8 +327,8 @@ def _loop(driver: AgentDriver, inbox: Inbox, clock: MissionClock, stop: threadin
                 driver.frame(payload, at)
             else:
                 try:
-                    name = decode_command(payload)
-                except ValueError:
+                    name: Command | None = topics.CTL.of(driver.agent.id).decode(payload)
+                except TopicError:
                     driver.agent.count("ctl_malformed")
                     name = None
                 if name == STOP:

@@ -45,7 +45,7 @@ from fleet_agent.mission_file import MissionFileError, read_mission_file
 from fleet_agent.modems.choice import ModemChoice
 from fleet_agent.node import Inbox, ZenohTelemetry, build_fleet, drive
 from fleet_agent.plans import set_planning_hook
-from fleet_bus import keys
+from fleet_bus import topics
 from fleet_bus.auth import BusAuth, unseal
 from fleet_bus.clock import MissionClock, WallWatch
 from fleet_bus.mission import ClockRecord
@@ -148,12 +148,14 @@ def main(vid: str, config: AgentConfig, journal_path: Path, stop: threading.Even
                 finally:
                     telemetry.close()
             with zenoh.open(conf) as session:
+                ctl = topics.CTL.of(vid)
+
                 def take_ctl(sample: zenoh.Sample) -> None:
-                    payload = unseal(auth, keys.ctl_key(vid), sample.payload.to_bytes())
+                    payload = unseal(auth, ctl.key, sample.payload.to_bytes())
                     if payload is not None:
                         inbox.put("ctl", payload)
 
-                with session.declare_subscriber(keys.ctl_key(vid), take_ctl):
+                with session.declare_subscriber(ctl.key, take_ctl):
                     bus = ZenohTelemetry(session, vid, auth)
                     set_planning_hook(None)  # no operator holds a clock on board
                     return drive(built, vid, config, journal, clock, port, bus, helm, stop,

@@ -44,10 +44,11 @@ set; a vehicle home sends ``home_repeats`` poses. Either then keeps watch: a pos
 
 from __future__ import annotations
 
+import operator
 from collections import deque
 from dataclasses import dataclass
 from enum import Enum
-from typing import Callable, Sequence
+from typing import Callable, Sequence, SupportsIndex
 
 from fleet_agent.config import AgentConfig
 from fleet_agent.knowledge import Knowledge
@@ -143,6 +144,14 @@ class Slot:
 Rule = Callable[["Outbox", Slot], "Message | None"]
 
 
+def _whole(kind: Owed, item: object) -> int:
+    """The index or count a kind of `Owed` takes (a numpy integer too); anything else is the
+    caller's bug, said at once rather than queued."""
+    if not isinstance(item, SupportsIndex):
+        raise TypeError(f"{kind.name} owes an index or a count, got {item!r}")
+    return operator.index(item)
+
+
 class Outbox:
     """The sub-buffers and the choice of one message per slot (module docstring)."""
 
@@ -188,13 +197,13 @@ class Outbox:
             self._home_left = self.spec["home"].repeats
         elif kind is Owed.SEGMENT:
             if item not in self.segments:
-                self.segments.append(int(item))  # type: ignore[call-overload]
+                self.segments.append(_whole(kind, item))
         elif kind is Owed.CLEARED:
-            self._cleared_pushes = int(item)  # type: ignore[call-overload]
+            self._cleared_pushes = _whole(kind, item)
         elif kind is Owed.LACKS:
-            self._lacking.add(int(item))  # type: ignore[call-overload]
+            self._lacking.add(_whole(kind, item))
         elif kind is Owed.FIND:
-            self._finds_new.extend([int(item)] * self.spec["find"].repeats)  # type: ignore
+            self._finds_new.extend([_whole(kind, item)] * self.spec["find"].repeats)
         elif kind is Owed.FINDS:
             assert isinstance(item, FindsGap)
             self._owe_finds(item)

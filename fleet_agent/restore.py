@@ -21,6 +21,7 @@ from fleet_agent.io_types import Outputs
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.outbox import Owed
 from fleet_agent.radio import Radio
+from fleet_bus.states import EventKind
 
 KNOWN_KINDS = ("start", "clr", "hold", "peer", "abort", "home", "restart", "ckpt", "find",
                "add")
@@ -114,4 +115,4 @@ def restore(snap: Snapshot, know: Knowledge, radio: Radio, base_route: Sequence[
         radio.outbox.owe(Owed.OWN_ABORT)
     radio.outbox.owe(Owed.CLEARED, 1)  # tell the fleet what we know as soon as we can
     out.record(rec.Restarted(now))
-    out.event(now, "restart", detail=f"{len(know.cleared)} cleared")
+    out.event(now, EventKind.RESTART, detail=f"{len(know.cleared)} cleared")

@@ -4,25 +4,35 @@ way to end an agent it did not start, e.g. one on another machine)."""
 
 from __future__ import annotations
 
+from enum import StrEnum
+
 import msgpack
 
 from fleet_bus import values as v
 
-ABORT, STOP = "abort", "stop"
-COMMANDS = (ABORT, STOP)
+
+class Command(StrEnum):
+    """What the operator may tell one agent (a `StrEnum`: packed as its word)."""
+
+    ABORT = "abort"
+    STOP = "stop"
 
 
-def encode_command(name: str) -> bytes:
+ABORT, STOP = Command
+COMMANDS = tuple(Command)
+
+
+def encode_command(name: Command) -> bytes:
     """Payload of ``fleet/ctl/<id>``: ``{"cmd": "abort"}`` or ``{"cmd": "stop"}``."""
     if name not in COMMANDS:
         raise ValueError(f"unknown command {name!r}; known: {COMMANDS}")
     return msgpack.packb({"cmd": name})
 
 
-def decode_command(payload: bytes) -> str:
-    """The command name; ValueError on anything else."""
+def decode_command(payload: bytes) -> Command:
+    """The command; ValueError on anything else."""
     doc = v.unpack_map(payload, "command")
     name = doc.get("cmd")
-    if name not in COMMANDS:
+    if not isinstance(name, str) or name not in COMMANDS:
         raise ValueError(f"unknown command {name!r}")
-    return str(name)
+    return Command(name)

@@ -31,44 +31,50 @@ ORDER_ANSWER = f"{PREFIX}/ctl/order/answer"
 TELEMETRY_KINDS = ("truth", "status", "event")
 
 
-def _key(kind: str, vid: str) -> str:
+def vehicle_key(kind: str, vid: str) -> str:
+    """``fleet/<kind>/<vid>``: one vehicle's key of a per-vehicle kind."""
     return f"{PREFIX}/{kind}/{vid}"
 
 
+def all_vehicles(kind: str) -> str:
+    """``fleet/<kind>/*``: the key expression of every vehicle's key of that kind."""
+    return f"{PREFIX}/{kind}/*"
+
+
 def tx_key(vid: str) -> str:
-    return _key("tx", vid)
+    return vehicle_key("tx", vid)
 
 
 def rx_key(vid: str) -> str:
-    return _key("rx", vid)
+    return vehicle_key("rx", vid)
 
 
 def truth_key(vid: str) -> str:
-    return _key("truth", vid)
+    return vehicle_key("truth", vid)
 
 
 def status_key(vid: str) -> str:
-    return _key("status", vid)
+    return vehicle_key("status", vid)
 
 
 def event_key(vid: str) -> str:
-    return _key("event", vid)
+    return vehicle_key("event", vid)
 
 
 def ctl_key(vid: str) -> str:
     """Operator -> agent commands (abort, stop); not a radio either."""
-    return _key("ctl", vid)
+    return vehicle_key("ctl", vid)
 
 
 def alive_key(vid: str) -> str:
     """The liveliness token an agent declares once its initial plan is ready."""
-    return _key("alive", vid)
+    return vehicle_key("alive", vid)
 
 
 def busy_key(vid: str) -> str:
     """Agent -> operator: this vehicle's process starts (or ends) a planner run; the operator
     holds the shared clock meanwhile (`cotsfleet.mission.pacing.Holds`). Not a radio."""
-    return _key("busy", vid)
+    return vehicle_key("busy", vid)
 
 
 def link_event_key(src: str, dst: str) -> str:

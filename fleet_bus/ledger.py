@@ -18,7 +18,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Mapping, Sequence
 
-from fleet_bus.states import FINAL_STATES
+from fleet_bus.states import FINAL_STATES, EventKind
 from fleet_bus.telemetry import Event, Status, detail_position
 
 MAX_EVENTS = 1_000_000  # a mission's whole log; beyond, the oldest are dropped and counted
@@ -142,15 +142,16 @@ class FleetLedger:
             self.events.pop(0)
             self.events_dropped += 1
         self.events.append(e)
-        if e.kind in ("found", "cleared", "added") and len(e.tasks) == 1:
+        if e.kind in (EventKind.FOUND, EventKind.CLEARED, EventKind.ADDED) and \
+                len(e.tasks) == 1:
             pos = detail_position(e.detail)
             if pos is not None:
                 self.positions.setdefault(e.tasks[0], pos)
-        if e.kind == "found":
+        if e.kind == EventKind.FOUND:
             self.found.update(e.tasks)
-        elif e.kind == "empty":
+        elif e.kind == EventKind.EMPTY:
             self.empty.update(e.tasks)
-        elif e.kind == "cleared":
+        elif e.kind == EventKind.CLEARED:
             self.add_treated(e.id, e.tasks, e.t_s)
 
     def add_treated(self, vid: str, tasks: Sequence[int], t_s: float = math.inf) -> None:

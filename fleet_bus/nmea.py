@@ -630,7 +630,9 @@ class CycleStats:
     def from_sentence(cls, s: Sentence) -> "CycleStats":
         _count(s, 1 + len(CST_FIELDS), at_least=True)
         version = _int(s.fields[0], "version", 6, 8)
-        values: dict[str, object] = {"version": version}
+        toa = dt.datetime.min
+        n: dict[str, int] = {}  # the integer fields, and the real ones (`_CST_FLOATS`)
+        x: dict[str, float] = {}
         for name, text in zip(CST_FIELDS, s.fields[1:]):
             if name == "toa":
                 m = re.match(r"^(\d{14})\.(\d{1,6})$", text)
@@ -640,15 +642,24 @@ class CycleStats:
                     whole = dt.datetime.strptime(m.group(1), TOA_FORMAT)
                 except ValueError:
                     raise NmeaError("value", f"toa: bad date {text[:24]!r}") from None
-                values[name] = whole.replace(microsecond=int(m.group(2).ljust(6, "0")),
-                                             tzinfo=dt.timezone.utc)
+                toa = whole.replace(microsecond=int(m.group(2).ljust(6, "0")),
+                                    tzinfo=dt.timezone.utc)
             elif name in _CST_FLOATS:
-                values[name] = _float(text, name)
+                x[name] = _float(text, name)
             else:
-                values[name] = _int(text, name, -(1 << 31), 1 << 31)
+                n[name] = _int(text, name, -(1 << 31), 1 << 31)
         for name in ("src", "dest"):
-            _address(str(values[name]), name)
-        return cls(**values)  # type: ignore[arg-type]
+            _address(str(n[name]), name)
+        # Each field by name, so that the type checker sees every one of them.
+        return cls(toa=toa, rate=n["rate"], src=n["src"], dest=n["dest"], frames=n["frames"],
+                   bad_frames=n["bad_frames"], mode=n["mode"], snr_in=x["snr_in"],
+                   snr_out=x["snr_out"], snr_sym=x["snr_sym"], mse=x["mse"], dop=x["dop"],
+                   toa_mode=n["toa_mode"], mfd_peak=n["mfd_peak"], mfd_pow=n["mfd_pow"],
+                   mfd_ratio=n["mfd_ratio"], mfd_spl=n["mfd_spl"], agn=n["agn"],
+                   shift_ain=n["shift_ain"], shift_ainp=n["shift_ainp"], shift_mfd=n["shift_mfd"],
+                   shift_p2b=n["shift_p2b"], psk_error=n["psk_error"], packet_type=n["packet_type"],
+                   snr_rss=n["snr_rss"], dqf=n["dqf"], noise=n["noise"], carrier=n["carrier"],
+                   bandwidth=n["bandwidth"], version=version)
 
 
 Typed = Union[CycleInit, DataRequest, TxData, TxDataEcho, RxData, TxEdge, Ack, Config,

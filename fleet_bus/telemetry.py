@@ -163,3 +163,24 @@ def decode_busy(payload: bytes) -> bool:
     if payload not in (b"\x00", b"\x01"):
         raise ValueError(f"busy: not a busy flag: {payload[:8]!r}")
     return payload == b"\x01"
+
+
+@dataclass(frozen=True)
+class Ready:
+    """The payload of ``fleet/alive/<id>``: this vehicle's initial plan is computed, for run
+    ``run_id`` (``""`` on an open bus, where no run is named)."""
+
+    id: str
+    run_id: str = ""
+
+    def encode(self) -> bytes:
+        return msgpack.packb({"id": self.id, "run_id": self.run_id})
+
+    @staticmethod
+    def decode(payload: bytes) -> Ready:
+        """Raises ValueError on anything that is not a well-formed announcement."""
+        doc = v.unpack_map(payload, "ready")
+        try:
+            return Ready(v.text(doc["id"], "ready.id", 64), v.text(doc["run_id"], "ready.run_id"))
+        except KeyError as exc:
+            raise ValueError(f"ready: missing {exc}") from None

@@ -1,15 +1,15 @@
 """Bus payload -> validated telemetry record, or ValueError (pure; the station counts drops).
 
-The decoders of `fleet_bus` check shape and values (finite numbers, integer task ids, short
-strings); this layer adds what only the key can tell: the sender named in a status or event
-is the one whose key it came on, and a link record matches its link's key.
+The topics of `fleet_bus.topics` check shape and values (finite numbers, integer task ids,
+short strings) and that a link record matches its link's key; this layer adds the sender: the
+vehicle named in a status or event is the one whose key it came on.
 """
 
 from __future__ import annotations
 
 from typing import Union
 
-from fleet_bus import keys
+from fleet_bus import keys, topics
 from fleet_bus.link import LinkRecord
 from fleet_bus.telemetry import Event, Status, Truth
 
@@ -31,20 +31,18 @@ def _same_sender(key_vid: str, claimed: str) -> None:
 
 
 def decode(key: str, payload: bytes) -> tuple[str, Record]:
-    """``(vehicle id or link src, record)`` for one sample; raises ValueError if malformed."""
+    """``(vehicle id or link src, record)`` for one sample; raises ValueError if malformed
+    (a `fleet_bus.topics.TopicError`, or a sender that is not its key's)."""
     kind = kind_of(key)
-    vid = key.split("/")[2]
     if kind == "truth":
-        return vid, Truth.decode(payload)
+        return topics.TRUTH.decode_at(key, payload)
     if kind == "status":
-        status = Status.decode(payload)
+        vid, status = topics.STATUS.decode_at(key, payload)
         _same_sender(vid, status.id)
         return vid, status
     if kind == "event":
-        event = Event.decode(payload)
+        vid, event = topics.EVENT.decode_at(key, payload)
         _same_sender(vid, event.id)
         return vid, event
-    record = LinkRecord.decode(payload)
-    if (record.src, record.dst) != keys.link_ends(key):
-        raise ValueError(f"link record {record.src}->{record.dst} published on {key!r}")
-    return vid, record
+    record = topics.LINK.decode_at(key, payload)
+    return record.src, record

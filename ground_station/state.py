@@ -23,7 +23,7 @@ import numpy as np
 from fleet_bus.event_text import find_priority, level, sentence
 from fleet_bus.ledger import FIND_MATCH_M, FleetLedger, RealReef, SpotValues
 from fleet_bus.link import BROADCAST, LinkRecord
-from fleet_bus.states import STOPPED_STATES, VehicleState
+from fleet_bus.states import STOPPED_STATES, EventKind, VehicleState
 from fleet_bus.telemetry import Event, Status, Truth, detail_position
 from ground_station import palette
 from ground_station.drawing import (
@@ -339,19 +339,19 @@ class FleetPicture:
         v = self._vehicle(e.id)
         out: list[Drawing] = [LogLine(e.t_s, sentence(e), level(e))]
         self.ledger.add_event(e)  # treatments, find positions, empty spots
-        if e.kind == "cleared":
+        if e.kind == EventKind.CLEARED:
             out += self._spots()
             out += self._treated_scalars(e.id)
-        elif e.kind == "empty":
+        elif e.kind == EventKind.EMPTY:
             self.empty_ids.update(e.tasks)
             out += self._spots()
-        elif e.kind == "found":
+        elif e.kind == EventKind.FOUND:
             out += self._found(e)
-        elif e.kind == "abort":
+        elif e.kind == EventKind.ABORT:
             out += self._set_state(v, VehicleState.ABORTED, e.t_s, log=False)  # the event said it
-        elif e.kind in ("lost", "revived") and e.peer:
+        elif e.kind in (EventKind.LOST, EventKind.REVIVED) and e.peer:
             peer = self._vehicle(e.peer)
-            if e.kind == "lost":
+            if e.kind == EventKind.LOST:
                 peer.lost_by.add(e.id)
             else:
                 peer.lost_by.discard(e.id)
@@ -414,9 +414,9 @@ class FleetPicture:
     def _update_mark(self, v: _Vehicle, t: float) -> list[Drawing]:
         # what is known outranks what is guessed: an announced abort explains the silence
         # that follows it, even when the announcement arrives after the station's verdict
-        if v.state == "dead":
+        if v.state == VehicleState.DEAD:
             kind = "dead"
-        elif v.state == "aborted":
+        elif v.state == VehicleState.ABORTED:
             kind = "aborted"
         elif v.silent:
             kind = "silent"

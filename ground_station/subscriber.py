@@ -14,10 +14,11 @@ from typing import Iterator
 
 import zenoh
 
-from fleet_bus import keys
+from fleet_bus import topics
 from fleet_bus.auth import BusAuth
 
-TOPICS = (keys.TRUTH_ALL, keys.STATUS_ALL, keys.EVENT_ALL, keys.LINK_ALL)
+TOPICS = tuple(t.key for t in (topics.TRUTH.all, topics.STATUS.all, topics.EVENT.all,
+                                topics.LINK.all))
 
 
 class Inbox:

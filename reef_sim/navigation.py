@@ -74,6 +74,14 @@ def _number(raw: Mapping[str, Any], name: str, default: float | None) -> float |
     return float(value)
 
 
+def _given(raw: Mapping[str, Any], name: str, default: float) -> float:
+    """A field that must be a number (only ``fix_period_s`` may be null)."""
+    value = _number(raw, name, default)
+    if value is None:
+        raise ScenarioError(f"navigation.{name}: expected a finite number, got null")
+    return value
+
+
 @dataclass(frozen=True)
 class NavigationParams:
     """The scenario's ``navigation`` section (see the module docstring and docs/scenario.md).
@@ -131,9 +139,14 @@ def navigation_from_doc(doc: Mapping[str, Any]) -> NavigationParams | None:
     if unknown:
         raise ScenarioError(f"navigation: unknown field(s) {', '.join(unknown)}; known: "
                             f"{', '.join(sorted(known))}")
-    values = {name: _number(raw, name, default)
-              for name, default in DEFAULT_NAVIGATION.to_dict().items()}
-    return NavigationParams(**values)  # type: ignore[arg-type]
+    d = DEFAULT_NAVIGATION
+    return NavigationParams(
+        drift_pct=_given(raw, "drift_pct", d.drift_pct),
+        walk_m_per_sqrt_km=_given(raw, "walk_m_per_sqrt_km", d.walk_m_per_sqrt_km),
+        start_sigma_m=_given(raw, "start_sigma_m", d.start_sigma_m),
+        fix_period_s=_number(raw, "fix_period_s", d.fix_period_s),  # null: no fixes
+        fix_sigma_m=_given(raw, "fix_sigma_m", d.fix_sigma_m),
+        camera_sigma_m=_given(raw, "camera_sigma_m", d.camera_sigma_m))
 
 
 def vehicle_seed(seed: int, index: int) -> np.random.SeedSequence:

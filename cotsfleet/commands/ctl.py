@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
 def _send(record, order, timeout_s: float) -> int:
     import zenoh
 
-    from fleet_bus import keys
+    from fleet_bus import keys, topics
     from fleet_bus.auth import Refused
     from fleet_bus.credentials import OPERATOR_ID, CredentialsError, load_auth
     from fleet_bus.orders import Answer, encode_request
@@ -89,9 +89,9 @@ def _send(record, order, timeout_s: float) -> int:
 
     def on_answer(sample: zenoh.Sample) -> None:
         try:  # only the operator's key speaks there; anything else is not the launcher
-            signer, payload = auth.open(keys.ORDER_ANSWER, sample.payload.to_bytes())
-            answer = Answer.decode(payload)
-        except (Refused, ValueError):
+            signer, payload = auth.open(topics.ORDER_ANSWER.key, sample.payload.to_bytes())
+            answer = topics.ORDER_ANSWER.decode(payload)
+        except (Refused, ValueError):  # a `TopicError` is a ValueError
             return
         if signer == OPERATOR_ID and answer.ref == ref:
             try:
@@ -105,7 +105,7 @@ def _send(record, order, timeout_s: float) -> int:
         raise UsageError(f"cannot reach the mission's router at {record.endpoint}: "
                          f"{exc}") from None
     with session:
-        sub = session.declare_subscriber(keys.ORDER_ANSWER, on_answer)
+        sub = session.declare_subscriber(topics.ORDER_ANSWER.key, on_answer)
         try:
             time.sleep(0.2)  # the subscription reaches the router before the request
             session.put(keys.ORDER_REQUEST,

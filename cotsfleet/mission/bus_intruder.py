@@ -25,14 +25,15 @@ import msgpack
 import numpy as np
 import zenoh
 
-from fleet_bus import keys
+from fleet_bus import keys, topics
 from fleet_bus.auth import MAGIC, SIG_BYTES
-from fleet_bus.commands import ABORT, STOP, encode_command
+from fleet_bus.commands import ABORT, STOP
 from fleet_bus.credentials import CA_CERT, ZenohLogin, uses_tls
 from fleet_bus.link import LinkControl, LinkRecord, Partition
 from fleet_bus.mission import Mission
 from fleet_bus.session import client_config
-from fleet_bus.telemetry import Event, Status
+from fleet_bus.states import EventKind, VehicleState
+from fleet_bus.telemetry import Event, Ready, Status
 
 CLOCK_TICKS = 100  # os.sysconf("SC_CLK_TCK") on Linux
 
@@ -64,22 +65,25 @@ def attack_round(s: zenoh.Session, rng: np.random.Generator, vehicles: tuple[str
     """One of every forgery; returns how many messages it put."""
     puts: list[tuple[str, bytes]] = []
     for vid in vehicles:
+        ctl = topics.CTL.of(vid)
         for name in (ABORT, STOP):
-            puts += [(keys.ctl_key(vid), encode_command(name)),
-                     (keys.ctl_key(vid), forged_envelope(rng, "operator", encode_command(name)))]
-        home = Status(1e6, vid, "home", (0.0, 0.0, 0.0), 0.0, 0.0, [], [99999], 1, 0.0, 0.0)
-        puts += [(keys.status_key(vid), home.encode()),
-                 (keys.status_key(vid), forged_envelope(rng, vid, home.encode())),
-                 (keys.event_key(vid), Event(0.0, vid, "abort", [99999]).encode()),
-                 (keys.alive_key(vid), msgpack.packb({"id": vid, "run_id": "x"})),
-                 (keys.truth_key(vid), forged_envelope(rng, vid, b"\x80"))]
+            puts += [(ctl.key, ctl.encode(name)),
+                     (ctl.key, forged_envelope(rng, "operator", ctl.encode(name)))]
+        status, event, alive = topics.STATUS.of(vid), topics.EVENT.of(vid), topics.ALIVE.of(vid)
+        home = status.encode(Status(1e6, vid, VehicleState.HOME, (0.0, 0.0, 0.0), 0.0, 0.0, [],
+                                    [99999], 1, 0.0, 0.0))
+        puts += [(status.key, home), (status.key, forged_envelope(rng, vid, home)),
+                 (event.key, event.encode(Event(0.0, vid, EventKind.ABORT, [99999]))),
+                 (alive.key, alive.encode(Ready(vid, "x"))),
+                 (topics.TRUTH.of(vid).key, forged_envelope(rng, vid, b"\x80"))]
     isolated = Partition(0.0, 1e12, (frozenset({vehicles[0]}),))
-    cut = LinkControl(partition=isolated, extra_loss=1.0).encode()
+    cut = topics.LINK_CTL.encode(LinkControl(partition=isolated, extra_loss=1.0))
     a, b = vehicles[0], vehicles[-1]
-    puts += [(keys.LINK_CTL, cut), (keys.LINK_CTL, forged_envelope(rng, "operator", cut)),
-             (keys.link_event_key(a, b),
-              LinkRecord(a, b, 0.0, 0.0, 64, False, "partition").encode()),
-             (keys.tx_key(b), forged_envelope(rng, b, b"pose"))]
+    link = topics.LINK.of(a, b)
+    puts += [(topics.LINK_CTL.key, cut),
+             (topics.LINK_CTL.key, forged_envelope(rng, "operator", cut)),
+             (link.key, link.encode(LinkRecord(a, b, 0.0, 0.0, 64, False, "partition"))),
+             (topics.TX.of(b).key, forged_envelope(rng, b, b"pose"))]
     for key, payload in puts:
         s.put(key, payload)
     return len(puts)

@@ -41,6 +41,7 @@ from fleet_agent.association import (DEFAULT_PARAMS, AssociationParams, Estimate
 from fleet_agent.helms.sim import sim_vehicle
 from fleet_agent.search import BeliefParams, SearchBelief, evaluate, orbit, ring_middle
 from fleet_bus.ledger import FleetLedger
+from fleet_bus.states import EventKind
 from fleet_bus.telemetry import Event, Status, position_detail
 from fleet_bus.vehicle_port import (HOME_TARGET, Arrived, GoTo, Injected, Looked, NavFix,
                                     ReturnHome, Sighted, StationKeep, Work)
@@ -262,7 +263,7 @@ class Central:
                     PRESENT, seen={seat.index: pos})
         self.items.append(item)
         self.counters["finds"] += 1
-        self.ledger.add_event(Event(r.t_s, seat.vid, "found", [item.task_id],
+        self.ledger.add_event(Event(r.t_s, seat.vid, EventKind.FOUND, [item.task_id],
                                     detail=f"{position_detail(pos)} rho {r.priority:g}"))
         return True
 
@@ -315,12 +316,12 @@ class Central:
             it.state, it.done = EMPTY, True
             if self.belief is not None:
                 self.belief.learn(r.task, False)
-            self.ledger.add_event(Event(r.t_s, seat.vid, "empty", [it.task_id]))
+            self.ledger.add_event(Event(r.t_s, seat.vid, EventKind.EMPTY, [it.task_id]))
             self._next(seat)
             return True
         if it.state == UNKNOWN:
             self._learn_present(r.task, r.priority, r.service_s)
-        self.ledger.add_event(Event(r.t_s, seat.vid, "inspected", [it.task_id],
+        self.ledger.add_event(Event(r.t_s, seat.vid, EventKind.INSPECTED, [it.task_id],
                                     detail="present"))
         self._inject_or_skip(seat, r.task, r.t_s)
         return True
@@ -335,7 +336,8 @@ class Central:
         seat.treated.append(it.task_id)
         seat.collected += it.priority
         detail = position_detail(it.pos) if it.kind == "find" else ""
-        self.ledger.add_event(Event(r.t_s, seat.vid, "cleared", [it.task_id], detail=detail))
+        self.ledger.add_event(Event(r.t_s, seat.vid, EventKind.CLEARED, [it.task_id],
+                                    detail=detail))
         self._next(seat)
         return True
 

@@ -77,13 +77,13 @@ class Fault:
             raise FaultError(f"a {self.kind} names a vehicle")
         if self.kind in INSIDER_ATTACKS and not self.vid:
             raise FaultError(f"a {self.kind} attack names its insider (--insider ID)")
-        if self.kind == "loss" and not 0.0 <= self.value <= 1.0:
+        if self.kind == FaultKind.LOSS and not 0.0 <= self.value <= 1.0:
             raise FaultError(f"loss must be in [0, 1], got {self.value}")
-        if self.kind in ("partition", "stall") and not self.value > 0:
+        if self.kind in (FaultKind.PARTITION, FaultKind.STALL) and not self.value > 0:
             raise FaultError(f"a {self.kind} lasts > 0 s, got {self.value}")
         if self.kind in ATTACKS and not (self.value >= 1 and float(self.value).is_integer()):
             raise FaultError(f"an attack sends a whole number >= 1 of frames, got {self.value}")
-        if self.kind == "ctl":
+        if self.kind == FaultKind.CTL:
             try:
                 parse_words(list(self.order_words))
             except OrderError as exc:
@@ -108,7 +108,7 @@ class Fault:
                 **{a: f" x{int(self.value)}" for a in ATTACKS}}.get(self.kind, "")
         who = (f" by insider {self.vid}" if self.kind in INSIDER_ATTACKS else f" {self.vid}") \
             if self.vid else ""
-        if self.kind == "ctl":
+        if self.kind == FaultKind.CTL:
             what = " " + " ".join(self.words)
         return f"{self.kind}{who}{what} at t={self.t_s:g} s"
 
@@ -116,7 +116,7 @@ class Fault:
         """For a stall under way at ``t_s``: whether the host is frozen then, and when that
         half of the period ends (the stall's end at the latest); None outside it."""
         end = self.t_s + self.value
-        if self.kind != "stall" or not self.t_s <= t_s < end:
+        if self.kind != FaultKind.STALL or not self.t_s <= t_s < end:
             return None
         start = self.t_s + math.floor((t_s - self.t_s) / STALL_PERIOD_S) * STALL_PERIOD_S
         thaw = start + STALL_PERIOD_S / 2
@@ -201,20 +201,20 @@ def check_schedule(faults: Sequence[Fault], vehicles: Sequence[str], horizon_s: 
     known = set(vehicles)
     dead: set[str] = set()
     for f in sorted(faults, key=lambda f: f.t_s):
-        if f.kind == "ctl" and f.order().target not in (ALL, *known):
+        if f.kind == FaultKind.CTL and f.order().target not in (ALL, *known):
             raise FaultError(f"{f.describe()}: unknown vehicle; the mission has {sorted(known)}")
         if f.vid and f.vid not in known:
             raise FaultError(f"{f.describe()}: unknown vehicle; the mission has {sorted(known)}")
         if f.t_s >= horizon_s:
             raise FaultError(f"{f.describe()}: after the mission's end (t={horizon_s:g} s)")
-        if f.kind == "kill":
+        if f.kind == FaultKind.KILL:
             if f.vid in dead:
                 raise FaultError(f"{f.describe()}: {f.vid} is already dead")
             dead.add(f.vid)
-        elif f.kind == "restart":
+        elif f.kind == FaultKind.RESTART:
             if f.vid not in dead:
                 raise FaultError(f"{f.describe()}: {f.vid} is not dead then (a restart needs "
                                  "an earlier --kill)")
             dead.discard(f.vid)
-        elif f.kind in ("abort", "partition", "stall") and f.vid in dead:
+        elif f.kind in (FaultKind.ABORT, FaultKind.PARTITION, FaultKind.STALL) and f.vid in dead:
             raise FaultError(f"{f.describe()}: {f.vid} is dead then")

@@ -40,10 +40,12 @@ from fleet_agent.journal import MemoryJournal
 from fleet_agent.motion import Conduct, OwnVehicle
 from fleet_agent.plans import Live, Planner
 from fleet_agent.routing import fit_route
+from fleet_bus.commands import ABORT
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.link import LinkControl, Partition
 from fleet_bus.modem_port import WATER_SPEC
 from fleet_bus.orders import TOPSIDE
+from fleet_bus.states import EventKind, FaultKind
 from fleet_bus.telemetry import Event, Status, Truth
 from hfc_core.model.problem import Problem
 from reef_sim.navigation import NavigationParams
@@ -148,7 +150,7 @@ class InProcessBackend:
     # -- the runner's interface --------------------------------------------------------------
 
     def check(self, faults: Sequence[Fault]) -> None:
-        if any(f.kind == "busy-hold" for f in faults):
+        if any(f.kind == FaultKind.BUSY_HOLD for f in faults):
             raise FaultError("busy-hold holds the paced clock of `cotsfleet run`; a "
                              "simulation has none to hold")
 
@@ -156,9 +158,9 @@ class InProcessBackend:
         for v in self.problem.vehicles:
             self._start_agent(v.id, 0.0, MemoryJournal())
         if any((f.kind in ATTACKS and f.kind not in INSIDER_ATTACKS)
-               or (f.kind == "ctl" and f.unsigned) for f in faults):
+               or (f.kind == FaultKind.CTL and f.unsigned) for f in faults):
             self.channel.set_position(INTRUDER, self.intruder.position(), 0.0)
-        if any(f.kind == "ctl" for f in faults):  # the operator's modem, at the boat
+        if any(f.kind == FaultKind.CTL for f in faults):  # the operator's modem, at the boat
             self.net.attach(TOPSIDE, self._topside_hear)
             self.channel.set_position(TOPSIDE, self.topside.position, 0.0)
         self._pending = plan(faults)
@@ -204,7 +206,7 @@ class InProcessBackend:
         out: dict[str, Any] = {"baseline": {
             "priority": round(float(sum(self.problem.priority[t] for t in plan)), 2),
             "spots": len(plan)}}
-        if self.topside.orders or any(f.kind == "ctl" for f in self.applied):
+        if self.topside.orders or any(f.kind == FaultKind.CTL for f in self.applied):
             out["commands"] = self.topside.section(
                 {v: dict(st.counters) for v, st in self.ledger.statuses.items()})
         if not self.oracle:
@@ -285,9 +287,9 @@ class InProcessBackend:
         """A fault at ``now`` (`fault_plan.FleetControl`)."""
         self.applied.append(Fault(f.kind, now, f.vid, f.value, f.words))
         seat = self.seats.get(f.vid)
-        if f.kind == "abort" and seat is not None and seat.driver is not None:
-            self._step(seat, lambda d: d.command("abort", now), tick=False)
-        elif f.kind == "kill" and seat is not None and seat.driver is not None:
+        if f.kind == FaultKind.ABORT and seat is not None and seat.driver is not None:
+            self._step(seat, lambda d: d.command(ABORT, now), tick=False)
+        elif f.kind == FaultKind.KILL and seat is not None and seat.driver is not None:
             agent = seat.driver.agent
             self._snapshot_oracle(f.vid, now)
             # What the dead agent knew (for tests); the fleet and the report only have what it
@@ -300,19 +302,19 @@ class InProcessBackend:
             if seat.handle is not None:
                 seat.handle.cancel()
                 seat.handle = None
-        elif f.kind == "restart" and seat is not None and seat.driver is None:
+        elif f.kind == FaultKind.RESTART and seat is not None and seat.driver is None:
             self._start_agent(f.vid, now, seat.journal.reopen())
-        elif f.kind == "partition":
+        elif f.kind == FaultKind.PARTITION:
             alone = (frozenset((f.vid,)),)  # the vehicle cut off from everyone
             apply_control(LinkControl(partition=Partition(now, now + f.value, alone)),
                           self.channel)
-        elif f.kind == "stall" and seat is not None:
+        elif f.kind == FaultKind.STALL and seat is not None:
             seat.stall = f
-        elif f.kind == "loss":
+        elif f.kind == FaultKind.LOSS:
             apply_control(LinkControl(extra_loss=f.value), self.channel)
-        elif f.kind == "ctl" and f.unsigned:  # an insider: the fleet key, not the chain
+        elif f.kind == FaultKind.CTL and f.unsigned:  # an insider: the fleet key, not the chain
             self.net.send(INTRUDER, forged_order(self.fleet, f.order(), now), "data")
-        elif f.kind == "ctl":
+        elif f.kind == FaultKind.CTL:
             self.topside.submit(f.order(), now)
             self._topside_send()
 
@@ -386,7 +388,7 @@ class InProcessBackend:
                        "cleared_before": sorted(cleared)}
 
     def _collected_after(self, t0: float, survivors: set[str], before: set[int]) -> float:
-        spots = {t for e in self.ledger.events if e.kind == "cleared" and e.id in survivors
+        spots = {t for e in self.ledger.events if e.kind == EventKind.CLEARED and e.id in survivors
                  and e.t_s > t0 for t in e.tasks}
         idx = self.problem.task_index
         return sum(float(self.problem.priority[idx[t]]) for t in spots

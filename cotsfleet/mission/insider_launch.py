@@ -15,12 +15,11 @@ from cotsfleet.mission.insider import Insider, insider_rng
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
 from fleet_agent.helms.sim import camera_figures
-from fleet_bus import keys
+from fleet_bus import topics
 from fleet_bus.auth import BusAuth
 from fleet_bus.credentials import load_auth, load_frame_chains, load_frame_seed
 from fleet_bus.modem_port import ModemSpec
 from fleet_bus.session import client_config
-from fleet_bus.telemetry import encode_busy
 from hfc_core.model.problem import Problem
 from reef_sim.truth import Reef
 
@@ -49,8 +48,7 @@ class Leaked:
     def busy(self) -> None:
         """A busy announcement signed by the insider (`ClockControl` holds for it, within the
         hold limit)."""
-        key = keys.busy_key(self.vid)
-        self.session.put(key, self.auth.seal(key, encode_busy(True)))
+        topics.BUSY.of(self.vid).put(self.session, self.auth, True)
 
     def close(self) -> None:
         self.session.close()

@@ -18,11 +18,11 @@ from __future__ import annotations
 import threading
 from typing import Any, Callable, Collection, Protocol, Sequence, TypeVar
 
-from fleet_bus import keys
-from fleet_bus import values as v
+from fleet_bus import topics
 from fleet_bus.auth import BusAuth
 from fleet_bus.ledger import FleetLedger
-from fleet_bus.telemetry import STATES, Event, Status, decode_busy
+from fleet_bus.telemetry import STATES, Status
+from fleet_bus.topics import TopicError, VehicleTopics
 from hfc_core.model.problem import Problem
 
 T = TypeVar("T")
@@ -80,7 +80,7 @@ class Intake:
     # -- the subscribers' callbacks ---------------------------------------------------------
 
     def status(self, sample: Sample) -> None:
-        got = self._from_fleet(sample, Status.decode)
+        got = self._from_fleet(sample, topics.STATUS)
         if got is None:
             return
         vid, s = got
@@ -91,7 +91,7 @@ class Intake:
             self.ledger.add_status(s)
 
     def event(self, sample: Sample) -> None:
-        got = self._from_fleet(sample, Event.decode)
+        got = self._from_fleet(sample, topics.EVENT)
         if got is None:
             return
         vid, e = got
@@ -102,18 +102,18 @@ class Intake:
 
     def alive(self, sample: Sample) -> None:
         """A vehicle's ready announcement (its initial plan is computed)."""
-        got = self._from_fleet(sample, lambda b: v.unpack_map(b, "ready"))
+        got = self._from_fleet(sample, topics.ALIVE)
         if got is None:
             return
-        vid, doc = got
-        if doc.get("id") != vid or doc.get("run_id") != self.run_id:
+        vid, ready = got
+        if ready.id != vid or ready.run_id != self.run_id:
             return self._invalid()  # another vehicle's or another run's
         with self.lock:
             self.ready.add(vid)
 
     def busy(self, sample: Sample) -> None:
         """A vehicle starts or ends a planner run (`ClockControl.busy`)."""
-        got = self._from_fleet(sample, decode_busy)
+        got = self._from_fleet(sample, topics.BUSY)
         if got is not None:
             self._on_busy(*got)
 
@@ -133,22 +133,21 @@ class Intake:
         payload = self.auth.open_payload(key, sample.payload.to_bytes())
         return None if payload is None else (key, payload)
 
-    def _from_fleet(self, sample: Sample, decode: Callable[[bytes], T]) -> tuple[str, T] | None:
-        """(vehicle id, decoded payload) of a sample signed by a vehicle of this mission
-        under its own key; else None, and a payload that does not decode, or a sender not on
-        the roster, is counted as invalid."""
+    def _from_fleet(self, sample: Sample, topic: VehicleTopics[T]) -> tuple[str, T] | None:
+        """(vehicle id, record) of a sample signed by a vehicle of this mission under its
+        own key; else None, and a payload that is not the topic's record (`TopicError`), or
+        a sender not on the roster, is counted as invalid."""
         opened = self._open(sample)
         if opened is None:
             return None
-        vid = keys.vid_of(opened[0])
         try:
-            value = decode(opened[1])
-        except ValueError:
-            value = None
-        if value is None or vid not in self.ids:
+            got: tuple[str, T] | None = topic.decode_at(*opened)
+        except TopicError:
+            got = None
+        if got is None or got[0] not in self.ids:
             self._invalid()
             return None
-        return vid, value
+        return got
 
     def _known_tasks(self, *lists: list[int]) -> bool:
         index, finds = self.problem.task_index, self._find_ids

@@ -74,12 +74,12 @@ from cotsfleet.reporting.terminal import progress_line
 from fleet_agent.config import AgentConfig, dump_config
 from fleet_agent.mission_file import write_mission_file
 from fleet_agent.radio import LATE_SHARE
-from fleet_bus import keys
+from fleet_bus import keys, topics
 from fleet_bus.auth import BusAuth, seal_query
 from fleet_bus.clock import MissionClock
-from fleet_bus.commands import ABORT, STOP, encode_command
+from fleet_bus.commands import ABORT, STOP, Command
 from fleet_bus.ledger import FleetLedger
-from fleet_bus.link import LinkControl, Partition, decode_stats
+from fleet_bus.link import LinkControl, Partition
 from fleet_bus.mission import Mission
 from fleet_bus.credentials import (OPERATOR_ID, ROUTER_ID, STATION_ID, CredentialsError,
                                    load_auth, load_frame_chains, load_frame_seed, load_ring,
@@ -87,6 +87,7 @@ from fleet_bus.credentials import (OPERATOR_ID, ROUTER_ID, STATION_ID, Credentia
 from fleet_bus.orders import TOPSIDE, OrderCodec, TopsideSchedule
 from fleet_bus.process import ROUTER_READY
 from fleet_bus.query_limits import QueryGate, gate_queryable
+from fleet_bus.states import FaultKind
 from fleet_bus.session import client_config, free_tcp_endpoint, local_endpoint
 from fleet_agent.beliefs import find_ids, operator_ids
 from hfc_core.model.problem import Problem
@@ -246,11 +247,12 @@ class ProcessBackend:
 
     def check(self, faults: Sequence[Fault]) -> None:
         for f in faults:
-            if f.kind == "ctl" and self.modem.name != "water":
+            if f.kind == FaultKind.CTL and self.modem.name != "water":
                 raise FaultError(f"{f.describe()}: the operator's orders go into the water "
                                  "through the relay (--modem water); the emulated "
                                  "Micro-Modems do not carry the topside's frames yet")
-            if f.kind in ("kill", "restart", "stall") and f.vid in self.opts.remote:
+            if f.kind in (FaultKind.KILL, FaultKind.RESTART, FaultKind.STALL) \
+                    and f.vid in self.opts.remote:
                 raise FaultError(f"{f.describe()}: a {f.kind} needs the agent's process "
                                  "here; not for --remote vehicles")
 
@@ -279,21 +281,22 @@ class ProcessBackend:
         listen = self._start_router(creds)
         session = self._session = zenoh.open(client_config([self.endpoint],
                                                            credentials=creds / OPERATOR_ID))
-        if any(f.kind == "replay" for f in faults):  # the modem intruder's material only
-            self._closers.append(session.declare_subscriber(keys.RX_ALL, self.intake.rx))
+        if any(f.kind == FaultKind.REPLAY for f in faults):  # the modem intruder's material only
+            self._closers.append(session.declare_subscriber(topics.RX.all.key, self.intake.rx))
         desk = self.desk = self._order_desk(creds, config)
         self._closers += [
             session.declare_subscriber(keys.ORDER_REQUEST, lambda sample: desk.request(
                 sample.payload.to_bytes()) if sample.kind == zenoh.SampleKind.PUT else None),
-            session.declare_subscriber(keys.rx_key(TOPSIDE), self._topside_heard),
-            session.declare_subscriber(keys.STATUS_ALL, self.intake.status),
-            session.declare_subscriber(keys.EVENT_ALL, self.intake.event),
-            session.declare_subscriber(keys.ALIVE_ALL, self.intake.alive),
-            session.declare_subscriber(keys.BUSY_ALL, self.intake.busy)]
-        mission = Mission(self.scenario, self.seed, self.run_id).encode()
-        self._closers.append(session.declare_queryable(keys.MISSION, gate_queryable(
-            self.queries, keys.MISSION,
-            lambda q: q.reply(keys.MISSION, auth.seal(keys.MISSION, mission)))))
+            session.declare_subscriber(topics.RX.of(TOPSIDE).key, self._topside_heard),
+            session.declare_subscriber(topics.STATUS.all.key, self.intake.status),
+            session.declare_subscriber(topics.EVENT.all.key, self.intake.event),
+            session.declare_subscriber(topics.ALIVE.all.key, self.intake.alive),
+            session.declare_subscriber(topics.BUSY.all.key, self.intake.busy)]
+        mission = topics.MISSION.encode(Mission(self.scenario, self.seed, self.run_id))
+        on_mission = topics.MISSION.key
+        self._closers.append(session.declare_queryable(on_mission, gate_queryable(
+            self.queries, on_mission,
+            lambda q: q.reply(on_mission, auth.seal(on_mission, mission)))))
         relay = self.procs.spawn(
             self.modem.child, self.modem.water_argv(
                 self.endpoint, creds, self.run_dir, self.seed, len(self.ids), opts.loss,
@@ -626,36 +629,36 @@ class ProcessBackend:
         """A fault at ``now`` (`fault_plan.FleetControl`)."""
         self.applied.append(Fault(f.kind, round(now, 1), f.vid, f.value, f.words))
         self.out(f"t={now:6.0f} s  fault: {f.describe()}")
-        if f.kind == "abort":
+        if f.kind == FaultKind.ABORT:
             self._command(f.vid, ABORT)
-        elif f.kind == "kill":
+        elif f.kind == FaultKind.KILL:
             child = self.children.get(f.vid)
             if child is not None:
                 self.procs.signal(child, signal.SIGKILL)
                 child.popen.wait(5.0)
             self.dead.add(f.vid)
             self._busy(f.vid, False)  # a hold of the killed process ends with it
-        elif f.kind == "restart":
+        elif f.kind == FaultKind.RESTART:
             self.procs.spawn(f.vid, self._agent_argv(f.vid), env=self._agent_env(f.vid))
             self.dead.discard(f.vid)
-        elif f.kind == "stall":
+        elif f.kind == FaultKind.STALL:
             child = self.children.get(f.vid)
             if child is not None and child.popen.poll() is None:
                 t = threading.Thread(target=self._stall, args=(child, f), daemon=True,
                                      name=f"stall-{f.vid}")
                 self._stallers.append(t)
                 t.start()
-        elif f.kind == "partition":
+        elif f.kind == FaultKind.PARTITION:
             alone = (frozenset((f.vid,)),)  # the vehicle cut off from everyone
             self._put_link(LinkControl(partition=Partition(now, now + f.value, alone)))
-        elif f.kind == "loss":
+        elif f.kind == FaultKind.LOSS:
             self._put_link(LinkControl(extra_loss=f.value))
-        elif f.kind == "ctl" and f.unsigned:  # an insider: the fleet key, not the chain
+        elif f.kind == FaultKind.CTL and f.unsigned:  # an insider: the fleet key, not the chain
             assert self.desk is not None and self.desk.topside is not None
             top = self.desk.topside
             frame = forged_frame(top.codec, top.schedule, top.chain.length, f.order(), now)
             self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
-        elif f.kind == "ctl":
+        elif f.kind == FaultKind.CTL:
             assert self.desk is not None
             answer = self.desk.submit(f.order(), now)
             if answer.error:
@@ -689,9 +692,10 @@ class ProcessBackend:
         if self.desk is None or sample.kind != zenoh.SampleKind.PUT:
             return
         assert self.auth is not None
-        frame = self.auth.open_payload(keys.rx_key(TOPSIDE), sample.payload.to_bytes())
+        rx = topics.RX.of(TOPSIDE)
+        frame = self.auth.open_payload(rx.key, sample.payload.to_bytes())
         if frame is not None:
-            self.desk.hear(frame, self.now())
+            self.desk.hear(rx.decode(frame), self.now())
 
     def _orders_due(self) -> None:
         """The topside's frames due now go into the water from its place; the answers to
@@ -707,8 +711,7 @@ class ProcessBackend:
                                        inject_from=TOPSIDE))
         for answer in due.answers:
             assert self.auth is not None
-            self._session.put(keys.ORDER_ANSWER, self.auth.seal(keys.ORDER_ANSWER,
-                                                                answer.encode()))
+            topics.ORDER_ANSWER.put(self._session, self.auth, answer)
             if answer.error:
                 self.out(f"t={now:6.0f} s  order refused: {answer.error}")
             elif not answer.acked and not answer.refused:
@@ -745,7 +748,7 @@ class ProcessBackend:
             self._put_link(LinkControl(inject=frame, inject_at=self.intruder.position()))
             return
         insider = self._insiders[f.vid]  # its leaked credentials
-        if f.kind == "busy-hold":
+        if f.kind == FaultKind.BUSY_HOLD:
             insider.busy()
             return
         status = self.intake.statuses().get(f.vid)
@@ -767,25 +770,25 @@ class ProcessBackend:
 
     def _put_link(self, control: LinkControl) -> None:
         assert self._session is not None and self.auth is not None
-        self._session.put(keys.LINK_CTL, self.auth.seal(keys.LINK_CTL, control.encode()))
+        topics.LINK_CTL.put(self._session, self.auth, control)
 
-    def _command(self, vid: str, name: str) -> None:
+    def _command(self, vid: str, name: Command) -> None:
         assert self._session is not None and self.auth is not None
-        key = keys.ctl_key(vid)
-        self._session.put(key, self.auth.seal(key, encode_command(name)))
+        topics.CTL.of(vid).put(self._session, self.auth, name)
 
     def _fetch_link_stats(self) -> LinkCounts | None:
         assert self._session is not None and self.auth is not None
         nonce = secrets.token_hex(8)
-        for reply in self._session.get(f"{keys.LINK_STATS}?n={nonce}", timeout=3.0,
-                                       attachment=seal_query(self.auth, keys.LINK_STATS, nonce)):
+        stats = topics.LINK_STATS
+        for reply in self._session.get(f"{stats.key}?n={nonce}", timeout=3.0,
+                                       attachment=seal_query(self.auth, stats.key, nonce)):
             if reply.ok is None:
                 continue
             try:
-                _, payload = self.auth.open(keys.LINK_STATS, reply.ok.payload.to_bytes())
-                counts, self._relay_extra = decode_stats(payload)
+                _, payload = self.auth.open(stats.key, reply.ok.payload.to_bytes())
+                counts, self._relay_extra = stats.decode(payload)
                 return counts
-            except ValueError:  # a refused envelope (`Refused`) too
+            except ValueError:  # a refused envelope (`Refused`) and a `TopicError` too
                 continue
         return None
 

@@ -32,6 +32,7 @@ from cotsfleet.mission.report_model import (
     VehicleRow,
 )
 from fleet_bus.ledger import FleetLedger, RealReef, SpotValues
+from fleet_bus.states import EventKind, FaultKind, VehicleState
 from hfc_core.model.problem import Problem
 from reef_sim.truth import Reef
 
@@ -100,10 +101,10 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
     values = values_of(problem, reef)
     collected = ledger.collected(values)
     statuses, events = ledger.statuses, ledger.events
-    killed = {f.vid: f.t_s for f in faults if f.kind == "kill"}
-    aborted = {f.vid: f.t_s for f in faults if f.kind == "abort"}
-    restarted = {f.vid for f in faults if f.kind == "restart"}
-    stalled = {f.vid for f in faults if f.kind == "stall"}
+    killed = {f.vid: f.t_s for f in faults if f.kind == FaultKind.KILL}
+    aborted = {f.vid: f.t_s for f in faults if f.kind == FaultKind.ABORT}
+    restarted = {f.vid for f in faults if f.kind == FaultKind.RESTART}
+    stalled = {f.vid for f in faults if f.kind == FaultKind.STALL}
     helms = ((extra or {}).get("helm") or {}).get("vehicles", {})
     vehicles = []
     for v in problem.vehicles:
@@ -116,8 +117,8 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
             priority=round(collected.by_vehicle.get(v.id, (0, 0.0))[1], 2),
             distance_m=round(s.distance_m, 1) if s else 0.0,
             battery_used_s=round(v.battery_s - s.battery_s, 1) if s else 0.0,
-            t_diff_s=round(s.battery_s, 1) if s and s.state == "home" else None,
-            home=bool(s and s.state == "home"),
+            t_diff_s=round(s.battery_s, 1) if s and s.state == VehicleState.HOME else None,
+            home=bool(s and s.state == VehicleState.HOME),
             aborted=v.id in aborted, killed=v.id in killed, restarted=v.id in restarted,
             stalled=v.id in stalled,
             helm=helms.get(v.id, "sim"),  # what drove it (`cotsfleet run --helm`)
@@ -132,14 +133,14 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
             if v.id == gone or any(t <= t0 for t in out_before):
                 continue  # only vehicles still in the mission can detect anything
             seen = [e.t_s for e in events
-                    if e.id == v.id and e.kind == "lost" and e.peer == gone and e.t_s >= t0]
+                    if e.id == v.id and e.kind == EventKind.LOST and e.peer == gone and e.t_s >= t0]
             row[v.id] = round(min(seen) - t0, 1) if seen else None
         detection[gone] = row
     false_alarms = sum(
-        1 for e in events if e.kind == "lost" and e.detail == "silent"
+        1 for e in events if e.kind == EventKind.LOST and e.detail == "silent"
         and not (e.peer in killed and e.t_s >= killed[e.peer])
         and not (e.peer in aborted and e.t_s >= aborted[e.peer]))
-    taken_over = {t for e in events if e.kind == "takeover" for t in e.tasks}
+    taken_over = {t for e in events if e.kind == EventKind.TAKEOVER for t in e.tasks}
 
     agent_totals: dict[str, int] = {}
     largest = 0
@@ -159,8 +160,8 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
         duplicate_share=round(duplicates / treatments, 4) if treatments else 0.0,
         vehicles_home=sum(1 for v in vehicles if v.home), detection_delay_s=detection,
         false_alarms=false_alarms, spots_taken_over=len(taken_over),
-        claims=sum(1 for e in events if e.kind == "claim"),
-        claims_lost=sum(1 for e in events if e.kind == "claim_lost"),
+        claims=sum(1 for e in events if e.kind == EventKind.CLAIM),
+        claims_lost=sum(1 for e in events if e.kind == EventKind.CLAIM_LOST),
         replans=agent_totals.get("replans", 0))
     messages = Messages(
         frames_sent=sum(n for k, n in agent_totals.items()

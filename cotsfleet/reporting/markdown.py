@@ -20,6 +20,7 @@ from cotsfleet.reporting.plots import drop_reasons
 from cotsfleet.reporting.terminal import notable, suspects_line
 from cotsfleet.reporting.timeline import ACTIVITIES, Segment, Spots, time_shares
 from fleet_bus.event_text import sentence
+from fleet_bus.states import FaultKind, VehicleState
 from fleet_bus.telemetry import Event
 
 MODES = {"sim": "in-process simulation (deterministic, seeded)",
@@ -66,7 +67,7 @@ def warnings(report: MissionReport) -> list[str]:
         out.append(f"{c.duplicates} duplicate treatment(s): {c.spot_word} injected more than "
                    f"once{share(c.duplicates, c.treatments, 'all treatments')}")
     for v in report.vehicles:
-        if v.state != "home" and not v.home:
+        if v.state != VehicleState.HOME and not v.home:
             out.append(f"{v.id} ended {v.state}, not at its rendezvous")
     return out
 
@@ -271,7 +272,7 @@ def _faults(report: MissionReport) -> list[str]:
 
 def _fault_text(x: FaultRow) -> str:
     """One injected fault in words (`cotsfleet.mission.faults`)."""
-    if x.kind == "ctl":
+    if x.kind == FaultKind.CTL:
         return f"the operator's order {x.order} at {_num(x.t_s)} s"
     if x.kind in INSIDER_ATTACKS:
         return f"{x.kind} by insider {x.vid} x{_num(x.value)} at {_num(x.t_s)} s"
@@ -415,7 +416,7 @@ def _processes(report: MissionReport) -> list[str]:
     bad = {n: c for n, c in codes.items() if c not in (0, None)}
     if not exited and not bad:
         return []
-    killed = {x.vid for x in report.faults if x.kind == "kill"}
+    killed = {x.vid for x in report.faults if x.kind == FaultKind.KILL}
     rows = [[name, _exit(code) + (" (the kill fault)" if name in killed else ""),
              exited.get(name, "") or "-"] for name, code in codes.items()
             if name in exited or name in bad]

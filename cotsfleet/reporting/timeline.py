@@ -16,6 +16,7 @@ from typing import Any, Mapping, Sequence
 
 from cotsfleet.mission.report_model import FaultRow, MissionReport, VehicleRow
 from fleet_bus.ledger import FleetLedger, SpotValues, cumulative
+from fleet_bus.states import EventKind, FaultKind
 from fleet_bus.telemetry import Event
 
 ACTIVITIES = ("transit", "inspect", "inject", "idle", "down")
@@ -78,9 +79,9 @@ def down_intervals(faults: Sequence[FaultRow], vid: str, end_s: float
     """When ``vid``'s agent was dead: from each kill to the next restart (or the end)."""
     out, since = [], None
     for f in sorted((f for f in faults if f.vid == vid), key=lambda f: f.t_s):
-        if f.kind == "kill" and since is None:
+        if f.kind == FaultKind.KILL and since is None:
             since = f.t_s
-        elif f.kind == "restart" and since is not None and f.t_s > since:
+        elif f.kind == FaultKind.RESTART and since is not None and f.t_s > since:
             out.append((since, min(f.t_s, end_s)))
             since = None
     if since is not None and since < end_s:
@@ -91,7 +92,7 @@ def down_intervals(faults: Sequence[FaultRow], vid: str, end_s: float
 def home_time(events: Sequence[Event], vehicle: VehicleRow) -> float | None:
     """When the vehicle reached its rendezvous: its ``home`` event, else (for a vehicle the
     report says is home) its battery use, which stops at recovery."""
-    homes = [e for e in _events_of(events, vehicle.id, "replan") if e.detail == "home"]
+    homes = [e for e in _events_of(events, vehicle.id, EventKind.REPLAN) if e.detail == "home"]
     if homes:
         return homes[-1].t_s
     if vehicle.home:
@@ -108,12 +109,12 @@ def vehicle_segments(report: MissionReport, events: Sequence[Event],
         vid = vehicle.id
         busy: list[Segment] = [Segment(a, b, "down")
                                for a, b in down_intervals(report.faults, vid, end_s)]
-        for e in _events_of(events, vid, "cleared"):
+        for e in _events_of(events, vid, EventKind.CLEARED):
             for task in e.tasks:
                 service = spots.service_s.get(task, DEFAULT_SERVICE_S)
                 busy.append(Segment(max(0.0, e.t_s - service), e.t_s, "inject"))
         for e in (x for x in events if x.id == vid
-                  and (x.kind.startswith("inspect") or x.kind == "empty")):
+                  and (x.kind.startswith("inspect") or x.kind == EventKind.EMPTY)):
             busy.append(Segment(max(0.0, e.t_s - spots.inspect_s), e.t_s, "inspect"))
         home = home_time(events, vehicle)
         if home is not None and home < end_s:

@@ -13,11 +13,12 @@ from typing import Sequence
 
 import zenoh
 
-from fleet_bus import keys
-from fleet_bus.auth import BusAuth, seal, unseal
+from fleet_bus import topics
+from fleet_bus.auth import BusAuth, unseal
 from fleet_bus.clock import Clock
 from fleet_bus.link import TxTag
 from fleet_bus.modem_port import WATER_SPEC, Received, ReportSink
+from fleet_bus.topics import Publisher
 
 
 class ZenohWater:
@@ -27,21 +28,20 @@ class ZenohWater:
 
     def __init__(self, session: zenoh.Session, vid: str, sink: ReportSink, clock: Clock,
                  auth: BusAuth | None = None) -> None:
-        self._auth, self._sink, self._clock = auth, sink, clock
-        self._tx_key, rx_key = keys.tx_key(vid), keys.rx_key(vid)
-        self._tx = session.declare_publisher(self._tx_key)
+        self._sink, self._clock = sink, clock
+        self._tx = Publisher(session, topics.TX.of(vid), auth)
+        rx = topics.RX.of(vid)
 
         def on_sample(sample: zenoh.Sample) -> None:
-            frame = unseal(auth, rx_key, sample.payload.to_bytes())
-            if frame is not None:
-                self._sink(Received(frame, self._clock.now()))
+            payload = unseal(auth, rx.key, sample.payload.to_bytes())
+            if payload is not None:
+                self._sink(Received(rx.decode(payload), self._clock.now()))
 
-        self._rx = session.declare_subscriber(rx_key, on_sample)
+        self._rx = session.declare_subscriber(rx.key, on_sample)
 
     def transmit(self, frames: Sequence[bytes], kind: str, sent_s: float | None = None) -> None:
         for frame in frames:
-            self._tx.put(seal(self._auth, self._tx_key, frame),
-                         attachment=TxTag(kind, sent_s).encode())
+            self._tx.put(frame, attachment=TxTag(kind, sent_s).encode())
 
     def close(self) -> None:
         self._rx.undeclare()

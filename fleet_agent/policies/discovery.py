@@ -20,6 +20,7 @@ from fleet_agent.outbox import FindsGap, Owed
 from fleet_agent.policies.plausible import been_there
 from fleet_agent.records import Clear, FoundSpot
 from fleet_agent.wire import MAX_TENTHS, SIGMA_UNIT_M, Codec, Found, sigma_code
+from fleet_bus.states import EventKind
 from fleet_bus.telemetry import position_detail
 from fleet_bus.vehicle_port import Injected, Looked, Sighted
 
@@ -58,10 +59,10 @@ def inspected(know: Knowledge, config: AgentConfig, ev: Inspected) -> list[Inten
         out: list[Intent] = []
         if know.clear([ev.task]):
             out += [Owe(Owed.CLEARED, 2), Note(Clear(ev.t_s, (ev.task,), own=False))]
-        out.append(Tell(ev.t_s, "empty", (ev.task,)))
+        out.append(Tell(ev.t_s, EventKind.EMPTY, (ev.task,)))
         return out + ([SeekWork()] if config.discovery else [])
     detail = "present" if ev.treating else "present, beyond the battery"
-    out = [Tell(ev.t_s, "inspected", (ev.task,), detail=detail)]
+    out = [Tell(ev.t_s, EventKind.INSPECTED, (ev.task,), detail=detail)]
     return out + ([] if ev.treating else [Hold((ev.task,), False)])
 
 
@@ -171,7 +172,7 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     know.clear(new)
     know.fold_key = (len(know.cleared), len(b.finds) + len(b.added), len(b.alias))
     return [Count("spots_judged_treated", len(new)), Note(Clear(now, tuple(new), own=False)),
-            Tell(now, "judged_treated", tuple(new))]
+            Tell(now, EventKind.JUDGED_TREATED, tuple(new))]
 
 
 def await_gaps(know: Knowledge, now: float) -> frozenset[int]:
@@ -213,7 +214,7 @@ def _discover(know: Knowledge, codec: Codec, seen: Sighted, est: Estimate,
         return [Count("finds_refused")]  # on land once on the wire's grid: nobody could go
     return [Count("finds"), Note(FoundSpot(now, slot, pos, rho, service, durable=True,
                                            sigma_m=sigma)),
-            Owe(Owed.FIND, slot), Tell(now, "found", (slot,),
+            Owe(Owed.FIND, slot), Tell(now, EventKind.FOUND, (slot,),
                                       detail=f"{where(know, slot)} rho {rho:g}")]
 
 

@@ -24,6 +24,7 @@ from fleet_agent.policies import discovery, plausible
 from fleet_agent.policies.takeover import takeover
 from fleet_agent.records import Clear, Hold, PeerState
 from fleet_agent.wire import Abort, Claim, ClearedSegment, Found, Message, Pose, Release
+from fleet_bus.states import EventKind, VehicleState
 
 
 def alive(know: Knowledge, msg: Message, now: float) -> list[Intent]:
@@ -36,7 +37,7 @@ def alive(know: Knowledge, msg: Message, now: float) -> list[Intent]:
         # Its claims live again: the overlap is settled now (spots taken from it leave the
         # route), and whatever of ours a takeover released is looked at again at once.
         know.touch()
-        out += [SeekWork(), Tell(now, "revived", peer=know.vid(u)),
+        out += [SeekWork(), Tell(now, EventKind.REVIVED, peer=know.vid(u)),
                 Note(PeerState(u, mb.ALIVE, now))]
     return out
 
@@ -104,7 +105,7 @@ def lost(know: Knowledge, config: AgentConfig, v: int, now: float,
     """Another vehicle confirmed ``v``'s silence: its work is taken over."""
     know.touch()
     out: list[Intent] = [Note(PeerState(v, mb.LOST, now)), LastWords(v),
-                         Tell(now, "lost", peer=know.vid(v), detail="silent")]
+                         Tell(now, EventKind.LOST, peer=know.vid(v), detail="silent")]
     if active:
         out += takeover(know, config, v, now, doubt=know.members.doubt(now))
     return out
@@ -119,7 +120,7 @@ def gone(know: Knowledge, config: AgentConfig, v: int, status: str, now: float,
     know.touch()
     out: list[Intent] = [Note(PeerState(v, status, now))]
     if status == mb.ABORTED:
-        out += [LastWords(v), Tell(now, "lost", peer=know.vid(v), detail="aborted")]
+        out += [LastWords(v), Tell(now, EventKind.LOST, peer=know.vid(v), detail="aborted")]
         if active:
             # Pass the news on once: a peer that missed every announcement learns it from us
             # instead of waiting for the silence to be noticed.
@@ -161,11 +162,11 @@ def _pose(know: Knowledge, config: AgentConfig, msg: Pose, now: float,
     out: list[Intent] = []
     if working and msg.digest != mine and (behind == 0 or behind < 64):
         out.append(Owe(Owed.LACKS, v))
-    if msg.state == "home" and not plausible.home(know, v, msg.pos):
+    if msg.state == VehicleState.HOME and not plausible.home(know, v, msg.pos):
         out += _suspect(know, v, "home")
-    elif msg.state == "home":
+    elif msg.state == VehicleState.HOME:
         out += gone(know, config, v, mb.HOME, now, active)[1]
-    elif msg.state == "aborted":
+    elif msg.state == VehicleState.ABORTED:
         out += gone(know, config, v, mb.ABORTED, now, active)[1]
     return out
 
@@ -183,7 +184,7 @@ def _holding(know: Knowledge, msg: Claim | Release, now: float) -> list[Intent]:
         lost_spots = [t for t in changed if t in mine_before and know.holder(t) != know.index
                       and t != own.injecting]
         if lost_spots:
-            out += [Tell(now, "claim_lost", tuple(lost_spots), peer=know.vid(msg.sender)),
+            out += [Tell(now, EventKind.CLAIM_LOST, tuple(lost_spots), peer=know.vid(msg.sender)),
                     SeekWork()]
     return out
 

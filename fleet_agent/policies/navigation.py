@@ -42,6 +42,7 @@ from fleet_agent.intents import Count, Intent, Note, Owe, Steer, Tell
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Activity, OwnVehicle
 from fleet_agent.outbox import Owed
+from fleet_bus.states import EventKind
 from fleet_bus.vehicle_port import HelmCommand, StationKeep, Work
 
 MOVING = (Activity.TRANSIT, Activity.RETURNING)
@@ -88,7 +89,7 @@ class Navigation:
             out += self._pause_battery(know, now)
         if self._stale_since is not None:  # fixes came back
             gap = max(0.0, now - self._stale_since)
-            out += [Tell(now, "navigation", detail=f"back after {gap:.0f} s; going on from "
+            out += [Tell(now, EventKind.NAVIGATION, detail=f"back after {gap:.0f} s; going on from "
                          "the new fix"), Count("nav_back")]
             self._stale_since, self.holding = None, False
             if active:  # on from where the vehicle now is (the route refitted there)
@@ -107,18 +108,18 @@ class Navigation:
         self._base_end_s = None
         if self._stale_since is None:
             self._stale_since = now - age
-            out += [Tell(now, "navigation", detail=f"no fix for {age:.0f} s: "
+            out += [Tell(now, EventKind.NAVIGATION, detail=f"no fix for {age:.0f} s: "
                          + ("keeping station" if own.activity in MOVING else "working on")),
                     Count("nav_stale")]
         if age > self.limit_s:
             self.lost, self.holding = True, False
             out += [Count("nav_lost"),
-                    Tell(now, "navigation", detail=f"no fix for {age:.0f} s: heading home "
+                    Tell(now, EventKind.NAVIGATION, detail=f"no fix for {age:.0f} s: heading home "
                          "from the last fix")]
             if active:  # an abort, as the operator's (`Agent._on_command`), said why
                 own.abort()
                 out += [Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
-                        Tell(now, "abort", detail=f"no navigation for {age:.0f} s")]
+                        Tell(now, EventKind.ABORT, detail=f"no navigation for {age:.0f} s")]
             return out
         self.holding = own.activity in MOVING
         return out
@@ -134,8 +135,8 @@ class Navigation:
         own.abort()
         return [Count("pause_battery_home"), Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1),
                 Note(rec.Aborted(now)),
-                Tell(now, "abort", detail=f"paused with {max(0.0, left_s):.0f} s of battery "
-                     f"left, {home_s:.0f} s from home: heading home")]
+                Tell(now, EventKind.ABORT, detail=f"paused with {max(0.0, left_s):.0f} s of "
+                     f"battery left, {home_s:.0f} s from home: heading home")]
 
     def _progress(self, know: Knowledge, now: float) -> list[Intent]:
         """Late: the projected end has grown by ``late_s`` since the route was set."""
@@ -149,5 +150,5 @@ class Navigation:
         if behind <= self.late_s:
             return []
         self._base_end_s = None  # measured again from the refitted route
-        return [Tell(now, "late", detail=f"{behind:.0f} s behind its plan; refitted from "
+        return [Tell(now, EventKind.LATE, detail=f"{behind:.0f} s behind its plan; refitted from "
                      f"its last fix"), Count("late"), Steer(route, "late")]

@@ -42,6 +42,7 @@ from fleet_agent import records as rec
 from fleet_bus.orders import (ACKED, ALL, REFUSALS, AckFrame, KeyFrame, Order, OrderCodec,
                               OrderError, OrderFrame, TopsideSchedule)
 from fleet_bus.telemetry import position_detail
+from fleet_bus.states import EventKind
 from fleet_bus.tesla import CLOCK_MARGIN_S, Held, Sender
 
 MAX_LEAD_S = 30.0  # a topside frame dated further ahead of this vehicle's clock is refused
@@ -139,18 +140,19 @@ class Orders:
             return [Count("ctl_repeat")]
         if now - order.issued_s > self.max_age_s:
             self._ack(order.seq, 1 + REFUSALS.index("stale"), now)
-            return [Count("ctl_stale"), Tell(now, "order", detail=f"refused {order.describe()} "
-                                             f"#{order.seq}: stale")]
+            return [Count("ctl_stale"), Tell(now, EventKind.ORDER, detail=f"refused "
+                                             f"{order.describe()} #{order.seq}: stale")]
         out = self._act(order, now, know, nav)
         if isinstance(out, str):  # refused for what it asks
             self._ack(order.seq, 1 + REFUSALS.index(out), now)
-            return [Count(f"ctl_{out}"), Tell(now, "order", detail=f"refused "
+            return [Count(f"ctl_{out}"), Tell(now, EventKind.ORDER, detail=f"refused "
                                               f"{order.describe()} #{order.seq}: {out}")]
         self.taken.add(order.seq)
         self._ack(order.seq, ACKED, now)
         taken: list[Intent] = [Note(rec.OrderTaken(now, order.seq, order.verb)),
                                Count("ctl_taken"),
-                               Tell(now, "order", detail=f"{order.describe()} #{order.seq}")]
+                               Tell(now, EventKind.ORDER,
+                                    detail=f"{order.describe()} #{order.seq}")]
         return taken + out
 
     def _act(self, order: Order, now: float, know: Knowledge, nav: Navigation
@@ -164,22 +166,22 @@ class Orders:
             own.abort()
             nav.paused = self.paused = False
             return [Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
-                    Tell(now, order.verb, detail="the operator's order")]
+                    Tell(now, EventKind(order.verb), detail="the operator's order")]
         if order.verb == "pause":
             nav.paused = self.paused = True
-            return [Tell(now, "pause", detail="keeping station")] if active else []
+            return [Tell(now, EventKind.PAUSE, detail="keeping station")] if active else []
         if order.verb == "resume":
             was = self.paused
             nav.paused = self.paused = False
             know.touch()  # the route is fitted again to what is left of the battery
-            return [Tell(now, "resume")] if was and active else []
+            return [Tell(now, EventKind.RESUME)] if was and active else []
         if order.verb == "drop-spot":
             task = know.problem.task_index.get(order.spot)
             if task is None:
                 return "unknown_spot"
             new = know.clear([task])
             return [Note(rec.Clear(now, (task,), own=False)), Owe(Owed.CLEARED, 1),
-                    Tell(now, "dropped", (task,)), SeekWork()] if new else []
+                    Tell(now, EventKind.DROPPED, (task,)), SeekWork()] if new else []
         return self._add(order, now, know)
 
     @staticmethod
@@ -195,7 +197,7 @@ class Orders:
         spot = b.added[slot]
         know.touch()
         return [Note(rec.SpotAdded(now, slot, spot.pos, spot.priority, spot.service_s)),
-                Tell(now, "added", (slot,), detail=f"{position_detail(spot.pos)} rho "
+                Tell(now, EventKind.ADDED, (slot,), detail=f"{position_detail(spot.pos)} rho "
                      f"{spot.priority:g}"), SeekWork()]
 
     # -- frames out --------------------------------------------------------------------------

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from fleet_agent.intents import Count, Intent, Tell
 from fleet_agent.knowledge import Knowledge
+from fleet_bus.states import EventKind
 
 ALONE_CYCLES = 4  # no peer heard in this many cycles: nobody to learn from
 GIVE_UP_CYCLES = 16  # peers heard, digests never agreed: go on with what was learned
@@ -48,5 +49,5 @@ class Rejoin:
             return []
         self.why = None
         know.touch()  # the route fitted again to what is now known cleared
-        return [Tell(now, "rejoined", detail=f"{len(know.cleared)} spots cleared, {how}, "
+        return [Tell(now, EventKind.REJOINED, detail=f"{len(know.cleared)} spots cleared, {how}, "
                      f"after {waited:.0f} s"), Count("rejoin_s", int(round(waited)))]

@@ -23,6 +23,7 @@ from fleet_agent.knowledge import PeerPose
 from fleet_agent.motion import OwnVehicle
 from fleet_agent.plans import Live, Planner
 from fleet_agent.reckoning import position_along
+from fleet_bus.states import VehicleState
 from hfc_core.model.paths import as_point3
 from hfc_core.model.problem import Problem
 
@@ -42,7 +43,7 @@ def live_peer(problem: Problem, v: int, pose: PeerPose | None, route: Sequence[i
     if pose is not None:
         pos, t = pose.pos, pose.t_s
         service_left = 0.5 * float(problem.service_s[route[0]]) \
-            if pose.state == "injecting" and route else 0.0
+            if pose.state == VehicleState.INJECTING and route else 0.0
     else:
         pos, t, service_left = problem.vehicles[v].start, 0.0, 0.0
     est = position_along(problem, v, pos, route, max(0.0, now_s - t), service_left)

@@ -12,6 +12,7 @@ from fleet_agent.knowledge import Knowledge
 from fleet_agent.outbox import Owed
 from fleet_agent.policies import discovery, searching
 from fleet_agent.wire import Codec
+from fleet_bus.states import EventKind
 from fleet_bus.vehicle_port import (
     Arrived,
     Injected,
@@ -38,7 +39,7 @@ def take(know: Knowledge, config: AgentConfig, codec: Codec, r: VehicleReport,
             know.touch()
             # An aborted vehicle already said goodbye; others announce their arrival.
             said: list[Intent] = [Note(rec.Home(home.t_s)),
-                                  Tell(home.t_s, "replan", detail="home")]
+                                  Tell(home.t_s, EventKind.REPLAN, detail="home")]
             return said if own.aborted else [Owe(Owed.HOME), *said]
     elif isinstance(r, Injected):
         done = own.injected(r.task, r.t_s)
@@ -47,7 +48,8 @@ def take(know: Knowledge, config: AgentConfig, codec: Codec, r: VehicleReport,
         know.treat(done.task, done.t_s)
         at = discovery.injected_at(know, r)
         return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True, at=at)),
-                Tell(done.t_s, "cleared", (done.task,), detail=discovery.where(know, done.task)),
+                Tell(done.t_s, EventKind.CLEARED, (done.task,),
+                     detail=discovery.where(know, done.task)),
                 *searching.after_injection(know, config, done.task)]
     elif isinstance(r, Looked):
         return discovery.on_looked(know, config, r)
@@ -56,7 +58,8 @@ def take(know: Knowledge, config: AgentConfig, codec: Codec, r: VehicleReport,
             return [Count("sensed_ignored")]
         return discovery.on_sighted(know, config, codec, r, r.t_s)
     elif isinstance(r, Refused):
-        return [Count("helm_refused"), Tell(r.t_s, "refused", detail=f"{r.command}: {r.reason}")]
+        return [Count("helm_refused"),
+                Tell(r.t_s, EventKind.REFUSED, detail=f"{r.command}: {r.reason}")]
     return []
 
 

@@ -27,6 +27,7 @@ from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Intent, Tell
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.search import BeliefParams, SearchBelief, best_search, worth_searching
+from fleet_bus.states import EventKind
 from fleet_bus.telemetry import position_detail
 
 
@@ -80,7 +81,7 @@ def after_injection(know: Knowledge, config: AgentConfig, task: int) -> list[Int
     z = own.pos[2]
     own.set_detour(tuple((x, y, z) for x, y in option.waypoints), option.duration_s)
     know.touch()
-    return [Count("searches"), Tell(own.t_s, "search", (task,),
+    return [Count("searches"), Tell(own.t_s, EventKind.SEARCH, (task,),
                                     detail=f"{position_detail((*centre, z))} expected "
                                            f"{option.expected_finds:.2f} finds")]
 

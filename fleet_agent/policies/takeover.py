@@ -24,6 +24,7 @@ from fleet_agent.knowledge import Knowledge
 from fleet_agent.policies.replans import (after_own, live_peer, live_self, nearest,
                                           peer_etas, takeover_share)
 from fleet_agent.policies.route import keeping_own
+from fleet_bus.states import EventKind
 
 
 def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
@@ -43,7 +44,7 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
         if doubtful:
             know.doubtful |= doubtful
             out += [Count("doubtful_spots", len(doubtful)),
-                    Tell(now, "replan", tuple(sorted(doubtful)), peer=know.vid(gone),
+                    Tell(now, EventKind.REPLAN, tuple(sorted(doubtful)), peer=know.vid(gone),
                          detail="left out: probably treated by the lost vehicle")]
     free = know.free_spots(now)
     if not free:
@@ -76,7 +77,7 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
     out.append(Count("replans"))
     if gained:
         out += [Hold(tuple(gained), True),
-                Tell(now, "takeover", tuple(gained), peer=know.vid(gone))]
+                Tell(now, EventKind.TAKEOVER, tuple(gained), peer=know.vid(gone))]
     why = f"takeover of {know.vid(gone)}"
     if doubt <= config.takeover_doubt:
         return out + [Steer(tuple(after_own(mine, soon)), why)]

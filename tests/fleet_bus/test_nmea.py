@@ -3,6 +3,7 @@ malformed input raises one error type with a reason a counter can name."""
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 
 import pytest
@@ -132,3 +133,14 @@ def test_the_rate_table_follows_goby_and_acomms() -> None:
     assert [nmea.RATES[r].frames for r in range(6)] == [1, 3, 3, 2, 2, 8]
     assert [nmea.RATES[r].frame_bytes for r in range(6)] == [32, 64, 64, 256, 256, 256]
     assert nmea.RATES[0].bit_rate_bps == 80.0 and nmea.RATES[6].packet_bytes == 192
+
+
+def test_every_field_of_a_cycle_statistic_comes_back_as_itself() -> None:
+    """Each field distinct, so that a field read into another's place shows."""
+    names = [f.name for f in dataclasses.fields(nmea.CycleStats)
+             if f.name not in ("toa", "version", "talker")]
+    values = {name: (i + 1) * 1.25 if name in nmea._CST_FLOATS else i + 1
+              for i, name in enumerate(names)}
+    toa = dt.datetime(2024, 5, 6, 7, 8, 9, 250000, tzinfo=dt.timezone.utc)
+    stats = nmea.CycleStats(toa=toa, **values)
+    assert nmea.decode(nmea.encode(stats)) == stats

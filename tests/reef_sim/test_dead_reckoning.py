@@ -47,6 +47,9 @@ def test_no_section_is_exact_navigation_and_a_section_takes_its_defaults():
     got = navigation_from_doc({"navigation": {"drift_pct": 0.3, "fix_period_s": 600}})
     assert got == NavigationParams(drift_pct=0.3, fix_period_s=600.0)
     assert navigation_from_doc({"navigation": got.to_dict()}) == got
+    # every field is read, each into its own place
+    every = NavigationParams(*(0.5 + i for i in range(len(NavigationParams().to_dict()))))
+    assert navigation_from_doc({"navigation": every.to_dict()}) == every
 
 
 @pytest.mark.parametrize("section, message", [
@@ -54,6 +57,7 @@ def test_no_section_is_exact_navigation_and_a_section_takes_its_defaults():
     ({"drift_pct": "1%"}, "navigation.drift_pct: expected a finite number"),
     ({"fix_sigma_m": math.inf}, "navigation.fix_sigma_m: expected a finite number"),
     ({"fix_period_s": 0}, "navigation.fix_period_s: must be > 0 or null"),
+    ({"drift_pct": None}, "navigation.drift_pct: expected a finite number, got null"),
     ({"drift": 1.0}, "navigation: unknown field(s) drift"),
     ([1.0], "navigation: expected an object"),
 ])
