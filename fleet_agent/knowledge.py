@@ -228,12 +228,14 @@ class Knowledge:
 
     # -- peers ------------------------------------------------------------------------------
 
-    def expects(self, listener: int, speaker: int, t_s: float) -> bool:
+    def expects(self, listener: int, speaker: int, t_s: float, slack_s: float = 0.0) -> bool:
         """Should ``listener`` have heard ``speaker`` around ``t_s`` were it alive: both where
         they are believed to be then (`whereabouts`), within ``hear_range_m`` (`membership`
-        counts silences only where a frame was to be expected)."""
+        counts silences only where a frame was to be expected), plus how far the speaker
+        travels in ``slack_s`` (its believed position is a reckoning over that long)."""
         a, b = self.whereabouts(listener, t_s), self.whereabouts(speaker, t_s)
-        return (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 <= self.hear_range_m ** 2
+        reach = self.hear_range_m + slack_s * self.problem.vehicles[speaker].speed_mps
+        return (a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 <= reach ** 2
 
     def whereabouts(self, v: int, t_s: float) -> Point3:
         """Where vehicle ``v`` is believed to be at ``t_s`` if alive: this vehicle where it

@@ -67,9 +67,10 @@ class Timing(Protocol):
 class Reach(Protocol):
     """Who should hear whom (`fleet_agent.knowledge.Knowledge.expects`)."""
 
-    def expects(self, listener: int, speaker: int, t_s: float) -> bool:
+    def expects(self, listener: int, speaker: int, t_s: float, slack_s: float = 0.0) -> bool:
         """Should ``listener`` have heard ``speaker``'s frames around ``t_s``, were the
-        speaker alive?"""
+        speaker alive? ``slack_s``: the speaker's believed position may be off by as far
+        as it travels in that long (a reckoning over that span)."""
 
 
 @dataclass(frozen=True)
@@ -88,7 +89,7 @@ class FixedTiming:
 class Everyone:
     """Everyone within reach of everyone (a small fleet in one patch of water)."""
 
-    def expects(self, listener: int, speaker: int, t_s: float) -> bool:
+    def expects(self, listener: int, speaker: int, t_s: float, slack_s: float = 0.0) -> bool:
         return True
 
 
@@ -251,18 +252,19 @@ class Membership:
         """May this vehicle judge ``v``'s silence? Only if it heard ``v`` itself about as
         late as anyone did (within `RECENT_TURNS` turns of the latest evidence of it: ``v``
         was near in fact, not only believed near on old news while others heard it
-        elsewhere), and either it heard ``v``'s last frame itself or ``v`` is within its
-        reach as it believes."""
+        elsewhere), and ``v`` is within its reach as it believes (give or take a turn's
+        travel when it took ``v``'s last frame itself)."""
         p = self.peers[v]
         recent = RECENT_TURNS * self.timing.turn_s(v, p.evidence_s)
         if p.direct_s < p.evidence_s - recent:
             return False
-        # This vehicle took the suspect's last frame itself: it was within reach in fact, a
-        # turn before the silence began. Where the suspect was then is a dead reckoning over
-        # that turn along a route believed from claims, and at 100 vehicles (95 s turns) it
-        # put a neighbour 763 m away at 1021 m: out of reach, so it never judged.
-        return p.direct_s >= p.evidence_s or \
-            self.reach.expects(self.me, v, min(now_s, self._fell_silent(v)))
+        # Where the suspect was when its silence began is its last pose reckoned for a turn
+        # along a route believed from claims: at 100 vehicles (95 s turns) that put a
+        # neighbour 763 m away at 1021 m, and it never judged. If this vehicle took the
+        # suspect's last frame itself, it was near in fact a turn before: the reckoning may
+        # be off by as far as the suspect travels in that turn.
+        slack = self.timing.turn_s(v, p.evidence_s) if p.direct_s >= p.evidence_s else 0.0
+        return self.reach.expects(self.me, v, min(now_s, self._fell_silent(v)), slack)
 
     def _fell_silent(self, v: int) -> float:
         """When ``v``'s first unheard frame was due: a turn after its latest evidence. Where

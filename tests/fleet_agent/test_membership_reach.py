@@ -17,9 +17,10 @@ class Line:
 
     x: dict[int, float]
     range_m: float = 1000.0
+    speed_mps: float = 2.0
 
-    def expects(self, listener: int, speaker: int, t_s: float) -> bool:
-        return abs(self.x[listener] - self.x[speaker]) <= self.range_m
+    def expects(self, listener: int, speaker: int, t_s: float, slack_s: float = 0.0) -> bool:
+        return abs(self.x[listener] - self.x[speaker]) <= self.range_m + self.speed_mps * slack_s
 
 
 @dataclass
@@ -57,17 +58,27 @@ def test_a_suspect_out_of_reach_stays_suspected_whatever_the_witnesses_say() -> 
     assert m.status(1) == SUSPECT and m.alive(1)  # its claims still stand here
 
 
-def test_a_vehicle_that_took_the_last_frame_itself_judges_whatever_it_believes() -> None:
-    """Reception is reach: the belief of where the suspect was when it fell silent (a turn's
-    reckoning along a believed route) put a neighbour 763 m away at 1021 m at 100 vehicles,
-    and it never judged. A witness must still be believed within reach."""
-    x = {0: 0.0, 1: 1200.0, 2: 1500.0, 3: 5000.0}  # believed out of our reach; 2 near it
+def test_a_vehicle_that_took_the_last_frame_itself_allows_a_turns_travel() -> None:
+    """Where the suspect was believed when it fell silent is a turn's reckoning: at 100
+    vehicles it put a neighbour 763 m away at 1021 m, and it never judged. A vehicle that
+    took the last frame itself allows for the suspect's travel in that turn (here 10 s at
+    2 m/s: 20 m); a witness must still be believed within reach."""
+    x = {0: 0.0, 1: 1015.0, 2: 1300.0, 3: 5000.0}  # 1 just beyond our reach; 2 near it
     m = member(0, x)
     m.heard(1, 10.0, 10.5)  # its last frame: we heard it ourselves
     assert 1 in m.check(50.0)
     assert m.confirm(3, never(4, 1), sent_s=55.0, now_s=56.0) == []  # 3: far from it
     assert m.confirm(2, never(4, 1), sent_s=57.0, now_s=58.0) == [1]
     assert m.status(1) == LOST
+
+
+def test_beyond_a_turns_travel_even_the_last_frame_taken_is_not_reach() -> None:
+    x = {0: 0.0, 1: 1200.0, 2: 1300.0}  # 1 believed 200 m beyond our reach
+    m = member(0, x)
+    m.heard(1, 10.0, 10.5)  # heard once at long range (the water carries farther, by luck)
+    assert 1 in m.check(50.0)
+    assert m.confirm(2, never(3, 1), sent_s=57.0, now_s=58.0) == []
+    assert m.status(1) == SUSPECT
 
 
 def test_a_witness_out_of_the_suspects_reach_confirms_nothing() -> None:
