@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -191,6 +192,7 @@ def _dups_by_way(r: dict[str, Any]) -> str:
 def main(runs: int, greens: int, jobs: int, settings: list[str], quick: bool,
          search: bool = False) -> None:
     t0 = time.perf_counter()
+    load0 = os.getloadavg()
     clair_s = 1.0 if quick else CLAIRVOYANT_S
     jobs_list = [(s, seed) for s in settings for seed in range(runs)]
     with ProcessPoolExecutor(jobs) as pool:
@@ -263,8 +265,12 @@ def main(runs: int, greens: int, jobs: int, settings: list[str], quick: bool,
             f"Loss: "
             f"{LOSS:.0%} extra uniform loss. Drift: navigation drifting by "
             f"{DRIFT.drift_pct:g} % of the distance run, no fixes. {jobs} worker process(es), "
-            f"{wall:.0f} s wall in all; the machine was shared with other work, so wall times "
-            f"are rough.\n\n" + "\n\n".join(sections) + "\n\n" + misses_block(misses))
+            f"{wall:.0f} s wall in all; load average (1, 5, 15 min) "
+            f"{' / '.join(f'{x:.1f}' for x in load0)} at the start, "
+            f"{' / '.join(f'{x:.1f}' for x in os.getloadavg())} at the end (the clairvoyant's "
+            f"{clair_s:g} s are a time limit: a loaded machine favours the fleet's ratio to "
+            f"it; every other figure is the seeded missions' own).\n\n"
+            + "\n\n".join(sections) + "\n\n" + misses_block(misses))
     print_misses(misses)
     if not quick:
         write_section("dynamic", "Dynamic missions: discovery, search and cooperation "
