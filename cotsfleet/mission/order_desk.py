@@ -5,8 +5,9 @@ on another host with a remote ground station's (``ground``: `cotsfleet ctl --con
 puts it on ``fleet/ctl/order`` (`fleet_bus.orders.encode_request`). The desk opens it with a
 verifier of its own over the run's ring (so its refusals are counted apart, as the report's
 ``security.orders``; the orders taken, by signer, as ``security.orders_taken``; one replay
-window per signer), takes it only from those two signers, hands the order to the topside (`cotsfleet.mission.topside`: numbered,
-dated, sent until acknowledged, its key chain disclosed) and answers on
+window per signer), takes it only from those two signers, hands the order to the topside
+(`cotsfleet.mission.topside`: numbered, dated, sent until acknowledged, its key chain
+disclosed) and answers on
 ``fleet/ctl/order/answer`` (`fleet_bus.orders.Answer`): accepted as number N, then each
 acknowledgement or refusal the topside hears through the water.
 
