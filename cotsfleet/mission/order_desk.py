@@ -7,9 +7,8 @@ verifier of its own over the run's ring (so its refusals are counted apart, as t
 ``security.orders``; the orders taken, by signer, as ``security.orders_taken``; one replay
 window per signer), takes it only from those two signers, hands the order to the topside
 (`cotsfleet.mission.topside`: numbered, dated, sent until acknowledged, its key chain
-disclosed) and answers on
-``fleet/ctl/order/answer`` (`fleet_bus.orders.Answer`): accepted as number N, then each
-acknowledgement or refusal the topside hears through the water.
+disclosed) and answers on ``fleet/ctl/order/answer`` (`fleet_bus.orders.Answer`): accepted
+as number N, then each acknowledgement or refusal the topside hears through the water.
 
 Zenoh's threads call `request` and `hear`; the launcher's loop calls `due` (what to transmit
 now, and the answers to publish). One lock guards the topside. Requests wait in a queue
