@@ -15,8 +15,10 @@ across keys and threads) and refuse what is below it or already seen.
 
 Who may sign what (`allowed`): the operator (the launcher) alone commands, serves the mission
 and clock records and controls the link; vehicle X alone speaks on ``fleet/<kind>/X``; the
-relay alone delivers (``fleet/rx``), reports link fates and serves link stats. A receiver
-refuses an envelope whose signer is not allowed on its key, and counts every refusal by reason.
+relay alone delivers (``fleet/rx``), reports link fates and serves link stats; a remote ground
+station (role ``ground``: `cotsfleet ctl --connect` on another host) signs only order
+requests (``fleet/ctl/order``), as the operator may too. A receiver refuses an envelope whose
+signer is not allowed on its key, and counts every refusal by reason.
 
 Queries are signed too (`seal_query`, `open_query`): the envelope rides as the query's
 attachment, under the signing key ``fleet/query/<signer>`` (anyone of the ring, for itself
@@ -48,9 +50,9 @@ _COUNTER = struct.Struct("<Q")
 MIN_ENVELOPE = len(MAGIC) + 1 + 1 + _COUNTER.size + SIG_BYTES
 REPLAY_WINDOW = 4096  # counters this far below a signer's highest are still accepted once
 
-OPERATOR, VEHICLE, RELAY = "operator", "vehicle", "relay"
-ROLES = (OPERATOR, VEHICLE, RELAY)
-OPERATOR_ID, RELAY_ID = "operator", "relay"
+OPERATOR, VEHICLE, RELAY, GROUND = "operator", "vehicle", "relay", "ground"
+ROLES = (OPERATOR, VEHICLE, RELAY, GROUND)
+OPERATOR_ID, RELAY_ID, GROUND_ID = "operator", "relay", "ground"
 QUERY_KIND = "query"  # the signing key of a query: fleet/query/<signer> (never on the bus)
 
 # Why an envelope was refused (the counters every receiver keeps).
@@ -71,6 +73,10 @@ class Refused(ValueError):
 
 def allowed(key: str, signer: str, role: str) -> bool:
     """Whether ``signer`` of ``role`` may sign a message on ``key``."""
+    if key == keys.ORDER_REQUEST:  # `cotsfleet ctl`: the operator's, or a remote ground's
+        return role in (OPERATOR, GROUND)
+    if role == GROUND:  # nothing else: not even its own queries (it never asks)
+        return False
     if key in (keys.MISSION, keys.CLOCK):  # the operator's two records
         return role == OPERATOR
     try:

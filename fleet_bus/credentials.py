@@ -9,13 +9,17 @@ certificate of the mission's CA (`fleet_bus.certificates`) and there is no passw
     root/ca.pem                     the mission's CA certificate (its key is never written)
     root/<id>/ring.json, ca.pem     the same, in every process's directory
     root/<id>/tls.key, tls.pem      its own TLS key and certificate (common name: its id)
-    root/<id>/signing.key           its own Ed25519 private key (operator, relay, vehicles)
+    root/<id>/signing.key           its own Ed25519 private key (operator, relay, ground,
+                                    vehicles)
     root/<vehicle>/frames.key       its own key chain's seed for the acoustic frames
                                     (`fleet_bus.tesla`; the ring holds every commitment)
     root/operator/frames.key        the topside modem's key chain seed: the operator's live
                                     orders (`fleet_bus.orders`; the ring holds its commitment)
 
-for ``operator``, ``relay``, ``station`` and ``world`` (no signing key: they only listen;
+for ``operator``, ``relay``, ``ground`` (a ground station elsewhere that orders the fleet:
+`cotsfleet ctl --connect`; its key signs order requests only, and the router lets it put
+those and hear their answers, nothing else), ``station`` and ``world`` (no signing key:
+they only listen;
 ``world`` is the simulated world's processes, e.g. the ROS 2 vehicles that follow the mission
 clock), ``router`` (the operator's host's router; its certificate also names ``hosts``) and
 every vehicle; and, for each vehicle of ``linked_routers``, ``router-<id>``: the router of
@@ -48,8 +52,8 @@ from typing import Sequence
 from cryptography.hazmat.primitives import serialization
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey, Ed25519PublicKey
 
-from fleet_bus.auth import (OPERATOR, OPERATOR_ID, RELAY, RELAY_ID, ROLES, VEHICLE, BusAuth,
-                            Member, Signer, Verifier)
+from fleet_bus.auth import (GROUND, GROUND_ID, OPERATOR, OPERATOR_ID, RELAY, RELAY_ID, ROLES,
+                            VEHICLE, BusAuth, Member, Signer, Verifier)
 from fleet_bus.certificates import (Authority, CertificateError, CertificateInfo, check_identity,
                                    host_name)
 from fleet_bus.tesla import KEY_BYTES, FleetChains, KeyChain
@@ -130,8 +134,8 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
     returns the run id. ``hosts``, ``linked_routers`` and ``valid_days`` are for ``tls``."""
     run_id = run_id or new_run_id()
     for vid in vehicles:
-        if (vid in (OPERATOR_ID, RELAY_ID, ROUTER_ID, STATION_ID, WORLD_ID) or "/" in vid
-                or not vid or vid.startswith(LINKED_PREFIX)):
+        if (vid in (OPERATOR_ID, RELAY_ID, GROUND_ID, ROUTER_ID, STATION_ID, WORLD_ID)
+                or "/" in vid or not vid or vid.startswith(LINKED_PREFIX)):
             raise CredentialsError(f"vehicle id {vid!r} cannot have credentials of its own")
     if not tls and (hosts or linked_routers):
         raise CredentialsError("hosts and linked routers are for TLS credentials")
@@ -145,7 +149,8 @@ def write_run_credentials(root: Path, vehicles: Sequence[str], run_id: str | Non
     except CertificateError as exc:
         raise CredentialsError(str(exc)) from None
     _private_dir(root)
-    signers = {OPERATOR_ID: OPERATOR, RELAY_ID: RELAY, **{v: VEHICLE for v in vehicles}}
+    signers = {OPERATOR_ID: OPERATOR, RELAY_ID: RELAY, GROUND_ID: GROUND,
+               **{v: VEHICLE for v in vehicles}}
     private = {sid: Ed25519PrivateKey.generate() for sid in signers}
     # Every chain's seed is random (never derived from the fleet key, which every vehicle
     # holds): only its holder can disclose its keys. The operator's is the topside modem's.

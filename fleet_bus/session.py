@@ -21,9 +21,10 @@ from typing import Any, Sequence
 import zenoh
 
 from fleet_bus import keys
-from fleet_bus.credentials import (OPERATOR_ID, RELAY_ID, ROUTER_ID, ROUTER_USERS,
-                                   CredentialsError, TlsIdentity, ZenohLogin, linked_router_id,
-                                   load_login, load_ring, load_router_zid, load_tls, uses_tls)
+from fleet_bus.credentials import (GROUND_ID, OPERATOR_ID, RELAY_ID, ROUTER_ID, ROUTER_USERS,
+                                   STATION_ID, WORLD_ID, CredentialsError, TlsIdentity,
+                                   ZenohLogin, linked_router_id, load_login, load_ring,
+                                   load_router_zid, load_tls, uses_tls)
 
 DEFAULT_ENDPOINT = "tcp/127.0.0.1:7447"
 _EVERY_MESSAGE = ["put", "delete", "declare_subscriber", "query", "reply", "declare_queryable",
@@ -47,10 +48,12 @@ def _login(conf: zenoh.Config, login: ZenohLogin, dictionary: Path | None = None
 
 def access_control(vehicles: Sequence[str], upstream_zid: str | None = None,
                    by_certificate: bool = False) -> dict[str, Any]:
-    """Zenoh 1.x ``access_control`` of the fleet's router: anyone connected may listen (the
-    ground station, any process); only the operator may command, serve the mission and
-    clock records and control the link; only the relay may deliver, report link fates and
-    serve link stats; only vehicle X may speak on ``fleet/*/X``; the main router may
+    """Zenoh 1.x ``access_control`` of the fleet's router: every process of the mission may
+    listen (the ground station, any process) but ``ground``, a ground station elsewhere that
+    may only put order requests and hear their answers; only the operator may command, serve
+    the mission and clock records and control the link; only the relay may deliver, report
+    link fates and serve link stats; only vehicle X may speak on ``fleet/*/X``; the main
+    router may
     forward anything (a router linked to it sees it as a peer that carries the operator's
     host), and so may, on plain logins, any router logging in as ``router`` and the main
     router's id (``upstream_zid``). Everything else is denied.
@@ -74,14 +77,25 @@ def access_control(vehicles: Sequence[str], upstream_zid: str | None = None,
              rule("operator", ["put", "declare_queryable", "reply"],
                   [f"{p}/ctl/**", keys.MISSION, keys.CLOCK]),
              rule("relay", ["put", "declare_queryable", "reply"],
-                  [f"{p}/rx/*", f"{p}/link/**", keys.LINK_STATS])]
-    subjects: list[dict[str, Any]] = [{"id": "anyone"}, subject("router", ROUTER_ID),
+                  [f"{p}/rx/*", f"{p}/link/**", keys.LINK_STATS]),
+             # `cotsfleet ctl --connect`: its requests in, the launcher's answers out
+             rule("ground", ["put"], [keys.ORDER_REQUEST]),
+             rule("ground answers", ["declare_subscriber"], [keys.ORDER_ANSWER])]
+    # Who may listen: every identity of the mission but ``ground`` (a subject with no
+    # attribute would match it too, and Zenoh has no "all but"; a deny rule would also take
+    # the answers away: its deny wins over any allow on keys it includes).
+    listeners = [ROUTER_ID, OPERATOR_ID, RELAY_ID, STATION_ID, WORLD_ID, *vehicles,
+                 *((linked_router_id(v) for v in vehicles) if by_certificate else ())]
+    subjects: list[dict[str, Any]] = [{"id": "anyone"}, subject("listeners", *listeners),
+                                      subject("router", ROUTER_ID),
                                       subject("operator", OPERATOR_ID),
-                                      subject("relay", RELAY_ID)]
-    policies = [{"rules": ["egress", "listen"], "subjects": ["anyone"]},
+                                      subject("relay", RELAY_ID), subject("ground", GROUND_ID)]
+    policies = [{"rules": ["egress"], "subjects": ["anyone"]},
+                {"rules": ["listen"], "subjects": ["listeners"]},
                 {"rules": ["forward"], "subjects": ["router"]},
                 {"rules": ["operator"], "subjects": ["operator"]},
-                {"rules": ["relay"], "subjects": ["relay"]}]
+                {"rules": ["relay"], "subjects": ["relay"]},
+                {"rules": ["ground", "ground answers"], "subjects": ["ground"]}]
     for vid in vehicles:
         own = [f"{p}/{kind}/{vid}"
                for kind in ("tx", "truth", "status", "event", "alive", "busy")]

@@ -3,7 +3,8 @@
 `cotsfleet run` makes fresh credentials for each run by itself; a vehicle whose agent runs on
 another host (``--remote``) needs its own before the mission starts. This writes them all,
 for a TLS bus (`fleet_bus.credentials`): the key ring, a signing key per vehicle, the
-operator's and the relay's, the mission's CA certificate and one TLS key and certificate per
+operator's, the relay's and a remote ground station's (``ground``: `cotsfleet ctl --connect`,
+order requests only), the mission's CA certificate and one TLS key and certificate per
 process (no password anywhere), including a router for each vehicle's own host, and says
 what to copy where. Make new ones for every mission: signatures bind its run id, and the
 CA's key is gone once they are made.
@@ -23,6 +24,7 @@ from cotsfleet.commands.mission_args import scenario_doc
 from cotsfleet.errors import UsageError
 from fleet_bus.credentials import (
     DEFAULT_VALID_DAYS,
+    GROUND_ID,
     ROUTER_ID,
     CredentialsError,
     linked_router_id,
@@ -79,6 +81,8 @@ def run(args: argparse.Namespace) -> int:
               f"there, python -m comms_sim.router --credentials {linked_router_id(vid)} "
               f"--listen tls/127.0.0.1:7447 --connect tls/HOST:7447 and python -m fleet_agent "
               f"--id {vid} --credentials {vid} --connect tls/127.0.0.1:7447 ...")
+    print(f"  ground station: copy {d / GROUND_ID} to its host; there, cotsfleet ctl --connect "
+          f"tls/HOST:7447 --credentials {GROUND_ID} ORDER (order requests only)")
     print(f"  on board: cotsfleet agent --id ID --mission {d}/ID/mission.json --credentials "
           f"{d}/ID --config AGENT.toml --helm moos|ros2 --modem micromodem:/dev/ttyUSB0"
           + ("" if start is not None else " --start WHEN"))

@@ -1,16 +1,19 @@
 """The launcher's desk for the operator's live orders in a multi-process mission.
 
-`cotsfleet ctl` (the operator's terminal) signs an order request with the operator's key and
+`cotsfleet ctl` (the operator's terminal) signs an order request with the operator's key, or
+on another host with a remote ground station's (``ground``: `cotsfleet ctl --connect`), and
 puts it on ``fleet/ctl/order`` (`fleet_bus.orders.encode_request`). The desk opens it with a
 verifier of its own over the run's ring (so its refusals are counted apart, as the report's
-``security.orders``), hands the order to the topside (`cotsfleet.mission.topside`: numbered,
-dated, sent until acknowledged, its key chain disclosed) and answers on
-``fleet/ctl/order/answer`` (`fleet_bus.orders.Answer`): accepted as number N, then each
-acknowledgement or refusal the topside hears through the water.
+``security.orders``; the orders taken, by signer, as ``security.orders_taken``; one replay
+window per signer), takes it only from those two signers, hands the order to the topside
+(`cotsfleet.mission.topside`: numbered, dated, sent until acknowledged, its key chain
+disclosed) and answers on ``fleet/ctl/order/answer`` (`fleet_bus.orders.Answer`): accepted
+as number N, then each acknowledgement or refusal the topside hears through the water.
 
 Zenoh's threads call `request` and `hear`; the launcher's loop calls `due` (what to transmit
-now, and the answers to publish). One lock guards the topside. Requests wait in a bounded
-queue (`MAX_QUEUED`): a flood of signed requests costs the flooder its own requests.
+now, and the answers to publish). One lock guards the topside. Requests wait in a queue
+bounded per signer (`MAX_QUEUED` each): a flood of signed requests costs the flooder its own
+requests, never the other signer's.
 """
 
 from __future__ import annotations
@@ -23,10 +26,12 @@ from typing import Any
 from cotsfleet.mission.topside import Topside
 from fleet_bus import keys
 from fleet_bus.auth import Refused, Verifier
-from fleet_bus.credentials import OPERATOR_ID
+from fleet_bus.credentials import GROUND_ID, OPERATOR_ID
 from fleet_bus.orders import ALL, Answer, Order, OrderError, decode_request, request_ref
 
-MAX_QUEUED = 64  # requests taken but not yet handed to the topside
+MAX_QUEUED = 64  # requests of one signer taken but not yet handed to the topside
+# Who may order: the launcher's operator and a ground station elsewhere (`fleet_bus.auth`).
+ORDER_SIGNERS = (OPERATOR_ID, GROUND_ID)
 
 
 @dataclass
@@ -46,9 +51,13 @@ class OrderDesk:
                  ) -> None:
         self.topside, self.verifier, self.unavailable = topside, verifier, unavailable
         self.refused: dict[str, int] = {}  # requests refused, by reason
+        self.taken: dict[str, int] = {}  # requests numbered, by signer
         self._lock = threading.Lock()
-        self._queue: deque[tuple[Order | None, str, str]] = deque()  # order, ref, error
+        # order, ref, error, signer
+        self._queue: deque[tuple[Order | None, str, str, str]] = deque()
+        self._waiting: dict[str, int] = {}  # requests queued, by signer
         self._refs: dict[int, str] = {}  # order number -> the request's ref
+        self._by: dict[int, str] = {}  # order number -> who signed its request
         self._told: dict[int, tuple[int, int]] = {}  # seq -> (acks, refusals) answered
         self._next_s: float | None = None
 
@@ -59,14 +68,14 @@ class OrderDesk:
     # -- Zenoh's threads ----------------------------------------------------------------------
 
     def request(self, envelope: bytes) -> None:
-        """A sample of ``fleet/ctl/order``: queued if the operator signed it and it is an
-        order; refused and counted otherwise (no answer: whoever sent it is not the
-        operator's terminal)."""
+        """A sample of ``fleet/ctl/order``: queued if the operator or the ground station
+        signed it and it is an order; refused and counted otherwise (no answer: whoever sent
+        it is not one of their terminals)."""
         try:
             signer, payload = self.verifier.open(keys.ORDER_REQUEST, envelope)
         except Refused as exc:
             return self._count(exc.reason)
-        if signer != OPERATOR_ID:  # another operator-role signer (none in a run's ring)
+        if signer not in ORDER_SIGNERS:  # another signer of their roles (none in a run's ring)
             return self._count("not_allowed")
         try:
             ref = request_ref(payload)
@@ -77,10 +86,11 @@ class OrderDesk:
         except (OrderError, ValueError) as exc:
             order, error = None, str(exc)
         with self._lock:
-            if len(self._queue) >= MAX_QUEUED:
+            if self._waiting.get(signer, 0) >= MAX_QUEUED:
                 self.refused["flood"] = self.refused.get("flood", 0) + 1
                 return
-            self._queue.append((order, ref, error))
+            self._waiting[signer] = self._waiting.get(signer, 0) + 1
+            self._queue.append((order, ref, error, signer))
 
     def hear(self, frame: bytes, now: float) -> None:
         """A frame the water delivered to the topside (``fleet/rx/topside``, the relay's)."""
@@ -91,12 +101,13 @@ class OrderDesk:
 
     # -- the launcher's loop ------------------------------------------------------------------
 
-    def submit(self, order: Order, now: float, ref: str = "") -> Answer:
-        """Hand ``order`` to the topside now (a request, or a scheduled ``--ctl``)."""
+    def submit(self, order: Order, now: float, ref: str = "", by: str = "") -> Answer:
+        """Hand ``order`` to the topside now (a request signed by ``by``, or a scheduled
+        ``--ctl``: ``by`` empty)."""
         with self._lock:
-            return self._submit(order, now, ref)
+            return self._submit(order, now, ref, by)
 
-    def _submit(self, order: Order, now: float, ref: str) -> Answer:
+    def _submit(self, order: Order, now: float, ref: str, by: str) -> Answer:
         if self.topside is None:
             self.refused["unavailable"] = self.refused.get("unavailable", 0) + 1
             return Answer(ref, order=order.describe(), error=self.unavailable)
@@ -106,6 +117,9 @@ class OrderDesk:
             self.refused["invalid"] = self.refused.get("invalid", 0) + 1
             return Answer(ref, order=order.describe(), error=str(exc))
         self._refs[numbered.seq] = ref
+        if by:
+            self._by[numbered.seq] = by
+            self.taken[by] = self.taken.get(by, 0) + 1
         self._told[numbered.seq] = (0, 0)
         self._next_s = now  # out at once
         return self._answer(numbered.seq)
@@ -123,12 +137,13 @@ class OrderDesk:
         out = Due([], [])
         with self._lock:
             while self._queue:
-                order, ref, error = self._queue.popleft()
+                order, ref, error, signer = self._queue.popleft()
+                self._waiting[signer] -= 1
                 if order is None:
                     self.refused["invalid"] = self.refused.get("invalid", 0) + 1
                     out.answers.append(Answer(ref, error=error))
                 else:
-                    out.answers.append(self._submit(order, now, ref))
+                    out.answers.append(self._submit(order, now, ref, signer))
             if self.topside is None:
                 return out
             for seq, told in self._told.items():
@@ -146,8 +161,17 @@ class OrderDesk:
         with self._lock:
             if self.topside is None or not self.topside.orders:
                 return None
-            return self.topside.section(counters)
+            section = self.topside.section(counters)
+            for row in section["sent"]:  # who signed each request (none: scheduled)
+                if row["seq"] in self._by:
+                    row["by"] = self._by[row["seq"]]
+            return section
 
     def refusals(self) -> dict[str, int]:
         with self._lock:
             return {k: n for k, n in self.refused.items() if n}
+
+    def takers(self) -> dict[str, int]:
+        """The requests numbered, by signer (the report's ``security.orders_taken``)."""
+        with self._lock:
+            return dict(self.taken)

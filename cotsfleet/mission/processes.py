@@ -482,10 +482,12 @@ class ProcessBackend:
             (vid, {k[len("drop_auth_"):]: n for k, n in s.counters.items()
                    if k.startswith("drop_auth_")}) for vid, s in sorted(statuses.items())) if row}
         orders = self.desk.refusals() if self.desk is not None else {}
+        taken = self.desk.takers() if self.desk is not None else {}
         total = sum(operator.values()) + sum(relay.values()) + sum(
             sum(a.values()) for a in agents.values()) + sum(orders.values())
         return {"refused_total": total, "operator": operator, "relay": relay,
-                "agents": agents, **({"orders": orders} if orders else {})}
+                "agents": agents, **({"orders": orders} if orders else {}),
+                **({"orders_taken": taken} if taken else {})}
 
     def close(self) -> None:
         """Stop the fleet (agents first: their final statuses), fetch the link counters, stop

@@ -58,6 +58,7 @@ class OrderRow(_Section):
     transmissions: int
     acked: dict[str, float]  # vehicle -> when the topside heard its acknowledgement
     refused: dict[str, str]  # vehicle -> why it refused
+    by: str = ""  # who signed its request (operator, ground); empty: scheduled (--ctl)
 
 
 class Commands(_Section):
@@ -243,6 +244,8 @@ class Security(_Section):
     # Requests on fleet/ctl/order the launcher refused (`cotsfleet ctl`'s key: not the
     # operator's signature, garbage, not an order), by reason; absent when none.
     orders: dict[str, int] = msgspec.field(default_factory=dict)
+    # The requests it took (numbered and sent), by signer: operator, ground; absent when none.
+    orders_taken: dict[str, int] = msgspec.field(default_factory=dict)
 
 
 class MissionReport(Struct, kw_only=True, forbid_unknown_fields=True, omit_defaults=True):

@@ -286,7 +286,7 @@ def _fault_text(x: FaultRow) -> str:
 
 def _commands(c: Commands) -> list[str]:
     """The operator's live orders (docs/operator.md): sent, acknowledged, refused."""
-    rows = [[f"#{o.seq}", o.order, _num(o.issued_s), o.transmissions,
+    rows = [[f"#{o.seq}", o.order, o.by or "scheduled", _num(o.issued_s), o.transmissions,
              ", ".join(f"{v} at {_num(t)} s" for v, t in sorted(o.acked.items())) or "-",
              ", ".join(f"{v}: {why}" for v, why in sorted(o.refused.items())) or "-"]
             for o in c.sent]
@@ -294,8 +294,8 @@ def _commands(c: Commands) -> list[str]:
              f"From the topside modem at ({', '.join(_num(v) for v in c.topside)}) m; proven "
              "by its own key chain (docs/security.md).", ""]
     if rows:
-        lines += _table(["order", "words", "issued s", "transmissions", "acknowledged",
-                         "refused"], rows)
+        lines += _table(["order", "words", "from", "issued s", "transmissions",
+                         "acknowledged", "refused"], rows)
     refused = {**{f"by the vehicles: {k}": n for k, n in c.refused.items()},
                **{f"by the operator's side: {k}": n for k, n in c.operator_refused.items()}}
     lines.append("Refused: " + (", ".join(f"{k} {n}" for k, n in sorted(refused.items()))
@@ -407,6 +407,8 @@ def _security(sec: Security) -> list[str]:
         lines.append(f"- **By {vid}:** {reasons(row)}")
     if sec.orders:
         lines.append(f"- **Order requests refused by the launcher:** {reasons(sec.orders)}")
+    if sec.orders_taken:
+        lines.append(f"- **Order requests taken, by signer:** {reasons(sec.orders_taken)}")
     return lines + [""]
 
 

@@ -64,11 +64,19 @@ def test_each_login_speaks_only_on_its_keys(router) -> None:
     endpoint, creds = router
     allowed = [("operator", keys.ctl_key("auv1")), ("operator", keys.LINK_CTL),
                ("auv1", keys.status_key("auv1")), ("auv1", keys.tx_key("auv1")),
-               ("relay", keys.rx_key("auv2")), ("relay", keys.link_event_key("auv1", "auv2"))]
+               ("relay", keys.rx_key("auv2")), ("relay", keys.link_event_key("auv1", "auv2")),
+               ("ground", keys.ORDER_REQUEST), ("operator", keys.ORDER_REQUEST),
+               ("operator", keys.ORDER_ANSWER)]
     denied = [("station", keys.ctl_key("auv1")), ("station", keys.status_key("auv1")),
               ("auv1", keys.status_key("auv2")), ("auv1", keys.ctl_key("auv2")),
               ("auv2", keys.rx_key("auv1")), ("relay", keys.ctl_key("auv1")),
-              ("operator", keys.status_key("auv1"))]
+              ("operator", keys.status_key("auv1")), ("station", keys.ORDER_REQUEST),
+              ("auv1", keys.ORDER_REQUEST),
+              # the remote ground station: order requests only
+              ("ground", keys.ctl_key("auv1")), ("ground", keys.LINK_CTL),
+              ("ground", keys.ORDER_ANSWER), ("ground", keys.MISSION), ("ground", keys.CLOCK),
+              ("ground", keys.tx_key("auv1")), ("ground", keys.status_key("auv1")),
+              ("ground", keys.rx_key("auv1")), ("ground", keys.busy_key("auv2"))]
     got = heard(endpoint, creds, allowed + denied)
     assert got == set(allowed)
 
@@ -82,3 +90,35 @@ def test_no_login_without_the_password(router) -> None:
                               f'{{"user": "{login.user}", "password": "{login.password}"}}')
         with pytest.raises(Exception):
             zenoh.open(conf).close()
+
+
+def test_ground_hears_the_order_answers_and_nothing_else(router) -> None:
+    """``ground`` (`cotsfleet ctl --connect` from another host) subscribes to everything,
+    which the router refuses, and to the answers, which it gets; the station hears all."""
+    endpoint, creds = router
+    got: dict[str, set[str]] = {"all": set(), "answers": set(), "station": set()}
+    lock = threading.Lock()
+
+    def on(what: str):
+        def put(sample: zenoh.Sample) -> None:
+            with lock:
+                got[what].add(str(sample.key_expr))
+        return put
+
+    said = (keys.ORDER_ANSWER, keys.ctl_key("auv1"), keys.MISSION)
+    with zenoh.open(client_config([endpoint], credentials=creds / "ground")) as ground, \
+            zenoh.open(client_config([endpoint], credentials=creds / "station")) as station, \
+            zenoh.open(client_config([endpoint], credentials=creds / "operator")) as op, \
+            zenoh.open(client_config([endpoint], credentials=creds / "auv1")) as auv1, \
+            ground.declare_subscriber("fleet/**", on("all")), \
+            ground.declare_subscriber(keys.ORDER_ANSWER, on("answers")), \
+            station.declare_subscriber("fleet/**", on("station")):
+        time.sleep(0.5)
+        for key in said:
+            op.put(key, b"x")
+        auv1.put(keys.status_key("auv1"), b"x")
+        time.sleep(1.0)
+    # what reaches ground's session is the answers alone (its session then hands them to
+    # both its subscribers: "fleet/**" matches too); the station hears everything
+    assert got == {"all": {keys.ORDER_ANSWER}, "answers": {keys.ORDER_ANSWER},
+                   "station": {*said, keys.status_key("auv1")}}

@@ -81,8 +81,11 @@ def test_each_certificate_speaks_only_on_its_keys_across_the_link(routers) -> No
     main, linked, creds = routers
     allowed = [("operator", main, keys.ctl_key("auv2")), ("relay", main, keys.rx_key("auv2")),
                ("auv1", main, keys.status_key("auv1")), ("auv2", linked, keys.tx_key("auv2")),
-               ("auv2", linked, keys.status_key("auv2"))]
-    denied = [("station", main, keys.ctl_key("auv1")), ("auv1", main, keys.status_key("auv2")),
+               ("auv2", linked, keys.status_key("auv2")), ("ground", main, keys.ORDER_REQUEST)]
+    denied = [("station", main, keys.ctl_key("auv1")),
+              # the remote ground station's certificate: order requests only
+              ("ground", main, keys.ctl_key("auv2")), ("ground", main, keys.LINK_CTL),
+              ("ground", main, keys.status_key("auv1")), ("auv1", main, keys.status_key("auv2")),
               ("auv2", linked, keys.status_key("auv1")), ("auv2", linked, keys.ctl_key("auv2")),
               # auv1 may speak as auv1 on auv2's host, but that host's router may forward
               # only what auv2 says: it goes no further than auv2's host

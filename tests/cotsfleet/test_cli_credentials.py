@@ -21,8 +21,11 @@ def test_credentials_for_every_process_and_a_router_per_vehicle_host(tmp_path: P
         assert f"vehicle {vid}: copy {d / vid} and {d / ('router-' + vid)} to its host" in out
         assert load_tls(d / f"router-{vid}").info.common_name == f"router-{vid}"
     assert {p.name for p in d.iterdir() if p.is_dir()} == {
-        "operator", "relay", "station", "world", "router", "auv1", "auv2", "router-auv1",
-        "router-auv2"}
+        "operator", "relay", "ground", "station", "world", "router", "auv1", "auv2",
+        "router-auv1", "router-auv2"}
+    assert (f"ground station: copy {d / 'ground'} to its host; there, cotsfleet ctl --connect "
+            "tls/HOST:7447 --credentials ground ORDER") in out
+    assert load_tls(d / "ground").info.common_name == "ground"
     assert not list(d.rglob("zenoh.login")) and not list(d.rglob("users.txt"))
     assert load_tls(d / "router").info.names("ship.local")
     assert "no --hosts" not in out

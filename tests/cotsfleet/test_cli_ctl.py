@@ -1,5 +1,6 @@
 """`cotsfleet ctl`'s bad input: one line and exit 2 (the live path is
-tests/integration/test_ctl_run.py), and the run record it finds a mission by."""
+tests/integration/test_ctl_run.py), with a run dir or from another host (``--connect
+--credentials DIR/ground``), and the run record it finds a mission by."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ from pathlib import Path
 import pytest
 
 from cotsfleet.cli import main
+from fleet_bus.credentials import write_run_credentials
+from fleet_bus.session import free_tcp_endpoint
 from cotsfleet.mission.run_record import (
     NoMission,
     RunRecord,
@@ -73,9 +76,11 @@ def test_a_negative_timeout_is_refused(tmp_path: Path, capsys) -> None:
                                           "-1", "recall", "auv2"])
 
 
-@pytest.mark.parametrize("argv", [["ctl", "recall", "auv2"],  # no --run-dir
+@pytest.mark.parametrize("argv", [["ctl", "recall", "auv2"],  # no --run-dir nor --connect
                                   ["ctl", "--run-di", "x", "recall", "auv2"],  # abbreviated
-                                  ["ctl", "--run-dir", "x"]])  # no order
+                                  ["ctl", "--run-dir", "x"],  # no order
+                                  ["ctl", "--run-dir", "x", "--connect", "127.0.0.1:7447",
+                                   "recall", "auv2"]])  # both
 def test_argparse_refuses_missing_and_abbreviated_options(argv: list[str]) -> None:
     with pytest.raises(SystemExit) as exc:
         main(argv)
@@ -92,3 +97,47 @@ def test_the_record_is_written_whole_and_removed(tmp_path: Path) -> None:
     remove_run_record(tmp_path)  # twice: nothing to remove is fine
     with pytest.raises(NoMission):
         read_run_record(tmp_path)
+
+
+@pytest.fixture(scope="module")
+def creds(tmp_path_factory) -> dict[str, Path]:
+    """A mission's credentials for one host (plain logins) and for hosts elsewhere (TLS)."""
+    root = tmp_path_factory.mktemp("ctlcreds")
+    write_run_credentials(root / "plain", ("auv1", "auv2"))
+    write_run_credentials(root / "tls", ("auv1", "auv2"), tls=True)
+    return {"plain": root / "plain", "tls": root / "tls"}
+
+
+def test_connect_needs_the_ground_stations_credentials(creds, tmp_path: Path, capsys) -> None:
+    def ctl(*argv: str) -> str:
+        return _error(capsys, ["ctl", "--connect", "127.0.0.1:1", *argv, "recall", "auv2"])
+
+    assert "--connect needs --credentials DIR/ground" in ctl()
+    assert f"--credentials {tmp_path}: no ring.json there" in ctl("--credentials",
+                                                                  str(tmp_path))
+    for who in ("station", "auv1", "relay"):  # listens only; a vehicle's; the relay's
+        assert "holds neither the ground station's nor the operator's signing key" in ctl(
+            "--credentials", str(creds["plain"] / who))
+    assert "--credentials goes with --connect" in _error(capsys, [
+        "ctl", "--run-dir", str(tmp_path), "--credentials", str(creds["plain"] / "ground"),
+        "recall", "auv2"])
+
+
+def test_connect_names_the_missions_vehicles_and_the_bus_transport(creds, capsys) -> None:
+    ground = str(creds["plain"] / "ground")
+    assert "no vehicle 'auv9' in this mission; it has auv1, auv2" in _error(
+        capsys, ["ctl", "--connect", "127.0.0.1:1", "--credentials", ground, "pause", "auv9"])
+    # plain logins stay on loopback; TLS credentials take no plain TCP off it
+    assert "holds plain logins, for one host over loopback" in _error(
+        capsys, ["ctl", "--connect", "10.0.0.9:7447", "--credentials", ground, "pause",
+                 "auv1"])
+    assert "across machines the bus is TLS; use tls/10.0.0.9:7447" in _error(
+        capsys, ["ctl", "--connect", "tcp/10.0.0.9:7447", "--credentials",
+                 str(creds["tls"] / "ground"), "pause", "auv1"])
+
+
+def test_connect_to_no_router_is_one_line_and_exit_2(creds, capsys) -> None:
+    endpoint = free_tcp_endpoint()  # nobody listens there
+    err = _error(capsys, ["ctl", "--connect", endpoint, "--credentials",
+                          str(creds["plain"] / "ground"), "recall", "auv2"])
+    assert f"cannot reach the mission's router at {endpoint}" in err and ".rs:" not in err

@@ -1,7 +1,8 @@
 """The launcher's desk for `cotsfleet ctl` (cotsfleet.mission.order_desk), driven by plain
-calls: a request the operator signed is numbered, sent from the topside and answered; a
-vehicle's signature, garbage, a replay, a flood and a non-order are refused and counted; the
-acknowledgements the topside hears are answered once each."""
+calls: a request the operator or the remote ground station signed is numbered, sent from the
+topside and answered, and counted by signer; a vehicle's signature, an unknown key, garbage,
+a replay, a flood and a non-order are refused and counted; the acknowledgements the topside
+hears are answered once each."""
 
 from __future__ import annotations
 
@@ -9,10 +10,12 @@ from pathlib import Path
 
 import msgpack
 import pytest
+from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 
 from cotsfleet.mission.order_desk import MAX_QUEUED, OrderDesk
 from cotsfleet.mission.topside import Topside
 from fleet_bus import keys
+from fleet_bus.auth import Signer
 from fleet_bus.credentials import (
     load_auth,
     load_frame_chains,
@@ -76,6 +79,39 @@ def test_an_operators_request_is_numbered_sent_and_answered(creds: Path) -> None
     assert frames and all(isinstance(desk.topside.codec.read(f), KeyFrame) for f in frames)
     section = desk.section({"auv2": {"ctl_taken": 1}})
     assert section["sent"][0]["acked"] == {"auv2": 1241.0} and desk.refusals() == {}
+    assert section["sent"][0]["by"] == "operator" and desk.takers() == {"operator": 1}
+
+
+def test_the_ground_stations_request_is_taken_and_counted_by_signer(creds: Path) -> None:
+    """``ground`` (`cotsfleet ctl --connect` on another host) orders as the operator does;
+    each signer has its own replay window, and a scheduled order names no signer."""
+    desk = _desk(creds)
+    ground = _request(creds, "ground", ["pause", "auv3"], ref="g1")
+    desk.request(ground)
+    desk.request(_request(creds, "operator", ["resume", "auv3"], ref="o1"))
+    desk.request(ground)  # played again: refused as the operator's would be
+    answers = desk.due(300.0).answers
+    assert [(a.ref, a.seq, a.order, a.error) for a in answers] == [
+        ("g1", 1, "pause auv3", ""), ("o1", 2, "resume auv3", "")]
+    desk.submit(parse_words(["drop-spot", "3"]), 310.0)  # `--ctl`, scheduled: no signer
+    sent = desk.section({})["sent"]
+    assert [row.get("by") for row in sent] == ["ground", "operator", None]
+    assert desk.takers() == {"ground": 1, "operator": 1}
+    assert desk.refusals() == {"replay": 1}
+
+
+def test_a_vehicles_key_and_unknown_keys_are_refused(creds: Path, tmp_path: Path) -> None:
+    desk = _desk(creds)
+    desk.request(_request(creds, "auv2", ["recall", "auv2"]))  # a vehicle's own key
+    other = tmp_path / "other"  # another run's ground station: its key is not this ring's
+    write_run_credentials(other, VEHICLES, "run-desk")
+    desk.request(_request(other, "ground", ["recall", "auv2"]))
+    stranger = Signer("ground-2", Ed25519PrivateKey.generate(), "run-desk")  # not in the ring
+    desk.request(stranger.seal(keys.ORDER_REQUEST,
+                               encode_request(parse_words(["recall", "auv2"]), "s1")))
+    assert desk.due(10.0).answers == [] and not desk.topside.orders
+    assert desk.refusals() == {"not_allowed": 1, "bad_signature": 1, "unknown_signer": 1}
+    assert desk.takers() == {}
 
 
 def test_a_refusal_heard_from_a_vehicle_is_answered(creds: Path) -> None:
@@ -107,11 +143,17 @@ def test_what_is_not_the_operators_order_is_refused_and_counted(creds: Path) -> 
 
 
 def test_a_flood_of_signed_requests_is_bounded(creds: Path) -> None:
+    """Per signer: the ground station's flood costs its own requests, not the operator's."""
     desk = _desk(creds)
     for i in range(MAX_QUEUED + 5):
-        desk.request(_request(creds, "operator", ["pause", "auv1"], ref=f"r{i}"))
+        desk.request(_request(creds, "ground", ["pause", "auv1"], ref=f"r{i}"))
+    desk.request(_request(creds, "operator", ["recall", "auv2"], ref="op"))
     assert desk.refusals() == {"flood": 5}
-    assert len(desk.due(10.0).answers) == MAX_QUEUED
+    answers = desk.due(10.0).answers
+    assert len(answers) == MAX_QUEUED + 1 and answers[-1].ref == "op"
+    assert desk.takers() == {"ground": MAX_QUEUED, "operator": 1}
+    desk.request(_request(creds, "ground", ["resume", "auv1"], ref="again"))  # room again
+    assert [a.ref for a in desk.due(11.0).answers] == ["again"]
 
 
 def test_an_unknown_vehicle_is_answered_with_the_reason(creds: Path) -> None:

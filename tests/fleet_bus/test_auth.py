@@ -54,6 +54,15 @@ def test_only_the_rightful_role_may_speak_on_a_key():
                                                                      "operator")
     assert not allowed(keys.MISSION, "relay", "relay")
     assert not allowed("elsewhere/x", "operator", "operator")
+    # order requests (`cotsfleet ctl`): the operator's, or the remote ground station's
+    assert allowed(keys.ORDER_REQUEST, "operator", "operator")
+    assert allowed(keys.ORDER_REQUEST, "ground", "ground")
+    assert not allowed(keys.ORDER_REQUEST, "auv1", "vehicle")
+    assert not allowed(keys.ORDER_REQUEST, "relay", "relay")
+    for key in (keys.ORDER_ANSWER, keys.ctl_key("auv1"), keys.LINK_CTL, keys.MISSION,
+                keys.CLOCK, keys.status_key("ground"), keys.tx_key("ground"),
+                keys.rx_key("ground"), "fleet/query/ground"):
+        assert not allowed(key, "ground", "ground"), key
 
 
 def test_an_envelope_opens_once_on_its_key_only(creds):
@@ -121,7 +130,7 @@ def test_a_restarted_sender_continues_above_its_counter(creds):
 
 
 def test_credentials_on_disk(creds):
-    for pid in (*VEHICLES, "operator", "relay"):
+    for pid in (*VEHICLES, "operator", "relay", "ground"):
         mode = stat.S_IMODE((creds / pid / "signing.key").stat().st_mode)
         assert mode == 0o600, (pid, oct(mode))
         assert stat.S_IMODE((creds / pid).stat().st_mode) == 0o700
@@ -130,8 +139,9 @@ def test_credentials_on_disk(creds):
     assert load_ring(creds / "auv2").run_id == "run-a"
     users = (creds / "router" / "users.txt").read_text().split()
     # "world": the listen-only login of the ROS 2 vehicles' clock (`cotsfleet run --helm ros2`)
-    assert {u.split(":")[0] for u in users} == {*VEHICLES, "operator", "relay", "station",
-                                                "world", "router"}
+    # "ground": a ground station elsewhere (`cotsfleet ctl --connect`), order requests only
+    assert {u.split(":")[0] for u in users} == {*VEHICLES, "operator", "relay", "ground",
+                                                "station", "world", "router"}
     assert load_login(creds / "auv1").user == "auv1"
     for _ in range(64):  # a Zenoh id never starts with 0 (Zenoh refuses it)
         assert not write_run_credentials_zid(creds.parent / "z").startswith("0")

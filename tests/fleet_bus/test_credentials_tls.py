@@ -21,7 +21,7 @@ from fleet_bus.credentials import (CredentialsError, load_auth, load_ring, load_
                                    write_run_credentials)
 
 VEHICLES = ("auv1", "auv2", "auv3")
-SIGNERS = ("operator", "relay", *VEHICLES)
+SIGNERS = ("operator", "relay", "ground", *VEHICLES)
 
 
 @pytest.fixture(scope="module")

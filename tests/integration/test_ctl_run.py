@@ -3,8 +3,11 @@
 
 auv2 comes home early (its battery used, against the same seed simulated without the
 order), the others take over its spots, no spot is treated twice, and the report's commands
-section shows the order acknowledged. Requests the operator's key did not sign (a vehicle's
-key, garbage) on fleet/ctl/order are refused and counted in the report's security section.
+section shows the order acknowledged. The remote ground station's identity orders the same
+mission without the run dir (`ctl --connect ENDPOINT --credentials .../ground recall auv2`,
+not waiting for acknowledgements): taken as order #2, counted under ``ground``. Requests
+the operator's key did not sign (a vehicle's key, garbage) on fleet/ctl/order are refused
+and counted in the report's security section.
 An insider's forged order into the water (``--ctl unsigned:recall:auv1@600``, scheduled like
 a fault) is refused by the vehicles. Once the mission is over `ctl` says so, and every
 process is gone."""
@@ -75,7 +78,7 @@ def mission(tmp_path_factory):
             cwd=REPO, stdout=out,
             stderr=subprocess.STDOUT, text=True, start_new_session=True)
     pids: dict[str, list[int]] = {}
-    ctl = after = None
+    ctl = ground = after = None
     try:
         deadline = time.monotonic() + 300
         while _mission_time(log) < RECALL_AT_S - 100 and proc.poll() is None:
@@ -84,6 +87,10 @@ def mission(tmp_path_factory):
         assert (run_dir / "run.json").is_file(), log.read_text()[-3000:]
         pids = json.loads((run_dir / "pids.json").read_text())
         ctl = _cli("ctl", "--run-dir", str(run_dir), "recall", "auv2", "--timeout", "120")
+        record = read_run_record(run_dir)  # what a ground station elsewhere is given
+        ground = _cli("ctl", "--connect", record.endpoint, "--credentials",
+                      str(Path(record.credentials) / "ground"), "recall", "auv2",
+                      "--timeout", "0")
         _foreign_requests(run_dir)
         proc.wait(timeout=400)
         after = _cli("ctl", "--run-dir", str(run_dir), "resume", "auv2", timeout=60)
@@ -99,7 +106,7 @@ def mission(tmp_path_factory):
             os.killpg(pid, signal.SIGKILL)
     report = json.loads((run_dir / "report.json").read_text())
     return (report, json.loads(baseline.read_text()), proc.returncode, log.read_text(), ctl,
-            after, left)
+            after, left, ground)
 
 
 def _vehicle(report: dict, vid: str) -> dict:
@@ -107,7 +114,7 @@ def _vehicle(report: dict, vid: str) -> dict:
 
 
 def test_ctl_is_acknowledged_by_auv2(mission):
-    _, _, _, out, ctl, _, _ = mission
+    _, _, _, out, ctl, _, _, _ = mission
     assert ctl.returncode == 0, (ctl.stdout, ctl.stderr, out[-3000:])
     lines = ctl.stdout.splitlines()
     assert re.match(r"order #1 recall auv2: sent from the topside at mission time \d+ s, "
@@ -116,7 +123,7 @@ def test_ctl_is_acknowledged_by_auv2(mission):
 
 
 def test_auv2_came_home_early_and_the_others_took_over(mission):
-    report, baseline, code, out, _, _, _ = mission
+    report, baseline, code, out, _, _, _, _ = mission
     assert code == 0, out[-3000:]
     assert "failure" not in report
     used, alone = (_vehicle(r, "auv2")["battery_used_s"] for r in (report, baseline))
@@ -132,29 +139,41 @@ def test_auv2_came_home_early_and_the_others_took_over(mission):
 
 
 def test_the_report_shows_the_order_acknowledged(mission):
-    report, _, _, _, _, _, _ = mission
+    report, _, _, _, _, _, _, _ = mission
     commands = report["commands"]
-    [sent] = commands["sent"]
-    assert (sent["seq"], sent["order"], sent["target"]) == (1, "recall auv2", "auv2")
+    sent = commands["sent"][0]
+    assert (sent["seq"], sent["order"], sent["target"], sent["by"]) == (
+        1, "recall auv2", "auv2", "operator")
     assert RECALL_AT_S - 150 <= sent["issued_s"] <= RECALL_AT_S + 1200
     assert sent["issued_s"] < sent["acked"]["auv2"] < sent["issued_s"] + 240
-    assert commands["taken"] == {"auv2": 1}
+    assert set(commands["taken"]) == {"auv2"}  # and the ground station's #2, if in time
     # the insider's forgery reached the vehicles and was refused: auv1 was not recalled
     assert commands["refused"].get("unsigned", 0) >= 1, commands
     assert _vehicle(report, "auv1")["battery_used_s"] > RECALL_AT_S + 1000
 
 
 def test_foreign_requests_are_refused_and_counted(mission):
-    report, _, _, _, _, _, _ = mission
+    report, _, _, _, _, _, _, _ = mission
     sec = report["security"]
     assert sec["orders"] == {"not_allowed": 1, "malformed": 1}, sec
     assert sec["refused_total"] >= 2
-    assert len(report["commands"]["sent"]) == 1  # the forged "recall all" sent nothing
+    # the forged "recall all" sent nothing: the operator's order and the ground station's
+    assert [s["by"] for s in report["commands"]["sent"]] == ["operator", "ground"]
     assert sum(not v["home"] for v in report["vehicles"]) == 0
 
 
+def test_the_ground_stations_order_is_taken_and_counted_as_its_own(mission):
+    report, _, _, out, _, _, _, ground = mission
+    assert ground.returncode == 0, (ground.stdout, ground.stderr, out[-3000:])
+    assert re.match(r"order #2 recall auv2: sent from the topside at mission time \d+ s, "
+                    r"for auv2$", ground.stdout.strip()), ground.stdout
+    [_, sent] = report["commands"]["sent"]
+    assert (sent["seq"], sent["order"], sent["by"]) == (2, "recall auv2", "ground")
+    assert report["security"]["orders_taken"] == {"operator": 1, "ground": 1}
+
+
 def test_after_the_mission_ctl_says_it_is_over_and_nothing_is_left(mission):
-    _, _, _, _, _, after, left = mission
+    _, _, _, _, _, after, left, _ = mission
     assert after.returncode == 2
     assert "no mission is running in" in after.stderr, after.stderr
     assert left == []
