@@ -39,11 +39,11 @@ demo: $(BASE)
 	$(VENV)/bin/cotsfleet run --scenario $$dir/dyn.json --run-dir $$dir --abort auv2@1200
 
 # The linters first (configured in pyproject.toml): a style or type error fails the run early.
-# Two workers: the in-process tests spread over both cores while the tests that start real
-# processes run one at a time in one worker (tests/conftest.py; they mostly wait on a paced
-# mission clock, so they leave the CPU to the other worker).
+# Two workers (pytest-xdist), a test file at a time: a file's tests share its fixtures (one
+# mission per integration module), and a warp-paced mission mostly waits on its clock, so the
+# other worker has the CPU. (Not --dist loadgroup: with pytest 9, xdist 3.8 cannot group.)
 test: lint
-	$(PY) -m pytest -q -n 2 --dist loadgroup
+	$(PY) -m pytest -q -n 2 --dist loadfile
 
 lint: $(TESTS)
 	$(PY) -m ruff check .

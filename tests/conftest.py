@@ -19,20 +19,6 @@ from hfc_core.model.problem import Problem
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 TOP_DIR = REPO / "benchmarks" / "top" / "instances"
-# Unmarked test modules that start processes on a clock or run in real time: they join the
-# process-starting tests' worker (`pytest_collection_modifyitems`).
-PACED_MODULES = frozenset({"test_subscriber", "test_viewer", "test_process", "test_onboard",
-                           "test_sweep_processes", "test_sweep_dask"})
-
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Under `make test`'s two workers (pytest-xdist, ``--dist loadgroup``) every test that
-    starts real processes runs in one worker, one at a time: two warp-paced missions at once
-    on two cores would each measure the other's load. In-process tests spread over both."""
-    for item in items:
-        if item.get_closest_marker("integration") is not None or \
-                item.path.stem in PACED_MODULES:
-            item.add_marker(pytest.mark.xdist_group("processes"))
 
 
 @pytest.fixture
