@@ -104,9 +104,10 @@ def _landmark(know: Knowledge, seen_vehicle: tuple[float, ...], task: int) -> bo
                                    + params.extent_var / 2)
 
 
-def injected_at(know: Knowledge, r: Injected) -> tuple[float, float, float] | None:
-    """Where the camera measured what this injection treated, as an estimate in the map's
-    frame (kept in ``know.injections``; for the journal: x, y, sigma), or None."""
+def remember_injection(know: Knowledge, r: Injected) -> tuple[float, float, float] | None:
+    """Keep where the camera measured what this injection treated (an estimate in the
+    map's frame, appended to ``know.injections``); returned for the journal as x, y, sigma,
+    or None when the vehicle did not say."""
     if r.pos is None or know.beliefs.exact:
         return None
     est = sighting(know.own.frame.to_map(r.pos), know.own.sigma_m, know.beliefs.params)

@@ -46,7 +46,7 @@ def take(know: Knowledge, config: AgentConfig, codec: Codec, r: VehicleReport,
         if done is None:
             return [Count("injection_stale")]
         know.treat(done.task, done.t_s)
-        at = discovery.injected_at(know, r)
+        at = discovery.remember_injection(know, r)
         return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True, at=at)),
                 Tell(done.t_s, EventKind.CLEARED, (done.task,),
                      detail=discovery.where(know, done.task)),

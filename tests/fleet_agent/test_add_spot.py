@@ -55,12 +55,16 @@ def _mid(fleet: Fleet) -> tuple[float, float]:
     return float(xyz[:, 0].mean()), float(xyz[:, 1].mean())
 
 
-def test_every_vehicle_names_the_added_spot_alike_and_plans_it(fleet) -> None:
+def _fleet_at(fleet: Fleet, t: float) -> tuple[list[Agent], Topside, tuple[float, float]]:
+    """Three agents stepped to ``t``, the topside, and the middle of the map."""
     agents = [Agent(fleet, i, CONFIG, 0.0) for i in range(3)]
     for a in agents:
-        a.step(Tick(400.0))
-    top = topside_of(fleet.given, fleet, CONFIG)
-    x, y = _mid(fleet)
+        a.step(Tick(t))
+    return agents, topside_of(fleet.given, fleet, CONFIG), _mid(fleet)
+
+
+def test_every_vehicle_names_the_added_spot_alike_and_plans_it(fleet) -> None:
+    agents, top, (x, y) = _fleet_at(fleet, 400.0)
     top.submit(parse_words(["add-spot", f"{x:.1f}", f"{y:.1f}", "80"]), 400.0)
     out = _run(top, agents, 400.0, 600.0)
     n, slots = fleet.given.n_tasks, {a.know.beliefs.op_from for a in agents}
@@ -83,11 +87,7 @@ def test_every_vehicle_names_the_added_spot_alike_and_plans_it(fleet) -> None:
 
 
 def test_add_spots_beyond_the_operator_slots_are_refused_as_no_room(fleet) -> None:
-    agents = [Agent(fleet, i, CONFIG, 0.0) for i in range(3)]
-    for a in agents:
-        a.step(Tick(300.0))
-    top = topside_of(fleet.given, fleet, CONFIG)
-    x, y = _mid(fleet)
+    agents, top, (x, y) = _fleet_at(fleet, 300.0)
     for k in range(3):  # two slots: the third is refused by every vehicle
         top.submit(parse_words(["add-spot", f"{x + 20 * k:.0f}", f"{y:.0f}", "50"]), 300.0)
     _run(top, agents, 300.0, 500.0)
