@@ -44,10 +44,16 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
     beliefs = know.beliefs
     if not beliefs.exact and not config.discovery:
         return []  # --no-discovery: the time empty spots free is not reallocated
+    own = know.own
+    slack = own.slack_s(config.battery_reserve_s)
+    if slack < config.coop_min_slack_s and beliefs.own_found == 0 and not beliefs.added:
+        # Nothing to weigh without spare battery (no find of its own, no operator's spot):
+        # the walk over every spot of the reef is skipped. In a large fleet most vehicles
+        # have no slack most of the time; that walk made cooperation grow with fleet x reef.
+        return []
     free = know.free_spots(now)
     if not free:
         return []
-    own = know.own
     # A find may be worth more than a predicted spot on the route (worth only what it is
     # expected to hold): its finder weighs it even when no detour fits the slack, or a
     # vehicle whose plan fills its battery would pass an aggregation it has just seen. Only
@@ -59,7 +65,6 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
     weigh = [t for t in free if (beliefs.is_find_slot(t) and beliefs.finder(t) == know.index)
              or t in beliefs.added]
     finds = bool(weigh)
-    slack = own.slack_s(config.battery_reserve_s)
     if not finds and (slack < config.coop_min_slack_s or not detour_fits(own, free, slack)):
         return []
     # Only the free spots in reach go to the replanner: the cheapest detours that fit the

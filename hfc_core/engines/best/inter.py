@@ -117,19 +117,12 @@ def best_tail_swap(state: State, a: int, b: int, tie: float, views: _Views | Non
 
 def _apply(state: State, routes: dict[int, list[int]], tie: float) -> bool:
     """Set ``routes`` (vehicle -> new route) if every one fits by its own sum and the
-    objective improves; otherwise leave the state as it was."""
-    before = {v: state.routes[v] for v in routes}
-    old = state.objective(tie)
-    for v in routes:
-        state.set_route(v, [])
-    for v, route in routes.items():
-        state.set_route(v, route)
-    if all(state.fits(v) for v in routes) and state.objective(tie) > old:
+    objective improves; otherwise leave the state as it was (judged on a `State.trial`:
+    the estimate gains, the routes' own sums often do not)."""
+    trial = state.trial(routes)
+    if trial.fits() and trial.objective(tie) > state.objective(tie):
+        trial.accept()
         return True
-    for v in routes:  # the estimate gained, the routes' own sums do not
-        state.set_route(v, [])
-    for v, route in before.items():
-        state.set_route(v, route)
     return False
 
 

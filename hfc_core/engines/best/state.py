@@ -119,6 +119,22 @@ class State:
                 np.concatenate([t[:-2] for t in terms]),
                 np.concatenate([t[2:] for t in terms]))
 
+    # --- trials ---------------------------------------------------------------------------
+    def trial(self, routes: dict[int, list[int]]) -> "Trial":
+        """What setting ``routes`` (vehicle -> new route) would make of their cached figures,
+        the state untouched: the inter-route moves reject most of what they try (an estimated
+        gain the routes' own sums do not confirm), and setting then restoring two routes cost
+        eight `set_route` calls per rejection. Still water only (`_travel`'s clock path
+        needs the state's own nodes)."""
+        assert self.inst.clock is None, "trials are for still-water instances"
+        inst, out = self.inst, {}
+        for v, route in routes.items():
+            nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)
+            service = float(inst.service_s[route].sum()) if route else 0.0
+            travel = float(inst.travel_s[v][nodes[:-1], nodes[1:]].sum())
+            out[v] = (list(route), nodes, inst.value[v, route], service, travel)
+        return Trial(self, out)
+
     # --- edits ---------------------------------------------------------------------------
     def set_route(self, v: int, route: list[int]) -> None:
         """Replace route ``v`` (its tasks must be unassigned or already its own)."""
@@ -175,3 +191,43 @@ class State:
         """(k, n) extra mission time of each task's cheapest insertion into each route."""
         self.refresh()
         return self.ins_s + self.inst.service_s[None, :]
+
+
+class Trial:
+    """New routes for some vehicles of a `State`, with the figures `State._changed` would
+    cache for them; judged with the same float operations in the same order as the state's
+    own (`fits`, `objective`), so accepting a trial is bit-identical to setting its routes."""
+
+    __slots__ = ("state", "parts")
+
+    def __init__(self, state: State,
+                 parts: dict[int, tuple[list[int], np.ndarray, np.ndarray, float, float]]
+                 ) -> None:
+        self.state, self.parts = state, parts
+
+    def fits(self) -> bool:
+        budget = self.state.inst.budget_s
+        return all(bool(fits(travel + service, float(budget[v])))
+                   for v, (_, _, _, service, travel) in self.parts.items())
+
+    def objective(self, tie_weight: float) -> float:
+        """`State.objective` of the state with these routes set."""
+        s, parts = self.state, self.parts
+        values = [parts[v][2] if v in parts else s._values[v] for v in range(s.inst.k)]
+        picked = np.concatenate(values)
+        value = float(np.cumsum(picked)[-1]) if len(picked) else 0.0
+        total = sum(parts[v][4] + parts[v][3] if v in parts else s.time_s(v)
+                    for v in range(s.inst.k))
+        return value - tie_weight * total
+
+    def accept(self) -> None:
+        """Set the routes (what `State.set_route` on each would leave)."""
+        s = self.state
+        for v in self.parts:
+            s.owner[s.routes[v]] = UNASSIGNED
+        for v, (route, nodes, values, service, travel) in self.parts.items():
+            s.routes[v] = route
+            s.owner[route] = v
+            s._nodes[v], s._values[v] = nodes, values
+            s.service_s[v], s.travel_s[v] = service, travel
+            s.stale[v] = True

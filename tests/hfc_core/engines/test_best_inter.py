@@ -207,3 +207,33 @@ def test_a_memo_answers_what_a_fresh_evaluation_answers(seed):
         state.insert(v, u, int(state.ins_pos[v, u]))  # edits route v's list in place
         if not state.fits(v):
             state.remove([u])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_trial_judges_and_sets_routes_as_set_route_does(seed):
+    """`State.trial` (the moves' judge) gives the bits `set_route` would: the same fit, the
+    same objective, and once accepted the same routes, owners and cached figures."""
+    problem = random_problem(20, 3, seed, battery_s=2500.0)
+    inst = instance_from_problem(problem)
+    rng = np.random.default_rng(seed)
+    state = State(inst)
+    fill(state, rng)
+    tie = inst.tie_weight()
+    for _ in range(30):
+        a, b = (int(v) for v in rng.choice(3, size=2, replace=False))
+        ra, rb = state.routes[a], state.routes[b]
+        i, j = int(rng.integers(len(ra) + 1)), int(rng.integers(len(rb) + 1))
+        routes = {a: ra[:i] + rb[j:], b: rb[:j] + ra[i:]}
+        trial = state.trial(routes)
+        by_set = state.copy()
+        for v in routes:
+            by_set.set_route(v, [])
+        for v, r in routes.items():
+            by_set.set_route(v, r)
+        assert trial.fits() == all(by_set.fits(v) for v in routes)
+        assert trial.objective(tie) == by_set.objective(tie)  # bit for bit
+        trial.accept()
+        assert state.routes == by_set.routes
+        assert (state.owner == by_set.owner).all()
+        assert state.travel_s == by_set.travel_s and state.service_s == by_set.service_s
+        assert all((x == y).all() for x, y in zip(state._nodes, by_set._nodes))
