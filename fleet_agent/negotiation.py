@@ -97,6 +97,12 @@ class Holdings:
         return changed
 
     def holder(self, task: int, alive: Alive) -> int | None:
+        best = self.holding(task, alive)
+        return None if best is None else best[1]
+
+    def holding(self, task: int, alive: Alive) -> tuple[int, int] | None:
+        """The winning claim of ``task``: (its time, its claimer), the initial plan's at 0;
+        the earliest wins, ties to the lower index (None: nobody alive holds it)."""
         best: tuple[int, int] | None = None
         row = self._events.get(task, {})
         for v in self.base.owners.get(task, ()):
@@ -105,7 +111,7 @@ class Holdings:
         for v, (t, is_claim) in row.items():
             if is_claim and alive(v) and (best is None or (t, v) < best):
                 best = (t, v)
-        return None if best is None else best[1]
+        return best
 
     def claim_time(self, task: int, v: int) -> int | None:
         rec = self._record(task, v)
@@ -133,6 +139,12 @@ class Holdings:
         mine = {t for t in (routes[v] if 0 <= v < len(routes) else ())
                 if self._record(t, v) == BASE or self._events[t][v][1]}
         return sorted(mine | self._extra.get(v, set()), key=self._order)
+
+    def claimed_since_plan(self) -> list[int]:
+        """Spots outside the initial plan that someone claims now (its newest record of
+        them a claim), in the order first claimed."""
+        return [t for t in self._later
+                if any(is_claim for _, is_claim in self._events.get(t, {}).values())]
 
     def explicit_claims(self, v: int) -> dict[int, int]:
         """Spots ``v`` claimed after the initial plan: task -> claim time."""

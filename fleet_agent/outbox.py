@@ -90,7 +90,8 @@ class AbortNews:
 
 @dataclass(frozen=True)
 class FindsGap:
-    """A peer's finds digest (``theirs``) unlike ours (``mine``, over the finds ``known``)."""
+    """A peer's finds digest (``theirs``) unlike ours (``mine``, over the finds ``known``,
+    the newest first: the order they are pushed in)."""
 
     theirs: Digest
     mine: Digest
@@ -376,8 +377,12 @@ class Outbox:
         that our digest makes it push to us."""
         behind = (gap.mine.count - gap.theirs.count) % 128
         if behind == 0 or behind < 64:
+            # The newest first: a peer that lacks finds lacks the newest most likely, and they
+            # lie where the fleet works now (hard seed 9 at 30 % loss: a find treated at
+            # 3181 s reached a peer at 3251 s, after eight older ones, and it was treated
+            # again under the peer's name).
             queued = set(self._finds_owed)
-            self._finds_owed.extend(s for s in sorted(gap.known) if s not in queued)
+            self._finds_owed.extend(s for s in gap.known if s not in queued)
         else:
             self._finds_asked = True
 

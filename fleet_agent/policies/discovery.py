@@ -143,14 +143,17 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     b = know.beliefs
     if b.exact:
         return []
+    wait_key = (len(know.cleared), len(b.finds), know.holdings.version)
+    if wait_key != know.await_key:
+        know.await_key = wait_key
+        awaiting = await_gaps(know, now)
+        if awaiting != know.awaiting:
+            know.awaiting = awaiting
+            know.touch()
     key = (len(know.cleared), len(b.finds) + len(b.added), len(b.alias))
     if key == know.fold_key:
         return []
     know.fold_key = key
-    awaiting = await_gaps(know, now)
-    if awaiting != know.awaiting:
-        know.awaiting = awaiting
-        know.touch()
     params = b.params
     all_treated = treated_estimates(know)
     finds_treated = treated_estimates(know, finds_only=True)
@@ -177,14 +180,19 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
 
 
 def await_gaps(know: Knowledge, now: float) -> frozenset[int]:
-    """The finds not to plan yet (docs/search.md, "Never twice"): a peer has cleared a find
-    this vehicle has never heard of (its FOUND frame was lost; the cleared set came through,
-    and the gap is asked for: `FindsGap`), so where it was is unknown; any open find here
-    that peer's heard track passed near (`plausible.been_there`'s reach), or any at all when
-    none of its track was heard, may be that aggregation under the other's name, and waits
-    until the FOUND arrives (the cleared set or the finds change: judged again)."""
+    """The finds not to plan yet (docs/search.md, "Never twice"): a peer has cleared or
+    claims a find this vehicle has never heard of (its FOUND frame was lost; the cleared set
+    or the claim came through, and the gap is asked for: `FindsGap`), so where it is is
+    unknown; any open find here that peer's heard track passed near (`plausible.been_there`'s
+    reach), or any at all when none of its track was heard, may be that aggregation under
+    the other's name, and waits until the FOUND arrives (the cleared set, the claims or the
+    finds change: judged again). Two vehicles side by side name one aggregation seconds
+    apart; the claim of the first is on the air a cycle before its FOUND (hard seed 15 at
+    30 % loss: a claim heard at 418 s, the FOUND at 628 s, the aggregation treated twice)."""
     b = know.beliefs
+    unknown = [t for t in know.holdings.claimed_since_plan() if b.is_find_slot(t)]
     gaps = [t for t in know.cleared if t >= b.n and t not in b.finds]
+    gaps += [t for t in unknown if t not in b.finds]
     if not gaps:
         return frozenset()
     finders = {b.finder(t) for t in gaps}
@@ -237,7 +245,8 @@ def on_found(know: Knowledge, msg: Found, now: float) -> list[Intent]:
     elif b.refused != refused:
         out.append(Count("drop_found_on_land"))
     if msg.digest != b.digest():
-        out.append(Owe(Owed.FINDS, FindsGap(msg.digest, b.digest(), tuple(b.finds))))
+        newest = sorted(b.finds, key=lambda s: (-b.finds[s].learned_s, s))
+        out.append(Owe(Owed.FINDS, FindsGap(msg.digest, b.digest(), tuple(newest))))
     return out + fold_aliases(know, now)
 
 

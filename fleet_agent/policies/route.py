@@ -1,6 +1,7 @@
 """The route kept true to what the vehicle knows, and what a replan may change of it.
 
-- `sync`: only spots this vehicle holds and nobody cleared (the spot being injected stays),
+- `sync`: only spots this vehicle holds, nobody cleared and no unknown find may be (the spot
+  being injected stays),
   held spots missing from it folded in where they cost least; the agent fits it to the
   battery and releases what it will not treat (`intents.Steer`);
 - `keeping_own`: a replanner's route that never costs the vehicle one of its own spots.
@@ -22,9 +23,14 @@ def sync(know: Knowledge) -> list[Intent]:
     missing from it."""
     own = know.own
     injecting, alias = own.injecting, know.beliefs.alias
+    # A find awaiting a peer's unknown cleared find (`discovery.await_gaps`) leaves the route
+    # too, not only the replans: a vehicle already on its way to it would treat it.
+    waiting = know.awaiting
     route = [t for t in own.route if t not in know.cleared
-             and (t == injecting or (know.holder(t) == know.index and t not in alias))]
-    orphans = [t for t in know.held_by(know.index) if t not in route and t not in know.cleared]
+             and (t == injecting or (know.holder(t) == know.index and t not in alias
+                                     and t not in waiting))]
+    orphans = [t for t in know.held_by(know.index) if t not in route and t not in know.cleared
+               and t not in waiting]
     for t in orphans:
         route = cheapest_insertion(own, route, t)
     return [Steer(tuple(route), "sync")]

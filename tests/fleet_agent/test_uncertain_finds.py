@@ -181,6 +181,53 @@ def test_a_find_waits_while_a_peers_cleared_find_is_unknown(fleet):
     assert mine in know.cleared and mine not in agent.own.route
 
 
+def test_a_find_waits_while_a_peers_claimed_find_is_unknown_and_leaves_the_route(fleet):
+    """Two vehicles side by side name one aggregation seconds apart; the first one's claim
+    is on the air before its FOUND. A claim of a find unknown here holds this vehicle's
+    finds near the claimer as a cleared one does, and a held find leaves the route the
+    vehicle is already flying, not only its replans."""
+    agent = Agent(fleet, 1, CONFIG)
+    know, b = agent.know, agent.know.beliefs
+    pos = off_map(fleet)
+    agent.step(Tick(1.0), [NavFix(1.0, pos), Sighted(1.0, pos, 50.0, 60.0)])
+    (mine,) = b.finds
+    know.hold(1, 2, [mine], True)
+    agent.own.route = [mine]
+    theirs = b.n + 2 * CONFIG.find_slots  # auv3's first find: claimed, its FOUND unheard
+    know.hold(2, 1, [theirs], True)
+    out = agent.step(Tick(3.0))
+    assert know.awaiting == {mine} and mine not in agent.own.route, out
+    codec = fleet.codec
+    msg = codec.decode(codec.encode(Found(2, 1, Digest(1, 0), theirs, pos, 50.0, 60.0)))
+    discovery.on_found(know, msg, 4.0)
+    agent.step(Tick(5.0))
+    # one aggregation under two names: auv3 claimed it first (1 s against 2 s), so it holds
+    # it under either name, and this vehicle never flies to it
+    assert know.awaiting == frozenset() and b.alias == {theirs: mine}
+    assert know.holder(mine) == 2 and mine not in know.held_by(1)
+    assert mine not in agent.own.route and know.held_map()[mine] == 2
+
+
+def test_a_claim_under_an_alias_settles_a_cycle_after_the_other_name_is_learned(fleet):
+    """A vehicle that holds an aggregation through its own name learns the other name late:
+    claims under that name were in flight before it knew to look for them."""
+    agent = Agent(fleet, 1, CONFIG)
+    know, b = agent.know, agent.know.beliefs
+    pos = off_map(fleet)
+    theirs = b.n + 0 * CONFIG.find_slots  # auv1's first find: the lower slot, the spot
+    agent.step(Tick(1.0), [NavFix(1.0, pos), Sighted(1.0, pos, 50.0, 60.0)])
+    (mine,) = b.finds
+    know.hold(1, 2, [mine], True)
+    assert know.settled_s(mine) == 2 + know.claim_settle_s
+    codec = fleet.codec
+    msg = codec.decode(codec.encode(Found(0, 1, Digest(1, 0), theirs, pos, 50.0, 60.0)))
+    discovery.on_found(know, msg, 40.0)
+    assert b.alias == {mine: theirs} and know.holder(theirs) == 1
+    assert know.settled_s(theirs) == 40.0 + know.claim_settle_s
+    know.hold(0, 1, [theirs], True)  # auv1's earlier claim arrives within that cycle
+    assert know.holder(theirs) == 0 and theirs not in know.held_by(1)
+
+
 def test_a_predicted_spot_is_judged_treated_only_by_a_treated_find(fleet):
     """The map says its spots are distinct: a treated predicted spot never clears another;
     a treated find within the gate of one does (a drifted vehicle took it for news)."""
