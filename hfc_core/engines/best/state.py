@@ -30,10 +30,11 @@ class State:
         self.owner = np.full(n, UNASSIGNED, dtype=np.int64)
         for v, route in enumerate(self.routes):
             self.owner[route] = v
-        self._nodes = [self._terminals(v) for v in range(k)]
-        self._values = [self._route_values(v) for v in range(k)]
-        self.service_s = [self._service(v) for v in range(k)]
-        self.travel_s = [self._travel(v) for v in range(k)]
+        figures = [self._figures(v, self.routes[v]) for v in range(k)]
+        self._nodes = [f[0] for f in figures]
+        self._values = [f[1] for f in figures]
+        self.service_s = [f[2] for f in figures]
+        self.travel_s = [f[3] for f in figures]
         self.ins_s = np.zeros((k, n))
         self.ins_pos = np.zeros((k, n), dtype=np.int64)
         self.stale = np.ones(k, dtype=bool)
@@ -57,28 +58,22 @@ class State:
         """Route ``v`` with its terminals: start, tasks..., end (read only)."""
         return self._nodes[v]
 
-    def _terminals(self, v: int) -> np.ndarray:
+    def _figures(self, v: int, route: list[int]
+                 ) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """What vehicle ``v`` flying ``route`` caches: (its nodes with the terminals, the
+        tasks' values, service seconds, travel seconds)."""
         inst = self.inst
-        return np.array([inst.start[v], *self.routes[v], inst.end[v]], dtype=np.int64)
-
-    def _route_values(self, v: int) -> np.ndarray:
-        return self.inst.value[v, self.routes[v]]
-
-    def _travel(self, v: int) -> float:
-        nodes = self.nodes(v)
-        if self.inst.clock is not None:  # as flown through the tide, less the injections
-            return self.inst.clock.route_time_s(v, nodes) - self.service_s[v]
-        return float(self.inst.travel_s[v][nodes[:-1], nodes[1:]].sum())
-
-    def _service(self, v: int) -> float:
-        route = self.routes[v]
-        return float(self.inst.service_s[route].sum()) if route else 0.0
+        nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)
+        service = float(inst.service_s[route].sum()) if route else 0.0
+        if inst.clock is not None:  # as flown through the tide, less the injections
+            travel = inst.clock.route_time_s(v, nodes) - service
+        else:
+            travel = float(inst.travel_s[v][nodes[:-1], nodes[1:]].sum())
+        return nodes, inst.value[v, route], service, travel
 
     def _changed(self, v: int) -> None:
-        self._nodes[v] = self._terminals(v)
-        self._values[v] = self._route_values(v)
-        self.service_s[v] = self._service(v)
-        self.travel_s[v] = self._travel(v)
+        (self._nodes[v], self._values[v], self.service_s[v],
+         self.travel_s[v]) = self._figures(v, self.routes[v])
         self.stale[v] = True
 
     def time_s(self, v: int) -> float:
@@ -124,15 +119,8 @@ class State:
         """What setting ``routes`` (vehicle -> new route) would make of their cached figures,
         the state untouched: the inter-route moves reject most of what they try (an estimated
         gain the routes' own sums do not confirm), and setting then restoring two routes cost
-        eight `set_route` calls per rejection. Still water only (`_travel`'s clock path
-        needs the state's own nodes)."""
-        assert self.inst.clock is None, "trials are for still-water instances"
-        inst, out = self.inst, {}
-        for v, route in routes.items():
-            nodes = np.array([inst.start[v], *route, inst.end[v]], dtype=np.int64)
-            service = float(inst.service_s[route].sum()) if route else 0.0
-            travel = float(inst.travel_s[v][nodes[:-1], nodes[1:]].sum())
-            out[v] = (list(route), nodes, inst.value[v, route], service, travel)
+        eight `set_route` calls per rejection."""
+        out = {v: (list(route), *self._figures(v, route)) for v, route in routes.items()}
         return Trial(self, out)
 
     # --- edits ---------------------------------------------------------------------------
