@@ -123,6 +123,13 @@ class Messages(_Section):
     link_by_sender: dict[str, dict[str, int]]
 
 
+def drop_reasons(counts: Mapping[str, Any]) -> dict[str, int]:
+    """The drop counters of a link-totals row (`Messages.link`, a row of ``link_by_sender``):
+    everything but sent, delivered and bytes."""
+    return {k: int(v) for k, v in counts.items()
+            if k not in ("sent", "delivered", "bytes") and isinstance(v, (int, float))}
+
+
 class TreatedRow(_Section):
     spot: int  # index of the real spot (``truth.spots``)
     vehicle: str

@@ -15,8 +15,7 @@ from typing import Any
 
 from cotsfleet.mission.faults import INSIDER_ATTACKS, OUTSIDER_ATTACKS
 from cotsfleet.mission.report_model import (Commands, FaultRow, MissionReport, Security,
-                                            TreatedRow)
-from cotsfleet.reporting.plots import drop_reasons
+                                            TreatedRow, drop_reasons)
 from cotsfleet.reporting.terminal import notable, suspects_line
 from cotsfleet.reporting.timeline import ACTIVITIES, Segment, Spots, time_shares
 from fleet_bus.event_text import sentence

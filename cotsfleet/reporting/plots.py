@@ -12,7 +12,7 @@ from typing import Any, Mapping, Sequence
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from cotsfleet.mission.report_model import FaultRow, Messages, MissionReport
+from cotsfleet.mission.report_model import FaultRow, Messages, MissionReport, drop_reasons
 from cotsfleet.reporting.timeline import ACTIVITIES, Collected, Segment
 
 COLOURS = {"transit": "#9ecae1", "inspect": "#fdae6b", "inject": "#31a354", "idle": "#d9d9d9",
@@ -105,12 +105,6 @@ def vehicle_timeline(segments: Mapping[str, Sequence[Segment]], report: MissionR
               ncol=max(1, len(shown)), fontsize=8, frameon=False)
     ax.grid(axis="x", alpha=0.3)
     fig.savefig(path)
-
-
-def drop_reasons(counts: Mapping[str, Any]) -> dict[str, int]:
-    """The drop counters of a link-totals row: everything but sent, delivered and bytes."""
-    return {k: int(v) for k, v in counts.items()
-            if k not in ("sent", "delivered", "bytes") and isinstance(v, (int, float))}
 
 
 def link_deliveries(messages: Messages, path: Path) -> None:

@@ -17,8 +17,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from cotsfleet.mission.report_model import FailedRun, MissionReport, RunResult
-from cotsfleet.reporting.plots import drop_reasons
+from cotsfleet.mission.report_model import FailedRun, MissionReport, RunResult, drop_reasons
 
 
 def _ratio(a: float | None, b: float | None) -> float:
