@@ -27,24 +27,24 @@ class ClearedSet:
     def __init__(self, n_tasks: int, segment_bits: int = SEGMENT_BITS) -> None:
         self.n_tasks = n_tasks
         self.segment_bits = segment_bits  # spots per segment, from the frame budget
-        self._bits = 0
+        self._bits = 0  # the bitmap the wire carries (segments, news)
+        # One byte per spot beside it, for membership: ``bits >> task`` copies the whole
+        # bitmap, O(spots) per look-up, and the fleet asks millions of times per mission.
+        self._flags = bytearray(n_tasks)
+        self._added: list[int] = []  # in the order they were added (`added_since`)
         self._count = 0
         self._hash = 0
         self._table = [_spot_hash(i) for i in range(n_tasks)]
 
     def __contains__(self, task: int) -> bool:
-        return bool(self._bits >> task & 1)
+        return 0 <= task < self.n_tasks and self._flags[task] == 1
 
     def __len__(self) -> int:
         return self._count
 
     def __iter__(self) -> Iterator[int]:
-        bits, i = self._bits, 0
-        while bits:
-            if bits & 1:
-                yield i
-            bits >>= 1
-            i += 1
+        flags = self._flags
+        return (i for i in range(self.n_tasks) if flags[i])
 
     def add(self, task: int) -> bool:
         """Add one spot; True if it was new."""
@@ -53,12 +53,19 @@ class ClearedSet:
         if task in self:
             return False
         self._bits |= 1 << task
+        self._flags[task] = 1
+        self._added.append(task)
         self._count += 1
         self._hash = (self._hash + self._table[task]) & 0xFFFF
         return True
 
     def update(self, tasks: Iterable[int]) -> list[int]:
         return [t for t in tasks if self.add(t)]
+
+    def added_since(self, n: int) -> list[int]:
+        """The spots added after the first ``n`` (in order): what a reader that had seen
+        ``n`` of them must catch up on (`Knowledge.held_map`)."""
+        return self._added[n:]
 
     def digest(self) -> Digest:
         return Digest(self._count & 0x7F, self._hash)

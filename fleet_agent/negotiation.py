@@ -63,6 +63,9 @@ class Holdings:
         self._extra: dict[int, set[int]] = {}
         # spot outside the initial plan -> its place in the order spots were first claimed
         self._later: dict[int, int] = {}
+        # spots whose record changed since `take_touched` last ran (its one reader keeps a
+        # map of holders up to date from them; a set, so bounded by the spots)
+        self._touched: set[int] = set()
 
     def _record(self, task: int, v: int) -> Record | None:
         rec = self._events.get(task, {}).get(v)
@@ -94,7 +97,13 @@ class Holdings:
                     self._later.setdefault(task, len(self._later))
         if changed:
             self.version += 1
+            self._touched.update(changed)
         return changed
+
+    def take_touched(self) -> set[int]:
+        """The spots whose record changed since the last call (`Knowledge.held_map`)."""
+        touched, self._touched = self._touched, set()
+        return touched
 
     def holder(self, task: int, alive: Alive) -> int | None:
         best = self.holding(task, alive)

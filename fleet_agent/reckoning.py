@@ -26,11 +26,14 @@ def position_along(problem: Problem, v: int, pos: Sequence[float], route: Sequen
     speed = problem.vehicles[v].speed_mps
     now, until = t0_s + first_service_left_s, t0_s + dt_s
     here = as_point3(pos)
-    targets: list[Point3] = [as_point3(problem.xyz[task]) for task in route]
-    services = [float(problem.service_s[task]) for task in route] + [math.inf]
-    for target, service in zip([*targets, problem.vehicles[v].rendezvous], services):
-        if now >= until:
+    last = len(route)
+    for i in range(last + 1):  # the spots, then home; each read only once reached (a
+        if now >= until:       # reckoning over a turn seldom passes the first two)
             break
+        if i < last:
+            target, service = as_point3(problem.xyz[route[i]]), float(problem.service_s[route[i]])
+        else:
+            target, service = problem.vehicles[v].rendezvous, math.inf
         try:
             pieces = segment_pieces(problem.current, here, target, speed, now)
         except LegError:

@@ -176,9 +176,15 @@ def near_track(track: Iterable[tuple[float, tuple[float, float, float]]],
     points = list(track)
     if not points:
         return False
+    px, py = pos[0], pos[1]
     for (t0, a), (t1, b) in zip(points, points[1:]):
-        slack = speed * max(0.0, t1 - t0) / 2.0
-        if _segment_distance(a, b, pos) <= reach_m + slack:
+        r = reach_m + speed * max(0.0, t1 - t0) / 2.0
+        # Outside the segment's box grown by r, it is farther than r (most segments of a
+        # far peer's track, for most of the spots its cleared set is news of).
+        if (px < min(a[0], b[0]) - r or px > max(a[0], b[0]) + r or py < min(a[1], b[1]) - r
+                or py > max(a[1], b[1]) + r):
+            continue
+        if _segment_distance(a, b, pos) <= r:
             return True
     t_last, last = points[-1]
     return math.dist(last[:2], pos[:2]) <= reach_m + speed * max(0.0, now - t_last)

@@ -47,6 +47,10 @@ def test_gossip_converges_under_loss_duplication_and_reordering(n_tasks: int, se
         assert set(s) == truth
         assert s.digest() == sets[0].digest()
         assert len(s) == len(truth)
+        # membership (one byte per spot) agrees with the bitmap the wire carries
+        on_wire = {seg * s.segment_bits + 8 * j + i for seg in range(s.n_segments)
+                   for j, byte in enumerate(s.segment(seg)) for i in range(8) if byte >> i & 1}
+        assert {t for t in range(-2, n_tasks + 2) if t in s} == on_wire == truth
 
 
 def test_a_merge_never_unclears() -> None:

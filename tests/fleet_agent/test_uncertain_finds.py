@@ -408,3 +408,48 @@ def test_a_finds_sigma_round_trips_in_its_byte_rounded_up(fleet, sigma, back):
     assert len(frame) <= codec.max_frame_bytes
     got = codec.decode(frame)
     assert got.sigma_m == back and got.slot == n + 2 and got.priority == 42.5
+
+
+def _held_rebuilt(know) -> dict[int, int]:
+    """`Knowledge.held_map` computed from scratch: every spot's holder under any of its
+    names, nobody's cleared spots and no alias."""
+    alias, cleared = know.beliefs.alias, know.cleared
+    held = {t: h for t, h in know.holdings.holders(know.members.alive).items()
+            if t not in cleared and t not in alias}
+    for head in {h for h in alias.values() if h not in cleared}:
+        v = know.holder(head)
+        if v is None:
+            held.pop(head, None)
+        else:
+            held[head] = v
+    return held
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_held_map_kept_up_to_date_equals_one_rebuilt(fleet, seed):
+    """`held_map` is brought up to date from the spots touched since; at every step it
+    equals the map walked over every spot, through claims, releases, clears, finds that
+    merge and a peer that aborts."""
+    rng = np.random.default_rng(seed)
+    agent = Agent(fleet, 0, CONFIG)
+    know, b = agent.know, agent.know.beliefs
+    base = off_map(fleet)
+    slots = [b.n + v * CONFIG.find_slots + i for v in range(3) for i in range(2)]
+    n = know.problem.n_tasks
+    for step in range(160):
+        op = rng.integers(6)
+        if op <= 1:
+            tasks = [int(t) for t in rng.choice([*range(b.n), *slots], size=2)]
+            know.hold(int(rng.integers(3)), int(rng.integers(1, 50)), tasks, bool(op))
+        elif op == 2:
+            know.clear([int(rng.integers(n))])
+        elif op == 3 and slots:
+            slot = slots.pop(int(rng.integers(len(slots))))
+            near = (base[0] + float(rng.uniform(-6, 6)), base[1], base[2])
+            b.add_find(slot, near, 40.0, 60.0, float(step), DRIFT_SIGMA)
+        if step == 80:
+            assert know.members.mark(2, "aborted", float(step))
+        if rng.random() < 0.5:
+            assert know.held_map() == _held_rebuilt(know), step
+    assert b.alias and know.members.status(2) == "aborted"
+    assert know.held_map() == _held_rebuilt(know)
