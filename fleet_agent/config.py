@@ -90,7 +90,8 @@ class AgentConfig:
     # A fleet of more than this many vehicles is planned region by region (sectors of spots
     # around the starts, each with its share of the vehicles: `plans.regions`), so the initial
     # plan costs in proportion to the fleet (one `best` run of 500 iterations: 27 s at 24
-    # AUVs x 600 spots, 208 s at 48 x 1200, beyond 30 min at 100 x 2500). 0: never.
+    # AUVs x 600 spots, 208 s at 48 x 1200, beyond 30 min at 100 x 2500). 0: never. Each
+    # region searches ``plan_iterations`` per ``plan_region_vehicles`` of its vehicles.
     plan_region_vehicles: int = 12
     coop_period_s: float = 120.0  # online cooperation operator: how often to look for work
     coop_min_slack_s: float = 60.0  # below this spare battery, do not even look

@@ -131,6 +131,29 @@ def test_a_large_fleet_is_planned_region_by_region_and_every_route_fits() -> Non
     assert cfg.plan_region_vehicles == 12
 
 
+def test_each_region_searches_in_proportion_to_its_vehicles(monkeypatch) -> None:
+    """The fleet's initial-plan budget follows its size: ``plan_iterations`` per
+    ``region_vehicles`` vehicles, however unevenly the regions cut the fleet."""
+    from fleet_agent.plans import regions
+
+    p = _area(26, 260, 4000.0)
+    planner = Planner(p, 0, 60, 30, RESERVE_S, region_vehicles=12)
+    spent: list[tuple[int, int]] = []
+    solve = Planner._solve
+
+    def counted(self, sub, seed, iterations):
+        spent.append((sub.n_vehicles, iterations))
+        return solve(self, sub, seed, iterations)
+
+    monkeypatch.setattr(Planner, "_solve", counted)
+    planner.initial_routes()
+    sizes = [len(vs) for _, vs in regions(p.with_reserve(RESERVE_S), 12)]
+    assert len(spent) == len(sizes) == 3 and len(set(sizes)) > 1
+    assert spent == [(k, round(60 * k / 12)) for k in sizes]
+    assert abs(sum(i for _, i in spent) - 60 * 26 / 12) <= len(sizes) / 2
+    assert planner.region_budget(1) == 5 and Planner(p, 0, 60, 30).region_budget(1) == 60
+
+
 def test_a_scoped_replan_touches_only_its_spots_and_fits_the_whole_problem() -> None:
     from fleet_agent.plans import subproblem
 
