@@ -127,6 +127,9 @@ class Beliefs:
         self.settle_s = config.find_settle_cycles * cycle_s
         self.state = [PRESENT if self.exact else UNKNOWN] * self.n
         self.real: dict[int, tuple[float, float]] = {}  # present predicted: (rho, t)
+        # Predicted spots known present from a sighting along the track, not a look: which
+        # aggregation a sighting is rests on the frame (`doubt`).
+        self.sighted: set[int] = set()
         self.finds: dict[int, Find] = {}
         self.added: dict[int, Find] = {}  # the operator's spots, by slot
         self.alias: dict[int, int] = {}  # slot -> the slot it is an alias of
@@ -239,6 +242,15 @@ class Beliefs:
             self.real[task] = (float(priority), float(service_s))
         self._changed()
         return True
+
+    def doubt(self, task: int) -> None:
+        """A spot known present from a sighting alone may have been another aggregation:
+        unknown again, so the vehicle looks before it injects there."""
+        self.sighted.discard(task)
+        if self.state[task] == PRESENT:
+            self.state[task] = UNKNOWN
+            self.real.pop(task, None)
+            self._changed()
 
     def finder(self, slot: int) -> int:
         """The vehicle that named find ``slot`` (slots are handed out per finder)."""

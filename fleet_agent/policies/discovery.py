@@ -10,7 +10,7 @@ find. On an exact map there is nothing to see and nothing here runs.
 
 from __future__ import annotations
 
-from fleet_agent.association import Estimate, probably_treated, sighting
+from fleet_agent.association import Estimate, distance2, probably_treated, sighting
 from fleet_agent.beliefs import EMPTY, UNKNOWN
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Hold, Intent, Note, Owe, SeekWork, Tell
@@ -38,8 +38,11 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
     own = know.own
     if own.inspecting != r.task:
         return [Count("inspection_stale")]  # the look was abandoned meanwhile
+    if r.present and r.pos is not None and _treated_already(know, r.task, r.pos):
+        return _treated_at_look(know, config, r)
     if r.present:
         know.beliefs.learn(r.task, True, r.priority, r.service_s)
+        know.beliefs.sighted.discard(r.task)  # seen where it was sent: a look is sure
         if r.pos is not None and r.task < know.beliefs.n and _landmark(know, r.pos, r.task):
             know.touch()  # the goals moved with the vehicle's frame
     if know.search is not None and r.task < know.beliefs.n:
@@ -49,6 +52,43 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
         return []
     know.touch()
     return inspected(know, config, ev)
+
+
+def _treated_already(know: Knowledge, task: int, seen_vehicle: tuple[float, ...]) -> bool:
+    """Is the aggregation a look at ``task`` shows one already treated: inside the treated
+    gate of a treated spot (`treated_estimates`: where this vehicle measured its own
+    injections, and the spots cleared as treated) and nearer it than the spot looked at?
+    The map's spots are distinct, but a drifted vehicle sent to one may be looking at its
+    neighbour's aggregation: on Green Island (1 % drift, seed 8) auv1 was sent to spots 7
+    and 15, 13.5 m apart on the map with one real aggregation between them, stood 9 m east
+    of each in turn, and injected that aggregation from both; on the preset reef (seed 1)
+    auv3 injected at spot 47 what auv2 had treated as spot 80. Two real aggregations on
+    neighbouring spots stay two: each is seen nearer its own spot."""
+    if know.beliefs.exact:
+        return False
+    b = know.beliefs
+    treated = treated_estimates(know, but=task)
+    if not treated:
+        return False
+    est = sighting(know.own.frame.to_map(seen_vehicle), know.own.sigma_m, b.params)
+    own = distance2(est, b.estimate(task), b.params)
+    gate = b.params.treated_gate
+    return any(d <= gate and d < own for d in (distance2(est, t, b.params) for t in treated))
+
+
+def _treated_at_look(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
+    """The look shows an aggregation this vehicle treated: not injected again, and the spot
+    is taken as treated (it is the one the map put there, or it was never seen: either way
+    nobody is to inject there again), as `fold_treated` judges one."""
+    if know.own.looked(r.task, None, r.t_s) is None:
+        return []
+    know.touch()
+    know.folded.add(r.task)
+    out: list[Intent] = [Count("looks_treated")]
+    if know.clear([r.task]):
+        out += [Owe(Owed.CLEARED, 2), Note(Clear(r.t_s, (r.task,), own=False))]
+    out.append(Tell(r.t_s, EventKind.JUDGED_TREATED, (r.task,)))
+    return out + ([SeekWork()] if config.discovery else [])
 
 
 def inspected(know: Knowledge, config: AgentConfig, ev: Inspected) -> list[Intent]:
@@ -88,7 +128,10 @@ def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted
         # one moves the frame with a small variance, then confirms itself (a look is at the
         # spot it names: `on_looked` takes that one).
         if b.state[spot] == UNKNOWN and spot not in know.cleared:
+            if _treated_already(know, spot, seen.pos):
+                return [Count("sightings_treated")]  # a look there will tell
             b.learn(spot, True, seen.priority, seen.service_s)
+            b.sighted.add(spot)
             if know.search is not None:
                 know.search.learn(spot, True)
     return [] if sure else [Count("sightings_ambiguous")]  # a look will tell which
@@ -110,8 +153,16 @@ def remember_injection(know: Knowledge, r: Injected) -> tuple[float, float, floa
     or None when the vehicle did not say."""
     if r.pos is None or know.beliefs.exact:
         return None
-    est = sighting(know.own.frame.to_map(r.pos), know.own.sigma_m, know.beliefs.params)
+    b = know.beliefs
+    est = sighting(know.own.frame.to_map(r.pos), know.own.sigma_m, b.params)
     know.injections.append(est)
+    # A spot known present from a sighting near what was just treated may be this very
+    # aggregation, seen from a drifted track: looked at before it is injected (hard seed 9,
+    # 1 % drift: auv3 sighted "spot 38" at 2863 s, treated spot 1 at 2949 s, and injected
+    # at 38 without a look what it had treated at 1).
+    for t in [t for t in b.sighted if t not in know.cleared
+              and probably_treated(b.estimate(t), (est,), b.params)]:
+        b.doubt(t)
     return (*est.xy, est.sigma_m)
 
 

@@ -453,3 +453,64 @@ def test_the_held_map_kept_up_to_date_equals_one_rebuilt(fleet, seed):
             assert know.held_map() == _held_rebuilt(know), step
     assert b.alias and know.members.status(2) == "aborted"
     assert know.held_map() == _held_rebuilt(know)
+
+
+def _lonely_spot(fleet: Fleet, but: int) -> int:
+    """The predicted spot farthest from any other (a sighting of it is sure), not ``but``."""
+    xy = fleet.dynamic.scenario.xyz[:fleet.dynamic.scenario.n_tasks, :2]
+    d = np.linalg.norm(xy[:, None] - xy[None], axis=2)
+    np.fill_diagonal(d, np.inf)
+    d[but] = -1.0
+    return int(np.argmax(d.min(axis=1)))
+
+
+def _inject_at_head(agent: Agent, fleet: Fleet, measured: tuple[float, float, float]) -> int:
+    """The agent's first spot: arrive, look (present), inject what its camera measured at
+    ``measured``; the spot."""
+    head = agent.own.route[0]
+    p = fleet.dynamic.scenario.tasks[head].pos
+    agent.step(Tick(1.0), [NavFix(1.0, p, sigma_m=DRIFT_SIGMA), Arrived(1.0, head)])
+    agent.step(Tick(2.0), [Looked(2.0, head, True, 50.0, 60.0)])
+    agent.step(Tick(70.0), [Injected(70.0, head, measured)])
+    assert head in agent.know.cleared and len(agent.know.injections) == 1
+    return head
+
+
+@pytest.mark.parametrize("seen_off_m, treated", [(13.0, True), (0.0, False)])
+def test_a_look_showing_what_this_vehicle_injected_is_not_injected_again(fleet, seen_off_m,
+                                                                         treated):
+    """Green Island, 1 % drift: sent to two spots 13.5 m apart with one aggregation between
+    them, a vehicle injected it from both. Its camera measured the first injection 13 m
+    from the second spot; a look there showing COTS at that measure is that aggregation
+    (judged treated, not injected); COTS on the spot itself are its own, and injected."""
+    agent = Agent(fleet, 0, CONFIG)
+    know = agent.know
+    u = _lonely_spot(fleet, agent.own.route[0])
+    q = fleet.dynamic.scenario.tasks[u].pos
+    _inject_at_head(agent, fleet, (q[0] + 13.0, q[1], q[2]))
+    agent.own.set_route([u])
+    agent.step(Tick(80.0), [NavFix(80.0, q, sigma_m=DRIFT_SIGMA), Arrived(80.0, u)])
+    assert agent.own.inspecting == u
+    seen = (q[0] + seen_off_m + 0.5, q[1], q[2])
+    agent.step(Tick(90.0), [Looked(90.0, u, True, 50.0, 60.0, seen)])
+    assert (agent.own.injecting == u) is not treated
+    assert (u in know.cleared and u in know.folded) is treated
+    assert agent.counters.get("looks_treated", 0) == int(treated)
+
+
+@pytest.mark.parametrize("injected_off_m, doubted", [(5.0, True), (60.0, False)])
+def test_a_spot_known_present_from_a_sighting_is_looked_at_after_an_injection_near_it(
+        fleet, injected_off_m, doubted):
+    """Hard reef seed 9, 1 % drift: auv3 sighted "spot 38" along its track, then treated
+    spot 1 nearby, and at 38 injected without a look what it had treated at 1. A spot known
+    present from a sighting alone is unknown again (looked at before any injection) once the
+    vehicle injects something near it; far from it, it stays known."""
+    agent = Agent(fleet, 0, CONFIG)
+    b = agent.know.beliefs
+    u = _lonely_spot(fleet, agent.own.route[0])
+    q = fleet.dynamic.scenario.tasks[u].pos
+    agent.step(Tick(0.5), [NavFix(0.5, q, sigma_m=DRIFT_SIGMA), Sighted(0.5, q, 50.0, 60.0)])
+    assert b.state[u] == "present" and u in b.sighted
+    _inject_at_head(agent, fleet, (q[0] + injected_off_m, q[1], q[2]))
+    assert (b.state[u] == "unknown") is doubted and (u in b.sighted) is not doubted
+    assert b.unknown(u) is doubted  # unknown: the vehicle looks before it injects
