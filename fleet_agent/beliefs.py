@@ -169,6 +169,11 @@ class Beliefs:
         """Is ``slot`` one of the finds' (not a predicted spot, not the operator's)?"""
         return self.n <= slot < self.op_from
 
+    def weighs_without_slack(self) -> bool:
+        """Has this vehicle spots to weigh even with no spare battery: a find of its own (its
+        finder weighs it against its route) or an operator's spot (`policies.cooperate`)?"""
+        return self.own_found > 0 or bool(self.added)
+
     def known(self, task: int) -> bool:
         """A predicted spot, a find or an added spot this vehicle knows of."""
         return task < self.n or task in self.finds or task in self.added
