@@ -33,7 +33,6 @@ import time
 from pathlib import Path
 
 from benchmarks.results import markdown_table, write_section
-from cotsfleet.reporting.sweep import machine_free
 
 REPO = Path(__file__).resolve().parents[1]
 MODES = [("--jobs 1", ["--jobs", "1"]), ("--jobs 2", ["--jobs", "2"]),
@@ -62,6 +61,10 @@ def cotsfleet(*argv: str) -> subprocess.CompletedProcess:
 def timed_sweep(argv: list[str], out: Path) -> dict:
     """One ``cotsfleet sim`` sweep: the command's wall time, the sweep's (as it prints it),
     its sweep.md and its runs."""
+    # Here, not at the top: the memory probe runs this module in a fresh process, and the
+    # reporting package brings matplotlib (30 MB) that a sweep's run never loads.
+    from cotsfleet.reporting.sweep import machine_free
+
     t0 = time.perf_counter()
     proc = cotsfleet("sim", *argv, "--out", str(out))
     wall = time.perf_counter() - t0

@@ -7,20 +7,7 @@ for a sweep of missions (``X.json``: ``X.md``, ``X.csv``).
 `cotsfleet.mission.report_model`. See docs/reports.md.
 """
 
-from __future__ import annotations
-
-import importlib
-from typing import Any
-
-# Loaded on first use: the bundle draws with matplotlib (some 30 MB), which a sweep worker or a
-# process reading only `reporting.sweep`'s tables must not carry.
-_HOMES = {"read_events": "bundle", "write_report_bundle": "bundle",
-          "write_sweep_summary": "sweep"}
+from cotsfleet.reporting.bundle import read_events, write_report_bundle
+from cotsfleet.reporting.sweep import write_sweep_summary
 
 __all__ = ["read_events", "write_report_bundle", "write_sweep_summary"]
-
-
-def __getattr__(name: str) -> Any:
-    if name not in _HOMES:
-        raise AttributeError(f"module 'cotsfleet.reporting' has no attribute {name!r}")
-    return getattr(importlib.import_module(f"cotsfleet.reporting.{_HOMES[name]}"), name)
