@@ -111,7 +111,7 @@ class Planner:
     def region_budget(self, vehicles: int) -> int:
         """A region's iterations: ``plan_iterations`` per ``region_vehicles`` of its
         vehicles, so the fleet's budget follows its size (at 100 vehicles, nine regions of
-        11 or 12 searched 500 iterations each: 4,500 where 100 / 12 x 500 is 4,167)."""
+        8 to 14 vehicles searched 500 iterations each: 4,500 where 100 / 12 x 500 is 4,167)."""
         if self.region_vehicles <= 0:  # one region: the whole budget
             return self.plan_iterations
         return max(1, round(self.plan_iterations * vehicles / self.region_vehicles))

@@ -48,8 +48,8 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
     slack = own.slack_s(config.battery_reserve_s)
     if slack < config.coop_min_slack_s and not beliefs.weighs_without_slack():
         # Nothing to weigh without spare battery: the walk over every spot of the reef is
-        # skipped. In a large fleet most vehicles
-        # have no slack most of the time; that walk made cooperation grow with fleet x reef.
+        # skipped. In a large fleet most vehicles have no slack most of the time; that walk
+        # made cooperation grow with fleet x reef.
         return []
     free = know.free_spots(now)
     if not free:
