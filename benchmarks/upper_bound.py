@@ -9,6 +9,10 @@ figures go to ``benchmarks/bounds_paper.json``.
 
     python -m benchmarks.upper_bound                       # preset + 30 runs, 60 s each
     python -m benchmarks.upper_bound --runs 4 --time-limit 30 --no-write
+    python -m benchmarks.upper_bound --quick                # 2 runs, 5 s each, writes nothing
+
+It writes its section of RESULTS.md, with the ceiling those bounds put on any planner's ratio
+to PyVRP run by run (`paper_best.bound_ceiling`, from `benchmarks/paper_best_runs.json`).
 """
 
 from __future__ import annotations
@@ -20,7 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.bound import upper_bound
-from benchmarks.results import markdown_table
+from benchmarks.paper_best import RUNS_OUT, bound_ceiling
+from benchmarks.results import markdown_table, write_section
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.solve import solve
 from reef_sim.scenarios.field import paper_preset_doc
@@ -69,6 +74,51 @@ def main(runs: int, base: int, time_limit_s: float, plan_s: float, preset: bool,
                for r in results}
         OUT.write_text(json.dumps(doc, indent=1) + "\n")
         print(f"wrote {OUT}")
+        write_section("upper_bound", "Upper bound on the paper scenarios",
+                      section(results, preset, base, runs, time_limit_s, plan_s))
+
+
+def section(results: list[dict], preset: bool, base: int, runs: int, time_limit_s: float,
+            plan_s: float) -> str:
+    """The RESULTS.md body: the bounds beside `best`'s plans, and what they allow any planner
+    against PyVRP's runs of `paper_best`."""
+    converged = sum(r["converged"] for r in results)
+    rows = []
+    for label, group in (("paper preset (`paper_preset_doc(0)`)",
+                          [r for r in results if preset and r["scenario"] == 0]),
+                         (f"Monte Carlo, {runs} (`paper_preset_doc({base} + i)`)",
+                          [r for r in results if not (preset and r["scenario"] == 0)])):
+        if not group:
+            continue
+        gap = np.array([r["gap_pct"] for r in group])
+        bound = float(np.median([r["bound"] for r in group]))
+        gaps = (f"{gap[0]:.2f} % (plan {group[0]['plan']:.1f})" if len(group) == 1
+                else f"{np.median(gap):.2f} % / {gap.max():.2f} %")
+        secs = float(np.median([r["seconds"] for r in group]))
+        rows.append([label, f"{bound:.1f}", gaps, f"{secs:.0f}"])
+    text = (f"`python -m benchmarks.upper_bound` (`benchmarks.bound`): an admissible upper "
+            f"bound on the priority any plan can collect, by column generation on the "
+            f"set-packing LP with ng-route pricing; every figure is a Lagrangian certificate, "
+            f"valid even when the column generation stops early ({time_limit_s:g} s per "
+            f"scenario, {converged} of {len(results)} converged). Per-scenario figures in "
+            f"`benchmarks/{OUT.name}`.\n\n")
+    text += markdown_table(["scenarios", "bound median",
+                            f"gap of the bound over `best`'s {plan_s:g} s plan: median / max",
+                            "s per scenario"], rows)
+    mc = [r for r in results if not (preset and r["scenario"] == 0)]
+    if mc:
+        worst = max(mc, key=lambda r: r["gap_pct"])
+        text += (f"\n\nSo no planner can collect more than about "
+                 f"{np.median([r['gap_pct'] for r in mc]):.1f} % (median; "
+                 f"{worst['gap_pct']:.1f} % at worst, scenario {worst['scenario']}) above "
+                 f"`best`'s {plan_s:g} s plans.")
+    if RUNS_OUT.exists():
+        ceiling = bound_ceiling(json.loads(RUNS_OUT.read_text()),
+                                [str(r["scenario"]) for r in mc])
+        if ceiling:
+            text += (f" Against PyVRP's 2 s plans of the latest `paper_best` "
+                     f"(`{RUNS_OUT.name}`). " + ceiling)
+    return text
 
 
 if __name__ == "__main__":
@@ -79,6 +129,9 @@ if __name__ == "__main__":
     parser.add_argument("--plan-s", type=float, default=2.0, help="best's seconds")
     parser.add_argument("--no-preset", action="store_true", help="Monte Carlo runs only")
     parser.add_argument("--no-write", action="store_true")
+    parser.add_argument("--quick", action="store_true", help="2 runs, 5 s each, writes nothing")
     args = parser.parse_args()
+    if args.quick:
+        args.runs, args.time_limit, args.no_write = 2, 5.0, True
     main(args.runs, args.base, args.time_limit, args.plan_s, not args.no_preset,
          not args.no_write)
