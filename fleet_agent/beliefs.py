@@ -233,11 +233,17 @@ class Beliefs:
     # -- learning --------------------------------------------------------------------------
 
     def learn(self, task: int, present: bool, priority: float = 0.0,
-              service_s: float = 0.0) -> bool:
+              service_s: float = 0.0, sighted: bool = False) -> bool:
         """A predicted spot seen (present, with rho and t) or inspected empty; True if news
-        (never on an exact map: nothing to learn)."""
+        (never on an exact map: nothing to learn). ``sighted``: seen along the track, not
+        looked at where the vehicle was sent, so which aggregation it was rests on the frame
+        (`doubt`); a look settles it. Neither is journalled: a restarted agent looks again."""
         if self.exact or not 0 <= task < self.n:
             return False
+        if sighted and present:
+            self.sighted.add(task)
+        else:
+            self.sighted.discard(task)
         new = PRESENT if present else EMPTY
         if self.state[task] == new and (not present
                                         or self.real.get(task) == (priority, service_s)):

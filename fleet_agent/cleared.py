@@ -32,7 +32,6 @@ class ClearedSet:
         # bitmap, O(spots) per look-up, and the fleet asks millions of times per mission.
         self._flags = bytearray(n_tasks)
         self._added: list[int] = []  # in the order they were added (`added_since`)
-        self._count = 0
         self._hash = 0
         self._table = [_spot_hash(i) for i in range(n_tasks)]
 
@@ -40,7 +39,7 @@ class ClearedSet:
         return 0 <= task < self.n_tasks and self._flags[task] == 1
 
     def __len__(self) -> int:
-        return self._count
+        return len(self._added)
 
     def __iter__(self) -> Iterator[int]:
         flags = self._flags
@@ -55,7 +54,6 @@ class ClearedSet:
         self._bits |= 1 << task
         self._flags[task] = 1
         self._added.append(task)
-        self._count += 1
         self._hash = (self._hash + self._table[task]) & 0xFFFF
         return True
 
@@ -68,7 +66,7 @@ class ClearedSet:
         return self._added[n:]
 
     def digest(self) -> Digest:
-        return Digest(self._count & 0x7F, self._hash)
+        return Digest(len(self._added) & 0x7F, self._hash)
 
     @property
     def n_segments(self) -> int:

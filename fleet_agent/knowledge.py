@@ -277,16 +277,17 @@ class Knowledge:
         we lost the spot. Without the wait, two vehicles near a find that both claimed it
         seconds apart each treat it."""
         names = self.names(task)
+        c: float | None
         if len(names) == 1:  # asked for every spot of the route at every step: kept short
-            c1 = self.holdings.claim_time(task, self.index)
-            return float(c1) + self.claim_settle_s if c1 else 0.0
-        times = [self.holdings.claim_time(t, self.index) for t in names]
-        c: float | None = max((t for t in times if t), default=None)
-        if c:
-            # One aggregation under several names: the claims under a name learned after
-            # ours were in flight before we knew to look for them; they get a cycle to come.
-            finds = self.beliefs.finds
-            c = max([c, *(finds[t].learned_s for t in names if t in finds)])
+            c = self.holdings.claim_time(task, self.index)
+        else:
+            c = max((t for t in (self.holdings.claim_time(n, self.index) for n in names) if t),
+                    default=None)
+            if c:
+                # One aggregation under several names: the claims under a name learned after
+                # ours were in flight before we knew to look for them; they get a cycle.
+                finds = self.beliefs.finds
+                c = max([c, *(finds[t].learned_s for t in names if t in finds)])
         return float(c) + self.claim_settle_s if c else 0.0
 
     def standing_claims(self) -> dict[int, int]:

@@ -101,18 +101,19 @@ class Planner:
             routes: list[tuple[int, ...]] = [()] * problem.n_vehicles
             for j, (tasks, vehicles) in enumerate(parts):
                 sub = problem if len(parts) == 1 else subproblem(problem, tasks, vehicles)
-                budget = self.plan_iterations if len(parts) == 1 else \
-                    self.region_budget(len(vehicles))
+                budget = self.region_budget(len(vehicles), len(parts))
                 for v, r in zip(vehicles, self._solve(sub, self.seed + 7919 * j, budget)):
                     routes[v] = tuple(tasks[t] for t in r) if len(parts) > 1 else r
             self._initial = tuple(routes)
         return self._initial
 
-    def region_budget(self, vehicles: int) -> int:
-        """A region's iterations: ``plan_iterations`` per ``region_vehicles`` of its
-        vehicles, so the fleet's budget follows its size (at 100 vehicles, nine regions of
-        8 to 14 vehicles searched 500 iterations each: 4,500 where 100 / 12 x 500 is 4,167)."""
-        if self.region_vehicles <= 0:  # one region: the whole budget
+    def region_budget(self, vehicles: int, regions: int) -> int:
+        """A region's iterations when the fleet is cut in ``regions``: ``plan_iterations``
+        per ``region_vehicles`` of its vehicles, so the fleet's budget follows its size (at
+        100 vehicles, nine regions of 8 to 14 vehicles searched 500 iterations each: 4,500
+        where 100 / 12 x 500 is 4,167); one region (a fleet no larger than
+        ``region_vehicles``, or regions off) gets the whole budget."""
+        if regions <= 1:
             return self.plan_iterations
         return max(1, round(self.plan_iterations * vehicles / self.region_vehicles))
 

@@ -38,11 +38,11 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
     own = know.own
     if own.inspecting != r.task:
         return [Count("inspection_stale")]  # the look was abandoned meanwhile
-    if r.present and r.pos is not None and _treated_already(know, r.task, r.pos):
+    if r.present and r.pos is not None and \
+            _treated_already(know, r.task, _seen(know, r.pos)):
         return _treated_at_look(know, config, r)
     if r.present:
-        know.beliefs.learn(r.task, True, r.priority, r.service_s)
-        know.beliefs.sighted.discard(r.task)  # seen where it was sent: a look is sure
+        know.beliefs.learn(r.task, True, r.priority, r.service_s)  # a look is sure
         if r.pos is not None and r.task < know.beliefs.n and _landmark(know, r.pos, r.task):
             know.touch()  # the goals moved with the vehicle's frame
     if know.search is not None and r.task < know.beliefs.n:
@@ -54,8 +54,13 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
     return inspected(know, config, ev)
 
 
-def _treated_already(know: Knowledge, task: int, seen_vehicle: tuple[float, ...]) -> bool:
-    """Is the aggregation a look at ``task`` shows one already treated: inside the treated
+def _seen(know: Knowledge, pos: tuple[float, ...]) -> Estimate:
+    """What the camera saw at ``pos`` (the vehicle's frame), as an estimate in the map's."""
+    return sighting(know.own.frame.to_map(pos), know.own.sigma_m, know.beliefs.params)
+
+
+def _treated_already(know: Knowledge, task: int, est: Estimate) -> bool:
+    """Is the aggregation ``est`` seen at ``task`` one already treated: inside the treated
     gate of a treated spot (`treated_estimates`: where this vehicle measured its own
     injections, and the spots cleared as treated) and nearer it than the spot looked at?
     The map's spots are distinct, but a drifted vehicle sent to one may be looking at its
@@ -70,7 +75,6 @@ def _treated_already(know: Knowledge, task: int, seen_vehicle: tuple[float, ...]
     treated = treated_estimates(know, but=task)
     if not treated:
         return False
-    est = sighting(know.own.frame.to_map(seen_vehicle), know.own.sigma_m, b.params)
     own = distance2(est, b.estimate(task), b.params)
     gate = b.params.treated_gate
     return any(d <= gate and d < own for d in (distance2(est, t, b.params) for t in treated))
@@ -83,12 +87,21 @@ def _treated_at_look(know: Knowledge, config: AgentConfig, r: Looked) -> list[In
     if know.own.looked(r.task, None, r.t_s) is None:
         return []
     know.touch()
-    know.folded.add(r.task)
-    out: list[Intent] = [Count("looks_treated")]
-    if know.clear([r.task]):
-        out += [Owe(Owed.CLEARED, 2), Note(Clear(r.t_s, (r.task,), own=False))]
-    out.append(Tell(r.t_s, EventKind.JUDGED_TREATED, (r.task,)))
+    out = [Count("looks_treated"), *_judge_treated(know, (r.task,), r.t_s, owe=True)]
     return out + ([SeekWork()] if config.discovery else [])
+
+
+def _judge_treated(know: Knowledge, tasks: tuple[int, ...], t_s: float,
+                   owe: bool) -> list[Intent]:
+    """Take ``tasks`` as treated (judged, never measured: `treated_estimates` leaves them
+    out, so judgements do not chain) and clear them; ``owe``: this vehicle's own look
+    judged, so the fleet is told (a fold from what everyone hears is judged by everyone)."""
+    know.folded.update(tasks)
+    out: list[Intent] = []
+    if know.clear(list(tasks)):
+        out += [Owe(Owed.CLEARED, 2)] if owe else []
+        out.append(Note(Clear(t_s, tasks, own=False)))
+    return out + [Tell(t_s, EventKind.JUDGED_TREATED, tasks)]
 
 
 def inspected(know: Knowledge, config: AgentConfig, ev: Inspected) -> list[Intent]:
@@ -113,9 +126,9 @@ def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted
     vehicle's camera measured an injection of its own), or news."""
     if not config.discovery:
         return [Count("sightings_ignored")]
-    b, own = know.beliefs, know.own
+    b = know.beliefs
     params = b.params
-    est = sighting(own.frame.to_map(seen.pos), own.sigma_m, params)
+    est = _seen(know, seen.pos)
     what, sure = b.resolve(est)
     if what is None:
         if probably_treated(est, treated_estimates(know), params):
@@ -128,10 +141,9 @@ def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted
         # one moves the frame with a small variance, then confirms itself (a look is at the
         # spot it names: `on_looked` takes that one).
         if b.state[spot] == UNKNOWN and spot not in know.cleared:
-            if _treated_already(know, spot, seen.pos):
+            if _treated_already(know, spot, est):
                 return [Count("sightings_treated")]  # a look there will tell
-            b.learn(spot, True, seen.priority, seen.service_s)
-            b.sighted.add(spot)
+            b.learn(spot, True, seen.priority, seen.service_s, sighted=True)
             if know.search is not None:
                 know.search.learn(spot, True)
     return [] if sure else [Count("sightings_ambiguous")]  # a look will tell which
@@ -154,7 +166,7 @@ def remember_injection(know: Knowledge, r: Injected) -> tuple[float, float, floa
     if r.pos is None or know.beliefs.exact:
         return None
     b = know.beliefs
-    est = sighting(know.own.frame.to_map(r.pos), know.own.sigma_m, b.params)
+    est = _seen(know, r.pos)
     know.injections.append(est)
     # A spot known present from a sighting near what was just treated may be this very
     # aggregation, seen from a drifted track: looked at before it is injected (hard seed 9,
@@ -223,11 +235,9 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
                 new.append(t)
     if not new:
         return []
-    know.folded.update(new)
-    know.clear(new)
+    judged = _judge_treated(know, tuple(new), now, owe=False)
     know.fold_key = (len(know.cleared), len(b.finds) + len(b.added), len(b.alias))
-    return [Count("spots_judged_treated", len(new)), Note(Clear(now, tuple(new), own=False)),
-            Tell(now, EventKind.JUDGED_TREATED, tuple(new))]
+    return [Count("spots_judged_treated", len(new)), *judged]
 
 
 def await_gaps(know: Knowledge, now: float) -> frozenset[int]:

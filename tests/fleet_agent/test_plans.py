@@ -151,7 +151,7 @@ def test_each_region_searches_in_proportion_to_its_vehicles(monkeypatch) -> None
     assert len(spent) == len(sizes) == 3 and len(set(sizes)) > 1
     assert spent == [(k, round(60 * k / 12)) for k in sizes]
     assert abs(sum(i for _, i in spent) - 60 * 26 / 12) <= len(sizes) / 2
-    assert planner.region_budget(1) == 5 and Planner(p, 0, 60, 30).region_budget(1) == 60
+    assert planner.region_budget(1, 3) == 5 and planner.region_budget(26, 1) == 60
 
 
 def test_a_scoped_replan_touches_only_its_spots_and_fits_the_whole_problem() -> None:
