@@ -108,16 +108,16 @@ def section(results: list[dict], preset: bool, base: int, runs: int, time_limit_
     mc = [r for r in results if not (preset and r["scenario"] == 0)]
     if mc:
         worst = max(mc, key=lambda r: r["gap_pct"])
-        text += (f"\n\nSo no planner can collect more than about "
-                 f"{np.median([r['gap_pct'] for r in mc]):.1f} % (median; "
-                 f"{worst['gap_pct']:.1f} % at worst, scenario {worst['scenario']}) above "
+        text += (f"\n\nSo no planner can collect more than "
+                 f"{np.median([r['gap_pct'] for r in mc]):.2f} % (median; "
+                 f"{worst['gap_pct']:.2f} % at worst, scenario {worst['scenario']}) above "
                  f"`best`'s {plan_s:g} s plans.")
     if RUNS_OUT.exists():
         ceiling = bound_ceiling(json.loads(RUNS_OUT.read_text()),
                                 [str(r["scenario"]) for r in mc])
         if ceiling:
-            text += (f" Against PyVRP's 2 s plans of the latest `paper_best` "
-                     f"(`{RUNS_OUT.name}`). " + ceiling)
+            text += (f" PyVRP's 2 s plans of the latest `paper_best` (`{RUNS_OUT.name}`) "
+                     "against these bounds: " + ceiling)
     return text
 
 
