@@ -1,6 +1,6 @@
 """A hundred vehicles (issue 33): 24, 48 and 100 AUVs in process, 24 as OS processes.
 
-``python -m benchmarks.fleet_scale [--quick] [--seed N]``
+``python -m benchmarks.fleet_scale [--quick] [--seed N] [--repeats R]``
 
 (a) For K = 24, 48, 100 (25 spots per vehicle): ``cotsfleet scenario --vehicles K --spots
 25K --area-m A --battery-s 7200`` with A = 3, 5, 8 km, simulated in process with a kill at
@@ -13,7 +13,10 @@ of the same scenario, the killed vehicle detected by its neighbours (the survivo
 ``(lost_after_cycles + 3)`` of the longest cycles in force around the kill plus a slot (up
 to two cycles are the proof of the witness's frame, `fleet_bus.tesla`); wall time and
 peak memory per simulated vehicle-hour; the 100-vehicle mission at most 5 times the
-24-vehicle one's wall time and within 15 minutes on one core.
+24-vehicle one's wall time and within 15 minutes on one core. The smallest and the largest
+size run ``--repeats`` times (default 3), interleaved, so that the ratio of their times is
+of medians measured side by side on a shared machine; a mission is seeded, so every repeat
+must give the same figures (the benchmark fails otherwise) and only its times differ.
 (b) ``cotsfleet run`` of the 24-vehicle scenario with the same kill, as a child process in
 its own session: completes, the same figures, the peak RSS of every agent process (sampled
 twice a second); at the end every process it started must be gone, else the benchmark fails.
@@ -26,6 +29,7 @@ import json
 import math
 import os
 import resource
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -271,6 +275,10 @@ def _sid(pid: int) -> int | None:
         return None
 
 
+def _runs(values: list[float]) -> str:
+    return "/".join(f"{v:.0f}" for v in values) + " s"
+
+
 def _near(row: dict[str, Any]) -> str:
     got = [d for d in row["near"].values() if d is not None]
     return (f"{len(got)}/{len(row['near'])} (latest {max(got):.0f} s)" if got
@@ -282,7 +290,34 @@ def _ok_near(row: dict[str, Any]) -> bool:
                                      for d in row["near"].values())
 
 
-def main(seed: int, quick: bool) -> int:
+TIMES = ("wall_s", "cpu_s", "oracle_cpu_s", "mission_cpu_s", "plan_wall_s")
+SAME = ("priority", "spots", "duplicates", "false_alarms", "frames", "replans", "near")
+
+
+def repeat(rows: list[dict[str, Any]], paths: dict[int, Path], seed: int, kill_s: float,
+           repeats: int) -> None:
+    """Run the first and last sizes ``repeats`` times in all, interleaved, and take the
+    median of each time (`TIMES`) into their rows; the figures must not change."""
+    runs: dict[int, list[dict[str, Any]]] = {r["k"]: [r] for r in (rows[0], rows[-1])}
+    for _ in range(repeats - 1):
+        for k in runs:
+            again = in_child(paths[k], seed, kill_s)
+            if any(again[f] != runs[k][0][f] for f in SAME):
+                raise SystemExit(f"{k} AUVs: a repeat of the seeded mission differs: "
+                                 + ", ".join(f"{f} {runs[k][0][f]} -> {again[f]}"
+                                             for f in SAME if again[f] != runs[k][0][f]))
+            runs[k].append(again)
+    for k, done in runs.items():
+        row = done[0]
+        for f in TIMES:
+            row[f + "_runs"] = [r[f] for r in done]
+            row[f] = statistics.median(row[f + "_runs"])
+        row["wall_per_vh"] = row["wall_s"] / row["vehicle_hours"]
+        row["cpu_per_vh"] = row["cpu_s"] / row["vehicle_hours"]
+        row["peak_mb"] = max(r["peak_mb"] for r in done)
+
+
+def main(seed: int, quick: bool, repeats: int = 3) -> int:
     load_before = os.getloadavg()[0]
     cfg = AgentConfig()
     rows: list[dict[str, Any]] = []
@@ -299,6 +334,12 @@ def main(seed: int, quick: bool) -> int:
                   f"planning), {row['false_alarms']} false alarms, {row['duplicates']} "
                   f"duplicates, ratio {row['ratio']:.3f}, neighbours {_near(row)} within "
                   f"{row['bound_s']:.0f} s, peak {row['peak_mb']:.0f} MB", flush=True)
+        if repeats > 1:
+            repeat(rows, paths, seed, 1200.0 if quick else KILL_S, repeats)
+            first, last = rows[0], rows[-1]
+            print(f"(a) repeats: mission CPU {first['k']} AUVs "
+                  f"{_runs(first['mission_cpu_s_runs'])}, {last['k']} AUVs "
+                  f"{_runs(last['mission_cpu_s_runs'])}", flush=True)
         b = processes(workdir, paths[24], rows[0]["victim"], seed, 30.0) if not quick else None
         if b is not None:
             print(f"(b) cotsfleet run: exit {b['code']}, {b['wall_s']:.0f} s wall, "
@@ -358,8 +399,13 @@ def main(seed: int, quick: bool) -> int:
             f"`hear_range_m` of the victim when it died; bound (docs/membership.md): "
             f"(lost_after_cycles + 3) of the longest cycles in force from 300 s before the "
             f"kill to 1800 s after it, + a slot. Wall time includes the "
-            f"initial plan. The 100-vehicle mission took {growth_cpu:.2f} x the 24-vehicle one's "
-            f"CPU time, {last['mission_cpu_s']:.0f} s (targets <= 5 and <= 900 s on one core; "
+            f"initial plan. Times of the {first['k']}- and {last['k']}-vehicle missions are "
+            f"medians of {len(first.get('wall_s_runs', [0]))} runs each, interleaved (mission "
+            f"CPU {_runs(first.get('mission_cpu_s_runs', [first['mission_cpu_s']]))} and "
+            f"{_runs(last.get('mission_cpu_s_runs', [last['mission_cpu_s']]))}; every repeat "
+            f"gave the same figures). The {last['k']}-vehicle mission took {growth_cpu:.2f} x "
+            f"the {first['k']}-vehicle one's CPU time, {last['mission_cpu_s']:.0f} s "
+            f"(targets <= 5 and <= 900 s on one core; "
             f"the simulator's reference replan at the kill, a centralized replan of every "
             f"survivor that no vehicle runs, left out: {last['oracle_cpu_s']:.0f} s at "
             f"{last['k']}), and "
@@ -411,10 +457,12 @@ if __name__ == "__main__":
     parser.add_argument("--quick", action="store_true",
                         help="24 and 48 AUVs with 10 spots each, 1 h, a kill at 1200 s; no "
                              "processes, no RESULTS.md")
+    parser.add_argument("--repeats", type=int, default=3,
+                        help="runs of the smallest and largest sizes, for median times")
     parser.add_argument("--one", type=Path, help=argparse.SUPPRESS)  # a child: one mission
     parser.add_argument("--kill-s", type=float, default=KILL_S, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.one is not None:
         print(json.dumps(one_size(args.one, args.seed, args.kill_s)))
         raise SystemExit(0)
-    raise SystemExit(main(args.seed, args.quick))
+    raise SystemExit(main(args.seed, args.quick, max(1, args.repeats)))
