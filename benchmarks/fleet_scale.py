@@ -314,7 +314,8 @@ def repeat(rows: list[dict[str, Any]], paths: dict[int, Path], seed: int, kill_s
             row[f] = statistics.median(row[f + "_runs"])
         row["wall_per_vh"] = row["wall_s"] / row["vehicle_hours"]
         row["cpu_per_vh"] = row["cpu_s"] / row["vehicle_hours"]
-        row["peak_mb"] = max(r["peak_mb"] for r in done)
+        # Memory stays the first run's: a later child's ru_maxrss can carry the parent's
+        # high-water mark from before its exec (Linux keeps it across exec), not its own.
 
 
 def main(seed: int, quick: bool, repeats: int = 3) -> int:
