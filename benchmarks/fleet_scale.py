@@ -46,6 +46,7 @@ from cotsfleet.io import read_scenario
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import InProcessBackend, simulate
 from fleet_agent.config import AgentConfig
+from fleet_agent.membership import detection_bound_s
 from fleet_agent.plans import Planner
 from hfc_core.model.problem import Problem
 
@@ -125,9 +126,7 @@ def one_size(path: Path, seed: int, kill_s: float) -> dict[str, Any]:
         p[:2], where[victim][:2]) <= 0.8 * config.hear_range_m)
     delays = f["detection_delay_s"].get(victim, {})
     cycle = schedule.cycle_s(kill_s)
-    # The longest cycle in force from a cycle before the kill to the detection (epochs change)
-    longest = max(schedule.cycle_s(t) for t in range(int(kill_s) - 300, int(kill_s) + 1800, 10))
-    bound = (config.lost_after_cycles + 3) * longest + config.slot_s
+    bound = detection_bound_s(schedule, config.lost_after_cycles, config.slot_s, kill_s)
     end = doc["end_s"]
     vehicle_hours = problem.n_vehicles * end / 3600.0
     cycles = [schedule.cycle_s(t) for t in range(0, int(end), 60)]
@@ -135,7 +134,6 @@ def one_size(path: Path, seed: int, kill_s: float) -> dict[str, Any]:
             "oracle_wall_s": oracle["wall_s"], "oracle_cpu_s": oracle["cpu_s"],
             "mission_cpu_s": cpu - oracle["cpu_s"],
             "plan_wall_s": plan_wall, "end_s": end, "vehicle_hours": vehicle_hours,
-            "wall_per_vh": wall / vehicle_hours, "cpu_per_vh": cpu / vehicle_hours,
             "peak_mb": peak_mb, "base_mb": base_mb, "mb_per_vh": peak_mb / vehicle_hours,
             "mb_per_vehicle": max(0.0, peak_mb - base_mb) / problem.n_vehicles,
             "spots": f["spots_cleared"], "priority": f["priority"],
@@ -311,7 +309,8 @@ SAME = ("priority", "spots", "duplicates", "false_alarms", "frames", "replans", 
 def repeat(rows: list[dict[str, Any]], paths: dict[int, Path], seed: int, kill_s: float,
            repeats: int) -> None:
     """Run the first and last sizes ``repeats`` times in all, interleaved, and take the
-    median of each time (`TIMES`) into their rows; the figures must not change."""
+    median of each time (`TIMES`) into their rows (and the runs' times as ``<time>_runs``);
+    the figures must not change."""
     runs: dict[int, list[dict[str, Any]]] = {r["k"]: [r] for r in (rows[0], rows[-1])}
     for _ in range(repeats - 1):
         for k in runs:
@@ -326,8 +325,6 @@ def repeat(rows: list[dict[str, Any]], paths: dict[int, Path], seed: int, kill_s
         for f in TIMES:
             row[f + "_runs"] = [r[f] for r in done]
             row[f] = statistics.median(row[f + "_runs"])
-        row["wall_per_vh"] = row["wall_s"] / row["vehicle_hours"]
-        row["cpu_per_vh"] = row["cpu_s"] / row["vehicle_hours"]
         # Memory stays the first run's (a seeded mission's memory is its own, run to run).
 
 
@@ -348,12 +345,10 @@ def main(seed: int, quick: bool, repeats: int = 3) -> int:
                   f"planning), {row['false_alarms']} false alarms, {row['duplicates']} "
                   f"duplicates, ratio {row['ratio']:.3f}, neighbours {_near(row)} within "
                   f"{row['bound_s']:.0f} s, peak {row['peak_mb']:.0f} MB", flush=True)
-        if repeats > 1:
-            repeat(rows, paths, seed, 1200.0 if quick else KILL_S, repeats)
-            first, last = rows[0], rows[-1]
-            print(f"(a) repeats: mission CPU {first['k']} AUVs "
-                  f"{_runs(first['mission_cpu_s_runs'])}, {last['k']} AUVs "
-                  f"{_runs(last['mission_cpu_s_runs'])}", flush=True)
+        repeat(rows, paths, seed, 1200.0 if quick else KILL_S, repeats)
+        print(f"(a) repeats: mission CPU {rows[0]['k']} AUVs "
+              f"{_runs(rows[0]['mission_cpu_s_runs'])}, {rows[-1]['k']} AUVs "
+              f"{_runs(rows[-1]['mission_cpu_s_runs'])}", flush=True)
         b = processes(workdir, paths[24], rows[0]["victim"], seed, 30.0) if not quick else None
         if b is not None:
             print(f"(b) cotsfleet run: exit {b['code']}, {b['wall_s']:.0f} s wall, "
@@ -392,7 +387,8 @@ def main(seed: int, quick: bool, repeats: int = 3) -> int:
         + [f"{r['cpu_s']:.0f} s / {r['oracle_cpu_s']:.0f} s / {r['mission_cpu_s']:.0f} s"
            for r in rows],
         ["wall / CPU per simulated vehicle-hour"]
-        + [f"{r['wall_per_vh']:.2f} s / {r['cpu_per_vh']:.2f} s ({r['vehicle_hours']:.0f} "
+        + [f"{r['wall_s'] / r['vehicle_hours']:.2f} s / {r['cpu_s'] / r['vehicle_hours']:.2f} s "
+           f"({r['vehicle_hours']:.0f} "
            f"veh-h)" for r in rows],
         ["peak RSS / per vehicle (above the start) / per vehicle-hour"]
         + [f"{r['peak_mb']:.0f} MB / {r['mb_per_vehicle']:.2f} MB / {r['mb_per_vh']:.2f} MB"
@@ -414,9 +410,9 @@ def main(seed: int, quick: bool, repeats: int = 3) -> int:
             f"(lost_after_cycles + 3) of the longest cycles in force from 300 s before the "
             f"kill to 1800 s after it, + a slot. Wall time includes the "
             f"initial plan. Times of the {first['k']}- and {last['k']}-vehicle missions are "
-            f"medians of {len(first.get('wall_s_runs', [0]))} runs each, interleaved (mission "
-            f"CPU {_runs(first.get('mission_cpu_s_runs', [first['mission_cpu_s']]))} and "
-            f"{_runs(last.get('mission_cpu_s_runs', [last['mission_cpu_s']]))}; every repeat "
+            f"medians of {len(first['wall_s_runs'])} runs each, interleaved (mission "
+            f"CPU {_runs(first['mission_cpu_s_runs'])} and "
+            f"{_runs(last['mission_cpu_s_runs'])}; every repeat "
             f"gave the same figures). The {last['k']}-vehicle mission took {growth_cpu:.2f} x "
             f"the {first['k']}-vehicle one's CPU time, {last['mission_cpu_s']:.0f} s "
             f"(targets <= 5 and <= 900 s on one core; "

@@ -61,7 +61,7 @@ def main(runs: int, base: int, time_limit_s: float, plan_s: float, preset: bool,
         print(" | ".join(str(c) for c in row), flush=True)
     print()
     print(markdown_table(head, rows))
-    mc = [r for r in results if not (preset and r["scenario"] == 0)]
+    mc = split(results, preset)[1]
     if mc:
         gap = np.array([r["gap_pct"] for r in mc])
         secs = np.array([r["seconds"] for r in mc])
@@ -78,16 +78,21 @@ def main(runs: int, base: int, time_limit_s: float, plan_s: float, preset: bool,
                       section(results, preset, base, runs, time_limit_s, plan_s))
 
 
+def split(results: list[dict], preset: bool) -> tuple[list[dict], list[dict]]:
+    """(the preset's result, if it ran; the Monte Carlo scenarios' results)."""
+    alone = [r for r in results if preset and r["scenario"] == 0]
+    return alone, [r for r in results if r not in alone]
+
+
 def section(results: list[dict], preset: bool, base: int, runs: int, time_limit_s: float,
             plan_s: float) -> str:
     """The RESULTS.md body: the bounds beside `best`'s plans, and what they allow any planner
     against PyVRP's runs of `paper_best`."""
     converged = sum(r["converged"] for r in results)
+    alone, mc = split(results, preset)
     rows = []
-    for label, group in (("paper preset (`paper_preset_doc(0)`)",
-                          [r for r in results if preset and r["scenario"] == 0]),
-                         (f"Monte Carlo, {runs} (`paper_preset_doc({base} + i)`)",
-                          [r for r in results if not (preset and r["scenario"] == 0)])):
+    for label, group in (("paper preset (`paper_preset_doc(0)`)", alone),
+                         (f"Monte Carlo, {runs} (`paper_preset_doc({base} + i)`)", mc)):
         if not group:
             continue
         gap = np.array([r["gap_pct"] for r in group])
@@ -105,7 +110,6 @@ def section(results: list[dict], preset: bool, base: int, runs: int, time_limit_
     text += markdown_table(["scenarios", "bound median",
                             f"gap of the bound over `best`'s {plan_s:g} s plan: median / max",
                             "s per scenario"], rows)
-    mc = [r for r in results if not (preset and r["scenario"] == 0)]
     if mc:
         worst = max(mc, key=lambda r: r["gap_pct"])
         text += (f"\n\nSo no planner can collect more than "

@@ -64,6 +64,17 @@ class Timing(Protocol):
         """How often vehicle ``v`` has a slot at ``t_s``."""
 
 
+def detection_bound_s(timing: Timing, lost_after_cycles: int, slot_s: float,
+                      silent_s: float) -> float:
+    """docs/membership.md's bound on how long after ``silent_s`` a vehicle that fell silent
+    then is declared lost by the neighbours that should hear it: ``lost_after_cycles`` of
+    silence, a witness's next slot, and up to two cycles that prove the witness's frame its
+    sender's (`fleet_bus.tesla`: a pose discloses no key), each of the longest cycle in force
+    from 300 s before to 1800 s after (epochs change), plus a slot."""
+    longest = max(timing.cycle_s(t) for t in range(int(silent_s) - 300, int(silent_s) + 1800))
+    return (lost_after_cycles + 3) * longest + slot_s
+
+
 class Reach(Protocol):
     """Who should hear whom (`fleet_agent.knowledge.Knowledge.expects`)."""
 

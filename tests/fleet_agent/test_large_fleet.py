@@ -13,6 +13,7 @@ from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import simulate
 from fleet_agent.config import AgentConfig
 from fleet_agent.cleared import ClearedSet
+from fleet_agent.membership import detection_bound_s
 from fleet_agent.outbox import Outbox, Slot
 from fleet_agent.wire import MAX_FRAME_BYTES, NO_HEARD
 from hfc_core.model.check import check_routes
@@ -39,13 +40,11 @@ def test_24_vehicles_with_a_kill_treat_nothing_twice_and_detect_the_dead() -> No
             routes[e.id] += e.tasks
     assert check_routes(problem, routes) == []
     assert fleet.spots_cleared >= 0.8 * problem.n_tasks
-    # Every survivor within reach of auv7 when it died declared it lost, no later than
-    # lost_after_cycles + 3 cycles after the kill (its silence, a witness's next slot, and
-    # the one or two cycles that prove that frame its sender's, `tesla`: a pose discloses
-    # no key): docs/membership.md's bound.
+    # Every survivor within reach of auv7 when it died declared it lost within
+    # docs/membership.md's bound (lost_after_cycles + 3 of the longest cycles, + a slot).
     schedule = result.backend.fleet.schedule
-    longest = max(schedule.cycle_s(t) for t in range(int(KILL_S) - 300, int(KILL_S) + 1800))
-    bound_s = (config.lost_after_cycles + 3) * longest + config.slot_s
+    assert schedule is not None
+    bound_s = detection_bound_s(schedule, config.lost_after_cycles, config.slot_s, KILL_S)
     where = result.backend.positions_at_kill["auv7"]
     near = [v for v, p in where.items() if v != "auv7"
             and np.hypot(p[0] - where["auv7"][0], p[1] - where["auv7"][1])
