@@ -48,22 +48,31 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
     stack, which = inst.stacked()
     cur, owner, index, before, after = state.positions()
     row, w = _pairs(state, cur, free)
-    veh, idx, prev, nxt, u = owner[row], index[row], before[row], after[row], cur[row]
+    # What depends on the routed task alone is computed once per task, then spread over its
+    # pairs (same operations in the same order: the same floats as per pair).
+    times = np.array([state.time_s(v) for v in range(inst.k)])
     if len(stack) == 1:  # every vehicle the same travel times (the usual case): plain lookups
         time = stack[0]
-        saving_s = time[prev, u] + time[u, nxt] - time[prev, nxt] + inst.service_s[u]
-        gap_s = time[prev, w] + time[w, nxt] - time[prev, nxt]
+        saving_s = time[before, cur] + time[cur, after] - time[before, after] \
+            + inst.service_s[cur]
+        shortcut_s = time[before, after]
+        prev, nxt = before[row], after[row]
+        gap_s = time[prev, w] + time[w, nxt] - shortcut_s[row]
     else:
-        c = which[veh]
-        saving_s = stack[c, prev, u] + stack[c, u, nxt] - stack[c, prev, nxt] + inst.service_s[u]
-        gap_s = stack[c, prev, w] + stack[c, w, nxt] - stack[c, prev, nxt]
+        c = which[owner]
+        saving_s = stack[c, before, cur] + stack[c, cur, after] - stack[c, before, after] \
+            + inst.service_s[cur]
+        shortcut_s = stack[c, before, after]
+        c, prev, nxt = c[row], before[row], after[row]
+        gap_s = stack[c, prev, w] + stack[c, w, nxt] - shortcut_s[row]
+    veh, idx = owner[row], index[row]
     pos = state.ins_pos[veh, w]
     elsewhere_s = np.where((pos == idx) | (pos == idx + 1), np.inf, state.ins_s[veh, w])
     use_gap = gap_s <= elsewhere_s
-    times = np.array([state.time_s(v) for v in range(inst.k)])
-    new_time = times[veh] - saving_s + np.minimum(gap_s, elsewhere_s) + inst.service_s[w]
-    gain = inst.value[veh, w] - inst.value[veh, u]
-    dest = np.full(len(u), -1, dtype=np.int64)
+    new_time = (times[owner] - saving_s)[row] + np.minimum(gap_s, elsewhere_s) \
+        + inst.service_s[w]
+    gain = inst.value[veh, w] - inst.value[owner, cur][row]
+    dest = np.full(len(row), -1, dtype=np.int64)
     if relocate and inst.k > 1:
         room = np.array([state.slack_s(v) for v in range(inst.k)])
         extra = state.ins_s[:, cur] + inst.service_s[cur]
@@ -73,7 +82,7 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
         worth = kept.max(axis=0)
         # the richest route it fits, and of those the one it lengthens least
         where = np.where(kept == worth[None, :], extra, np.inf).argmin(axis=0)
-        moves_on = worth[row] > 0
+        moves_on = (worth > 0)[row]
         gain = np.where(moves_on, gain + worth[row], gain)
         dest = np.where(moves_on, where[row], -1)
     ok = (gain > 0) & fits(new_time, inst.budget_s[veh]) & inst.allowed[veh, w]
@@ -88,8 +97,9 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
         i = int(idx[p])
         at = i if use_gap[p] else int(pos[p]) - (1 if pos[p] > i else 0)
         d = int(dest[p])
+        out = int(cur[row[p]])
         moves.append((float(gain[p]), int(veh[p]), i, int(w[p]), at, d,
-                      int(state.ins_pos[d, u[p]]) if d >= 0 else -1))
+                      int(state.ins_pos[d, out]) if d >= 0 else -1))
     return sorted(moves, key=lambda m: (-m[0], m[1]))
 
 

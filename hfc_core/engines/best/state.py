@@ -21,7 +21,7 @@ class State:
     """Mutable; operators work on a `copy` and return it."""
 
     __slots__ = ("inst", "routes", "travel_s", "service_s", "owner", "ins_s", "ins_pos", "stale",
-                 "_nodes", "_values")
+                 "_nodes", "_values", "_score")
 
     def __init__(self, inst: Instance, routes: list[list[int]] | None = None) -> None:
         self.inst = inst
@@ -38,6 +38,7 @@ class State:
         self.ins_s = np.zeros((k, n))
         self.ins_pos = np.zeros((k, n), dtype=np.int64)
         self.stale = np.ones(k, dtype=bool)
+        self._score: tuple[float, float] | None = None  # (tie weight, objective) until a change
 
     def copy(self) -> "State":
         other = State.__new__(State)
@@ -51,6 +52,7 @@ class State:
         other.ins_s = self.ins_s.copy()
         other.ins_pos = self.ins_pos.copy()
         other.stale = self.stale.copy()
+        other._score = self._score
         return other
 
     # --- figures -------------------------------------------------------------------------
@@ -75,6 +77,7 @@ class State:
         (self._nodes[v], self._values[v], self.service_s[v],
          self.travel_s[v]) = self._figures(v, self.routes[v])
         self.stale[v] = True
+        self._score = None
 
     def time_s(self, v: int) -> float:
         return self.travel_s[v] + self.service_s[v]
@@ -97,8 +100,12 @@ class State:
         return sum(self.time_s(v) for v in range(self.inst.k))
 
     def objective(self, tie_weight: float) -> float:
-        """Value collected, less a tie-breaking touch of mission time (`Instance.tie_weight`)."""
-        return self.value() - tie_weight * self.total_time_s()
+        """Value collected, less a tie-breaking touch of mission time (`Instance.tie_weight`);
+        kept until a route changes (the inter-route moves judge many trials against one
+        state)."""
+        if self._score is None or self._score[0] != tie_weight:
+            self._score = (tie_weight, self.value() - tie_weight * self.total_time_s())
+        return self._score[1]
 
     def feasible(self) -> bool:
         return all(self.fits(v) for v in range(self.inst.k))
@@ -219,3 +226,4 @@ class Trial:
             s._nodes[v], s._values[v] = nodes, values
             s.service_s[v], s.travel_s[v] = service, travel
             s.stale[v] = True
+        s._score = None
