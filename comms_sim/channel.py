@@ -344,7 +344,8 @@ class Channel:
             range_m = math.dist(node.pos, dst_node.pos)
             start = t_s + cfg.delay_s(range_m)
             r = _Reception(src, dst, t_s, start, start + airtime, frame, None, True)
-            if any(p.cuts(src, dst, start, r.end_s) for p in self._partitions):
+            if self._partitions and any(p.cuts(src, dst, start, r.end_s)
+                                        for p in self._partitions):
                 r.fate, r.audible = "partition", False
             elif range_m > self._horizon_m:
                 r.fate, r.audible = "range", False

@@ -377,7 +377,9 @@ class Knowledge:
         return self.problem.vehicles[v].id
 
     def tids(self, tasks: Iterable[int]) -> list[int]:
-        return [self.problem.tasks[t].id for t in tasks]
+        spots = self.problem.tasks  # once: a property per spot cost the fleet's status lines
+        return [spots[t].id for t in tasks]
 
     def priority_of(self, tasks: Iterable[int]) -> float:
-        return float(sum(self.problem.priority[t] for t in tasks))
+        priority = self.problem.priority
+        return float(sum(priority[t] for t in tasks))

@@ -299,6 +299,12 @@ class Travel:
     def leg_time_s(self, p: Sequence[float], q: Sequence[float], speed: float,
                    t0_s: float) -> float:
         """The time the leg p -> q takes when flown from mission time ``t0_s``."""
+        if self.current is None and self.land is None:
+            # Open still water, one straight piece: `path_time_s`'s sum, to the same bits,
+            # without its machinery (an agent asks this for every leg it weighs).
+            length = math.dist((float(p[0]), float(p[1]), float(p[2])),
+                               (float(q[0]), float(q[1]), float(q[2])))
+            return 0.0 if length == 0.0 else (t0_s + length / speed) - t0_s
         return path_time_s(self.current, self.straight_or_land_path(p, q), speed, t0_s)
 
 
