@@ -53,7 +53,7 @@ def check_helm(name: str) -> None:
                              "PATH: docs/onboard.md)")
     elif name == "ros2":
         try:
-            import rclpy  # noqa: F401
+            import rclpy  # noqa: F401  (only whether it imports)
         except ImportError:
             raise ValueError("--helm ros2 needs rclpy: pip install -e '.[ros2]' "
                              "(docs/onboard.md)") from None
