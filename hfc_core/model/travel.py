@@ -102,9 +102,9 @@ def segment_pieces(current: CurrentField | None, p: Sequence[float], q: Sequence
     length = math.dist(p, q)
     if length == 0.0:
         return []
-    d = [(b - a) / length for a, b in zip(p, q)]
-    if current is None:
+    if current is None:  # still water: no heading needed (an agent times every leg it weighs)
         return [(length / speed, length)]
+    d = [(b - a) / length for a, b in zip(p, q)]
     if isinstance(current, UniformCurrent):
         return [(length / _speed_on(speed, current.velocity_mps, d), length)]
     if isinstance(current, TidalCurrent):
@@ -299,12 +299,6 @@ class Travel:
     def leg_time_s(self, p: Sequence[float], q: Sequence[float], speed: float,
                    t0_s: float) -> float:
         """The time the leg p -> q takes when flown from mission time ``t0_s``."""
-        if self.current is None and self.land is None:
-            # Open still water, one straight piece: `path_time_s`'s sum, to the same bits,
-            # without its machinery (an agent asks this for every leg it weighs).
-            length = math.dist((float(p[0]), float(p[1]), float(p[2])),
-                               (float(q[0]), float(q[1]), float(q[2])))
-            return 0.0 if length == 0.0 else (t0_s + length / speed) - t0_s
         return path_time_s(self.current, self.straight_or_land_path(p, q), speed, t0_s)
 
 

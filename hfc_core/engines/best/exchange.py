@@ -51,21 +51,19 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
     # What depends on the routed task alone is computed once per task, then spread over its
     # pairs (same operations in the same order: the same floats as per pair).
     times = np.array([state.time_s(v) for v in range(inst.k)])
+    veh, idx, prev, nxt = owner[row], index[row], before[row], after[row]
     if len(stack) == 1:  # every vehicle the same travel times (the usual case): plain lookups
         time = stack[0]
-        saving_s = time[before, cur] + time[cur, after] - time[before, after] \
-            + inst.service_s[cur]
         shortcut_s = time[before, after]
-        prev, nxt = before[row], after[row]
+        saving_s = time[before, cur] + time[cur, after] - shortcut_s + inst.service_s[cur]
         gap_s = time[prev, w] + time[w, nxt] - shortcut_s[row]
     else:
         c = which[owner]
-        saving_s = stack[c, before, cur] + stack[c, cur, after] - stack[c, before, after] \
-            + inst.service_s[cur]
         shortcut_s = stack[c, before, after]
-        c, prev, nxt = c[row], before[row], after[row]
-        gap_s = stack[c, prev, w] + stack[c, w, nxt] - shortcut_s[row]
-    veh, idx = owner[row], index[row]
+        saving_s = stack[c, before, cur] + stack[c, cur, after] - shortcut_s \
+            + inst.service_s[cur]
+        c_pair = c[row]
+        gap_s = stack[c_pair, prev, w] + stack[c_pair, w, nxt] - shortcut_s[row]
     pos = state.ins_pos[veh, w]
     elsewhere_s = np.where((pos == idx) | (pos == idx + 1), np.inf, state.ins_s[veh, w])
     use_gap = gap_s <= elsewhere_s
@@ -97,9 +95,9 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
         i = int(idx[p])
         at = i if use_gap[p] else int(pos[p]) - (1 if pos[p] > i else 0)
         d = int(dest[p])
-        out = int(cur[row[p]])
+        removed = int(cur[row[p]])
         moves.append((float(gain[p]), int(veh[p]), i, int(w[p]), at, d,
-                      int(state.ins_pos[d, out]) if d >= 0 else -1))
+                      int(state.ins_pos[d, removed]) if d >= 0 else -1))
     return sorted(moves, key=lambda m: (-m[0], m[1]))
 
 

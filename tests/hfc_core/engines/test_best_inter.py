@@ -209,16 +209,21 @@ def test_a_memo_answers_what_a_fresh_evaluation_answers(seed):
             state.remove([u])
 
 
+def filled_three(seed: int) -> tuple[State, np.random.Generator]:
+    """Three vehicles greedily filled from 20 random spots, and the generator that filled
+    them (the tests go on drawing from it)."""
+    rng = np.random.default_rng(seed)
+    state = State(instance_from_problem(random_problem(20, 3, seed, battery_s=2500.0)))
+    fill(state, rng)
+    return state, rng
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_a_trial_judges_and_sets_routes_as_set_route_does(seed):
     """`State.trial` (the moves' judge) gives the bits `set_route` would: the same fit, the
     same objective, and once accepted the same routes, owners and cached figures."""
-    problem = random_problem(20, 3, seed, battery_s=2500.0)
-    inst = instance_from_problem(problem)
-    rng = np.random.default_rng(seed)
-    state = State(inst)
-    fill(state, rng)
-    tie = inst.tie_weight()
+    state, rng = filled_three(seed)
+    tie = state.inst.tie_weight()
     for _ in range(30):
         a, b = (int(v) for v in rng.choice(3, size=2, replace=False))
         ra, rb = state.routes[a], state.routes[b]
@@ -255,8 +260,9 @@ def twin_fleet(seed: int) -> Problem:
 def test_a_pair_is_evaluated_once_while_its_routes_stand(seed, monkeypatch):
     """A pair's best tail exchange is a pure function of its two routes: a second pass over a
     fleet whose routes did not change evaluates no pair, also those whose move the fleet's
-    objective rejected (before, such a pair was evaluated again on every pass: 6 to 13 of
-    them here, a third of the evaluations of benchmarks.fleet_scale's 100-vehicle plan)."""
+    objective rejected (before, such a pair was evaluated again on every pass: 6 of them in
+    each of these fleets, a third of the evaluations of benchmarks.fleet_scale's 100-vehicle
+    plan)."""
     from hfc_core.engines.best import inter
 
     state = State(instance_from_problem(twin_fleet(seed)))
@@ -280,12 +286,8 @@ def test_a_pair_is_evaluated_once_while_its_routes_stand(seed, monkeypatch):
 def test_the_kept_objective_follows_every_edit(seed):
     """`State.objective` is kept until a route changes: after every kind of edit (set, insert,
     remove, an accepted trial, a copy's own edits) it is, bit for bit, a fresh state's."""
-    problem = random_problem(20, 3, seed, battery_s=2500.0)
-    inst = instance_from_problem(problem)
-    rng = np.random.default_rng(seed)
-    state = State(inst)
-    fill(state, rng)
-    tie = inst.tie_weight()
+    state, rng = filled_three(seed)
+    inst, tie = state.inst, state.inst.tie_weight()
 
     def fresh(s: State) -> float:
         return State(inst, s.routes).objective(tie)
