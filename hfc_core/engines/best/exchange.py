@@ -48,10 +48,32 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
     stack, which = inst.stacked()
     cur, owner, index, before, after = state.positions()
     row, w = _pairs(state, cur, free)
+    # Only a pair that gains value can be a move: the rest are dropped before any time is
+    # computed (on an oversubscribed reef the unrouted tasks are mostly the poorer ones).
+    # Each figure below is elementwise, and the survivors keep their order: the same moves.
+    veh = owner[row]
+    gain = inst.value[veh, w] - inst.value[owner, cur][row]
+    dest = np.full(len(row), -1, dtype=np.int64)
+    if relocate and inst.k > 1:
+        room = np.array([state.slack_s(v) for v in range(inst.k)])
+        extra = state.ins_s[:, cur] + inst.service_s[cur]
+        fit_into = (extra <= room[:, None]) & inst.allowed[:, cur]
+        fit_into[owner, np.arange(len(cur))] = False  # elsewhere, not its own route
+        kept = np.where(fit_into, inst.value[:, cur], -np.inf)
+        worth = kept.max(axis=0)
+        # the richest route it fits, and of those the one it lengthens least
+        where = np.where(kept == worth[None, :], extra, np.inf).argmin(axis=0)
+        moves_on = (worth > 0)[row]
+        gain = np.where(moves_on, gain + worth[row], gain)
+        dest = np.where(moves_on, where[row], -1)
+    live = np.flatnonzero((gain > 0) & inst.allowed[veh, w])
+    if not len(live):
+        return []
+    row, w, veh, gain, dest = row[live], w[live], veh[live], gain[live], dest[live]
     # What depends on the routed task alone is computed once per task, then spread over its
     # pairs (same operations in the same order: the same floats as per pair).
     times = np.array([state.time_s(v) for v in range(inst.k)])
-    veh, idx, prev, nxt = owner[row], index[row], before[row], after[row]
+    idx, prev, nxt = index[row], before[row], after[row]
     if len(stack) == 1:  # every vehicle the same travel times (the usual case): plain lookups
         time = stack[0]
         shortcut_s = time[before, after]
@@ -69,21 +91,7 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
     use_gap = gap_s <= elsewhere_s
     new_time = (times[owner] - saving_s)[row] + np.minimum(gap_s, elsewhere_s) \
         + inst.service_s[w]
-    gain = inst.value[veh, w] - inst.value[owner, cur][row]
-    dest = np.full(len(row), -1, dtype=np.int64)
-    if relocate and inst.k > 1:
-        room = np.array([state.slack_s(v) for v in range(inst.k)])
-        extra = state.ins_s[:, cur] + inst.service_s[cur]
-        fit_into = (extra <= room[:, None]) & inst.allowed[:, cur]
-        fit_into[owner, np.arange(len(cur))] = False  # elsewhere, not its own route
-        kept = np.where(fit_into, inst.value[:, cur], -np.inf)
-        worth = kept.max(axis=0)
-        # the richest route it fits, and of those the one it lengthens least
-        where = np.where(kept == worth[None, :], extra, np.inf).argmin(axis=0)
-        moves_on = (worth > 0)[row]
-        gain = np.where(moves_on, gain + worth[row], gain)
-        dest = np.where(moves_on, where[row], -1)
-    ok = (gain > 0) & fits(new_time, inst.budget_s[veh]) & inst.allowed[veh, w]
+    ok = fits(new_time, inst.budget_s[veh])
     if not ok.any():
         return []
     # Per vehicle: richest gain first, then the shortest resulting mission.

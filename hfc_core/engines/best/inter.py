@@ -26,7 +26,7 @@ from typing import Final
 import numpy as np
 
 from hfc_core.engines.best.instance import Instance
-from hfc_core.engines.best.state import State
+from hfc_core.engines.best.state import State, Trial
 from hfc_core.model.feasibility import fits
 
 EPS_S = 1e-6  # a saving below this many seconds is rounding (a route swapped with its twin)
@@ -43,6 +43,19 @@ def twins(inst: Instance) -> np.ndarray:
             (int(which[v]), inst.travel_s[v][:, inst.end[v]].tobytes(),
              inst.value[v].tobytes(), inst.allowed[v].tobytes()), v) for v in range(inst.k)])
     return inst.__dict__["_twins"]
+
+
+def doubles(inst: Instance) -> np.ndarray:
+    """(k,) for each vehicle the first that flies any *whole* route alike: a `twins` one whose
+    start has the same travel times too (cached). Such a pair's routes exchanged whole keep
+    every figure, bit for bit (`State.exchanged`)."""
+    if "_doubles" not in inst.__dict__:
+        twin = twins(inst)
+        first: dict[tuple[int, bytes], int] = {}
+        inst.__dict__["_doubles"] = np.array([first.setdefault(
+            (int(twin[v]), inst.travel_s[v][inst.start[v]].tobytes()), v)
+            for v in range(inst.k)])
+    return inst.__dict__["_doubles"]
 
 
 class _Views:
@@ -115,11 +128,11 @@ def best_tail_swap(state: State, a: int, b: int, tie: float, views: _Views | Non
     return float(masked[i, j]), i, j
 
 
-def _apply(state: State, routes: dict[int, list[int]], tie: float) -> bool:
-    """Set ``routes`` (vehicle -> new route) if every one fits by its own sum and the
-    objective improves; otherwise leave the state as it was (judged on a `State.trial`:
-    the estimate gains, the routes' own sums often do not)."""
-    trial = state.trial(routes)
+def _apply(state: State, routes: dict[int, list[int]] | Trial, tie: float) -> bool:
+    """Set ``routes`` (vehicle -> new route, or a `Trial` of them) if every one fits by its
+    own sum and the objective improves; otherwise leave the state as it was (judged on a
+    `State.trial`: the estimate gains, the routes' own sums often do not)."""
+    trial = routes if isinstance(routes, Trial) else state.trial(routes)
     if trial.fits() and trial.objective(tie) > state.objective(tie):
         trial.accept()
         return True
@@ -297,7 +310,7 @@ def swap_tails(state: State, memo: PairMemo | None = None) -> list[int]:
     if inst.clock is not None:  # leg times depend on when they are flown: left to the repair
         return []
     tie = inst.tie_weight()
-    views = _Views(state)
+    views, double = _Views(state), doubles(inst)
     memo = memo or PairMemo()
     changed: set[int] = set()
     improved = True
@@ -316,7 +329,11 @@ def swap_tails(state: State, memo: PairMemo | None = None) -> list[int]:
                 # rounding-sized gain depends on the other routes too.
                 _, i, j = move
                 ra, rb = state.routes[a], state.routes[b]
-                if _apply(state, {a: ra[:i] + rb[j:], b: rb[:j] + ra[i:]}, tie):
+                if i == j == 0 and double[a] == double[b]:  # whole routes: figures known
+                    routes: dict[int, list[int]] | Trial = state.exchanged(a, b)
+                else:
+                    routes = {a: ra[:i] + rb[j:], b: rb[:j] + ra[i:]}
+                if _apply(state, routes, tie):
                     views.changed(a, b)
                     changed.update((a, b))
                     improved = True

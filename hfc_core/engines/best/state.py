@@ -130,6 +130,20 @@ class State:
         out = {v: (list(route), *self._figures(v, route)) for v, route in routes.items()}
         return Trial(self, out)
 
+    def exchanged(self, a: int, b: int) -> "Trial":
+        """The trial of routes ``a`` and ``b`` exchanged whole, for two vehicles that fly any
+        whole route alike (`inter.doubles`: same travel times from the start and into the
+        rendezvous, values, allowed tasks): each route's cached figures hold for the other
+        vehicle bit for bit, so only the terminals of its nodes change (the many whole-route
+        exchanges an oversubscribed reef's search tries and rejects cost no travel sums)."""
+        parts = {}
+        for v, u in ((a, b), (b, a)):
+            nodes = self._nodes[u].copy()
+            nodes[0], nodes[-1] = self.inst.start[v], self.inst.end[v]
+            parts[v] = (list(self.routes[u]), nodes, self._values[u], self.service_s[u],
+                        self.travel_s[u])
+        return Trial(self, parts)
+
     # --- edits ---------------------------------------------------------------------------
     def set_route(self, v: int, route: list[int]) -> None:
         """Replace route ``v`` (its tasks must be unassigned or already its own)."""

@@ -231,3 +231,36 @@ def test_chain_planting_weighs_a_bounded_number_of_heads():
         assert out.feasible() and len(kept) >= 1
         planted += sum(len(out.routes[v]) for v in range(2) if v not in kept)
     assert planted > 0
+
+
+@pytest.mark.parametrize("seed", [0, 1, 3, 4])  # seed 2: no route has a move
+def test_each_routes_best_replace_is_the_brute_force_best(seed):
+    """`best_replaces` gives, for each route, the richest replace move (a routed task out, an
+    unrouted one in, into the gap or at its cached cheapest position) whose route still fits,
+    as a brute force over every pair finds it; no route without one is named. The pairs that
+    gain no value are dropped before any time is computed: this is what checks that none
+    that could move is dropped with them."""
+    from hfc_core.engines.best.exchange import best_replaces
+
+    state = fill(State(instance_from_problem(random_problem(40, 3, seed, battery_s=700.0))))
+    inst = state.inst
+    state.refresh()
+    free = [int(u) for u in np.flatnonzero(state.owner < 0)]
+    assert free  # oversubscribed: the move has something to take
+    best: dict[int, float] = {}
+    for v in range(inst.k):
+        route = state.routes[v]
+        for i, out in enumerate(route):
+            rest = route[:i] + route[i + 1:]
+            for w in free:
+                gain = float(inst.value[v, w] - inst.value[v, out])
+                if gain <= 0 or not inst.allowed[v, w]:
+                    continue
+                pos = int(state.ins_pos[v, w])
+                places = {i} if pos in (i, i + 1) else {i, pos - (1 if pos > i else 0)}
+                if any(inst.route_time_s(v, rest[:at] + [w] + rest[at:])
+                       <= inst.budget_s[v] + 1e-9 for at in places):
+                    best[v] = max(best.get(v, -np.inf), gain)
+    assert best  # the case this test is about
+    moves = best_replaces(state)
+    assert {m[1]: m[0] for m in moves} == pytest.approx(best)

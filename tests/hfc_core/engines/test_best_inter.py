@@ -312,3 +312,31 @@ def test_the_kept_objective_follows_every_edit(seed):
             other.set_route(v, [])
             assert other.objective(tie) == fresh(other)
         assert state.objective(tie) == fresh(state)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_whole_routes_exchanged_between_doubles_judge_as_a_trial_does(seed):
+    """`State.exchanged` (two whole routes exchanged between vehicles that fly any route
+    alike, from the cached figures) gives the bits `State.trial` computes from the travel
+    times: the same fit, objective, and once accepted the same routes and figures. Vehicles
+    from different stations are not doubles."""
+    from hfc_core.engines.best.inter import doubles
+
+    state = State(instance_from_problem(twin_fleet(seed)))
+    fill(state)
+    inst, tie = state.inst, state.inst.tie_weight()
+    assert (doubles(inst) == 0).all()  # one station, one kind: every vehicle alike
+    for a, b in ((0, 1), (2, 7), (5, 3)):
+        by_trial = state.copy()
+        trial = by_trial.trial({a: state.routes[b], b: state.routes[a]})
+        quick = state.exchanged(a, b)
+        assert quick.fits() == trial.fits()
+        assert quick.objective(tie) == trial.objective(tie)  # bit for bit
+        quick.accept()
+        trial.accept()
+        assert state.routes == by_trial.routes and (state.owner == by_trial.owner).all()
+        assert state.travel_s == by_trial.travel_s and state.service_s == by_trial.service_s
+        assert all((x == y).all() for x, y in zip(state._nodes, by_trial._nodes))
+        assert state.objective(tie) == State(inst, state.routes).objective(tie)
+    apart = State(instance_from_problem(random_problem(20, 3, seed)))
+    assert len(set(doubles(apart.inst).tolist())) == 3  # different speeds: none alike
