@@ -128,11 +128,10 @@ def best_tail_swap(state: State, a: int, b: int, tie: float, views: _Views | Non
     return float(masked[i, j]), i, j
 
 
-def _apply(state: State, routes: dict[int, list[int]] | Trial, tie: float) -> bool:
-    """Set ``routes`` (vehicle -> new route, or a `Trial` of them) if every one fits by its
-    own sum and the objective improves; otherwise leave the state as it was (judged on a
-    `State.trial`: the estimate gains, the routes' own sums often do not)."""
-    trial = routes if isinstance(routes, Trial) else state.trial(routes)
+def _apply(state: State, trial: Trial, tie: float) -> bool:
+    """Set the ``trial``'s routes if every one fits by its own sum and the objective
+    improves; otherwise leave the state as it was (the estimate gains, the routes' own sums
+    often do not)."""
     if trial.fits() and trial.objective(tie) > state.objective(tie):
         trial.accept()
         return True
@@ -282,14 +281,15 @@ def improve_between(state: State, max_rounds: int = 100, memo: PairMemo | None =
             _, u, a, b, at = relocate
             into = list(state.routes[b])
             into.insert(at, u)
-            if _apply(state, {a: [x for x in state.routes[a] if x != u], b: into}, tie):
+            if _apply(state, state.trial({a: [x for x in state.routes[a] if x != u],
+                                          b: into}), tie):
                 moved += [a, b]
         swap = best_swap(state, tie, memo)
         if swap is not None:
             _, a, i, b, j = swap
             ra, rb = list(state.routes[a]), list(state.routes[b])
             ra[i], rb[j] = rb[j], ra[i]
-            if _apply(state, {a: ra, b: rb}, tie):
+            if _apply(state, state.trial({a: ra, b: rb}), tie):
                 moved += [a, b]
         if not moved:
             break
@@ -330,10 +330,10 @@ def swap_tails(state: State, memo: PairMemo | None = None) -> list[int]:
                 _, i, j = move
                 ra, rb = state.routes[a], state.routes[b]
                 if i == j == 0 and double[a] == double[b]:  # whole routes: figures known
-                    routes: dict[int, list[int]] | Trial = state.exchanged(a, b)
+                    trial = state.exchanged(a, b)
                 else:
-                    routes = {a: ra[:i] + rb[j:], b: rb[:j] + ra[i:]}
-                if _apply(state, routes, tie):
+                    trial = state.trial({a: ra[:i] + rb[j:], b: rb[:j] + ra[i:]})
+                if _apply(state, trial, tie):
                     views.changed(a, b)
                     changed.update((a, b))
                     improved = True
