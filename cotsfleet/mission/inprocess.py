@@ -450,7 +450,7 @@ def simulate(problem: Problem, config: AgentConfig | None = None, *,
     # Thawed at the end, so a sweep's worker collects it after the mission. And the mission
     # makes many short-lived objects, nearly all freed by their counts: the young generation
     # is collected every `YOUNG_OBJECTS` allocations, not 700 (at 100 vehicles the collector's
-    # 1.5 s fell to 0.5 s); a cycle left behind waits that much longer, a bounded amount.
+    # 2.4-3.0 s fell to 1.2 s); a cycle left behind waits that much longer, a bounded amount.
     thresholds = gc.get_threshold()
     gc.freeze()
     gc.set_threshold(max(thresholds[0], YOUNG_OBJECTS), *thresholds[1:])
