@@ -92,6 +92,32 @@ class Instance:
             self.__dict__["_stacked"] = (stack, which)
         return self.__dict__["_stacked"]
 
+    def twins(self) -> np.ndarray:
+        """(k,) for each vehicle the first vehicle that flies any tail alike: the same travel
+        times into the same rendezvous (by position, not node number), values and allowed
+        tasks (cached). In the COTSbot fleet, which shares its stations, that is every
+        vehicle."""
+        if "_twins" not in self.__dict__:
+            _, which = self.stacked()
+            first: dict[tuple[int, bytes, bytes, bytes], int] = {}
+            self.__dict__["_twins"] = np.array([first.setdefault(
+                (int(which[v]), self.travel_s[v][:, self.end[v]].tobytes(),
+                 self.value[v].tobytes(), self.allowed[v].tobytes()), v)
+                for v in range(self.k)])
+        return self.__dict__["_twins"]
+
+    def doubles(self) -> np.ndarray:
+        """(k,) for each vehicle the first that flies any *whole* route alike: a twin whose
+        start has the same travel times too (cached). Two such vehicles' routes exchanged
+        whole keep every figure, bit for bit (`State.exchanged`)."""
+        if "_doubles" not in self.__dict__:
+            twin = self.twins()
+            first: dict[tuple[int, bytes], int] = {}
+            self.__dict__["_doubles"] = np.array([first.setdefault(
+                (int(twin[v]), self.travel_s[v][self.start[v]].tobytes()), v)
+                for v in range(self.k)])
+        return self.__dict__["_doubles"]
+
     def route_time_s(self, v: int, route: list[int]) -> float:
         """Travel start -> route -> end at ``v``'s speed plus service, summed as `State` sums
         it (so both judge a route alike)."""

@@ -25,37 +25,10 @@ from typing import Final
 
 import numpy as np
 
-from hfc_core.engines.best.instance import Instance
 from hfc_core.engines.best.state import State, Trial
 from hfc_core.model.feasibility import fits
 
 EPS_S = 1e-6  # a saving below this many seconds is rounding (a route swapped with its twin)
-
-
-def twins(inst: Instance) -> np.ndarray:
-    """(k,) for each vehicle the first vehicle that flies any tail alike: the same travel
-    times into the same rendezvous (by position, not node number), values and allowed tasks
-    (cached). In the COTSbot fleet, which shares its stations, that is every vehicle."""
-    if "_twins" not in inst.__dict__:
-        _, which = inst.stacked()
-        first: dict[tuple, int] = {}
-        inst.__dict__["_twins"] = np.array([first.setdefault(
-            (int(which[v]), inst.travel_s[v][:, inst.end[v]].tobytes(),
-             inst.value[v].tobytes(), inst.allowed[v].tobytes()), v) for v in range(inst.k)])
-    return inst.__dict__["_twins"]
-
-
-def doubles(inst: Instance) -> np.ndarray:
-    """(k,) for each vehicle the first that flies any *whole* route alike: a `twins` one whose
-    start has the same travel times too (cached). Such a pair's routes exchanged whole keep
-    every figure, bit for bit (`State.exchanged`)."""
-    if "_doubles" not in inst.__dict__:
-        twin = twins(inst)
-        first: dict[tuple[int, bytes], int] = {}
-        inst.__dict__["_doubles"] = np.array([first.setdefault(
-            (int(twin[v]), inst.travel_s[v][inst.start[v]].tobytes()), v)
-            for v in range(inst.k)])
-    return inst.__dict__["_doubles"]
 
 
 class _Views:
@@ -63,7 +36,7 @@ class _Views:
     (and kind of vehicle flying its tail) until the route changes."""
 
     def __init__(self, state: State) -> None:
-        self.state, self.twin = state, twins(state.inst)
+        self.state, self.twin = state, state.inst.twins()
         self.heads: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.tails: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}
 
@@ -310,7 +283,7 @@ def swap_tails(state: State, memo: PairMemo | None = None) -> list[int]:
     if inst.clock is not None:  # leg times depend on when they are flown: left to the repair
         return []
     tie = inst.tie_weight()
-    views, double = _Views(state), doubles(inst)
+    views, double = _Views(state), inst.doubles()
     memo = memo or PairMemo()
     changed: set[int] = set()
     improved = True

@@ -132,10 +132,14 @@ class State:
 
     def exchanged(self, a: int, b: int) -> "Trial":
         """The trial of routes ``a`` and ``b`` exchanged whole, for two vehicles that fly any
-        whole route alike (`inter.doubles`: same travel times from the start and into the
+        whole route alike (`Instance.doubles`: same travel times from the start and into the
         rendezvous, values, allowed tasks): each route's cached figures hold for the other
         vehicle bit for bit, so only the terminals of its nodes change (the many whole-route
-        exchanges an oversubscribed reef's search tries and rejects cost no travel sums)."""
+        exchanges an oversubscribed reef's search tries and rejects cost no travel sums).
+        Raises ValueError for two vehicles that are not doubles."""
+        double = self.inst.doubles()
+        if double[a] != double[b]:
+            raise ValueError(f"vehicles {a} and {b} do not fly every route alike: use trial()")
         parts = {}
         for v, u in ((a, b), (b, a)):
             nodes = self._nodes[u].copy()

@@ -241,6 +241,7 @@ def test_each_routes_best_replace_is_the_brute_force_best(seed):
     gain no value are dropped before any time is computed: this is what checks that none
     that could move is dropped with them."""
     from hfc_core.engines.best.exchange import best_replaces
+    from hfc_core.model.feasibility import fits
 
     state = fill(State(instance_from_problem(random_problem(40, 3, seed, battery_s=700.0))))
     inst = state.inst
@@ -258,8 +259,8 @@ def test_each_routes_best_replace_is_the_brute_force_best(seed):
                     continue
                 pos = int(state.ins_pos[v, w])
                 places = {i} if pos in (i, i + 1) else {i, pos - (1 if pos > i else 0)}
-                if any(inst.route_time_s(v, rest[:at] + [w] + rest[at:])
-                       <= inst.budget_s[v] + 1e-9 for at in places):
+                if any(fits(inst.route_time_s(v, rest[:at] + [w] + rest[at:]),
+                            float(inst.budget_s[v])) for at in places):
                     best[v] = max(best.get(v, -np.inf), gain)
     assert best  # the case this test is about
     moves = best_replaces(state)

@@ -319,13 +319,11 @@ def test_whole_routes_exchanged_between_doubles_judge_as_a_trial_does(seed):
     """`State.exchanged` (two whole routes exchanged between vehicles that fly any route
     alike, from the cached figures) gives the bits `State.trial` computes from the travel
     times: the same fit, objective, and once accepted the same routes and figures. Vehicles
-    from different stations are not doubles."""
-    from hfc_core.engines.best.inter import doubles
-
+    of other speeds, or from other stations, are not doubles, and are refused."""
     state = State(instance_from_problem(twin_fleet(seed)))
     fill(state)
     inst, tie = state.inst, state.inst.tie_weight()
-    assert (doubles(inst) == 0).all()  # one station, one kind: every vehicle alike
+    assert (inst.doubles() == 0).all()  # one station, one kind: every vehicle alike
     for a, b in ((0, 1), (2, 7), (5, 3)):
         by_trial = state.copy()
         trial = by_trial.trial({a: state.routes[b], b: state.routes[a]})
@@ -339,4 +337,16 @@ def test_whole_routes_exchanged_between_doubles_judge_as_a_trial_does(seed):
         assert all((x == y).all() for x, y in zip(state._nodes, by_trial._nodes))
         assert state.objective(tie) == State(inst, state.routes).objective(tie)
     apart = State(instance_from_problem(random_problem(20, 3, seed)))
-    assert len(set(doubles(apart.inst).tolist())) == 3  # different speeds: none alike
+    assert len(set(apart.inst.doubles().tolist())) == 3  # different speeds: none alike
+    # Identical vehicles meeting at one rendezvous from two stations: twins (any tail is
+    # flown alike), not doubles (a whole route is not).
+    rng = np.random.default_rng(seed)
+    two = Problem.build("two stations", [
+        Vehicle(f"v{i}", (0.0, 0.0, 0.0) if i < 2 else (300.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+                3000.0, 1.0) for i in range(4)],
+        [Task(100 + i, (*rng.uniform(-300, 300, 2), 0.0), 10.0, 20.0) for i in range(20)])
+    split = State(instance_from_problem(two))
+    assert split.inst.twins().tolist() == [0, 0, 0, 0]
+    assert split.inst.doubles().tolist() == [0, 0, 2, 2]
+    with pytest.raises(ValueError):
+        split.exchanged(1, 2)
