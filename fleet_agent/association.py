@@ -45,12 +45,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from statistics import NormalDist
 from typing import Hashable, Iterable, Sequence, TypeVar
 
 import numpy as np
 
 K = TypeVar("K", bound=Hashable)
 _INFEASIBLE = 1e12  # the assignment's cost of a pair outside the gate
+PRIORITY_FLOOR = 1.0  # rho below this are alike (eq. 2's priorities run 1..100)
+_LN_2PI = math.log(2.0 * math.pi)
 
 
 def chi2_gate(p: float) -> float:
@@ -58,19 +61,42 @@ def chi2_gate(p: float) -> float:
     return -2.0 * math.log1p(-p)
 
 
+def chi2_gate_1(p: float) -> float:
+    """The chi-square quantile of 1 degree of freedom at ``p``: the square of the normal
+    quantile at (1 + p) / 2 (6.63 at 0.99)."""
+    return NormalDist().inv_cdf((1.0 + p) / 2.0) ** 2
+
+
 @dataclass(frozen=True)
 class Estimate:
     """A horizontal position (x, y; a third coordinate is ignored: depth comes from a
-    pressure sensor and the seabed) with its isotropic 1-sigma per axis, metres."""
+    pressure sensor and the seabed) with its isotropic 1-sigma per axis, metres; and, when
+    known, the aggregation's priority (eq. 2's rho, as the camera measured it or the map
+    predicts it) with the 1-sigma of its natural log (``priority_sigma``: relative)."""
 
     pos: tuple[float, ...]
     sigma_m: float
+    priority: float | None = None
+    priority_sigma: float = 0.0
 
     def __post_init__(self) -> None:
         if len(self.pos) < 2 or not all(math.isfinite(c) for c in self.pos[:2]):
             raise ValueError(f"an estimate needs a finite (x, y), got {self.pos!r}")
         if not (math.isfinite(self.sigma_m) and self.sigma_m >= 0):
             raise ValueError(f"sigma_m must be finite and >= 0, got {self.sigma_m!r}")
+        if self.priority is not None and not (math.isfinite(self.priority)
+                                              and self.priority >= 0):
+            raise ValueError(f"priority must be finite and >= 0, got {self.priority!r}")
+        if not (math.isfinite(self.priority_sigma) and self.priority_sigma >= 0):
+            raise ValueError(f"priority_sigma must be finite and >= 0, "
+                             f"got {self.priority_sigma!r}")
+
+    @property
+    def log_priority(self) -> float | None:
+        """ln rho (rho below `PRIORITY_FLOOR` counted at the floor: all alike), or None."""
+        if self.priority is None:
+            return None
+        return math.log(max(self.priority, PRIORITY_FLOOR))
 
     @property
     def xy(self) -> tuple[float, float]:
@@ -85,7 +111,15 @@ class AssociationParams:
     position error on the map; ``camera_sigma_m``: what the camera's measured offset adds to
     the vehicle's navigation sigma (`reef_sim.navigation`'s ``camera_sigma_m``); ``sure_p``:
     how likely the nearest of several candidates in the gate must be to be taken for the
-    one (`resolve`)."""
+    one (`resolve`). The priority (feature-aided association, Bar-Shalom, Willett & Tian
+    2011, sec. 3.6: a measured attribute beside the position): ``camera_priority_sigma``,
+    the camera's error on rho (relative, 1 sigma of ln rho; 0: priorities are not
+    compared); ``map_priority_sigma``, the map's (truth / map, the same way; 0: the map's
+    priorities say nothing of what is there, and a predicted spot is matched by position
+    alone); ``priority_log_span``, how widely ln rho spreads over aggregations (eq. 2's
+    1..100: ln 100), the likelihood of a measured rho under a candidate whose rho is
+    unknown; ``apart_p``: the position's gate inside which two estimates are one spot
+    whatever their rho (the vehicle cannot aim between them: `_inside`)."""
 
     gate_p: float = 0.99
     treated_gate_p: float = 0.999
@@ -93,16 +127,24 @@ class AssociationParams:
     map_sigma_m: float = 3.0
     camera_sigma_m: float = 0.5
     sure_p: float = 0.9
+    camera_priority_sigma: float = 0.1
+    map_priority_sigma: float = 0.0
+    priority_log_span: float = math.log(100.0)
+    apart_p: float = 0.5
 
     def __post_init__(self) -> None:
-        for name in ("gate_p", "treated_gate_p", "sure_p"):
+        for name in ("gate_p", "treated_gate_p", "sure_p", "apart_p"):
             value = getattr(self, name)
             if not 0.0 < value < 1.0:
                 raise ValueError(f"{name} must be in (0, 1), got {value!r}")
-        for name in ("extent_m", "map_sigma_m", "camera_sigma_m"):
+        for name in ("extent_m", "map_sigma_m", "camera_sigma_m", "camera_priority_sigma",
+                     "map_priority_sigma"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
+
+        if not (math.isfinite(self.priority_log_span) and self.priority_log_span > 0):
+            raise ValueError(f"priority_log_span must be > 0, got {self.priority_log_span!r}")
 
     @property
     def gate(self) -> float:
@@ -111,6 +153,19 @@ class AssociationParams:
     @property
     def treated_gate(self) -> float:
         return chi2_gate(self.treated_gate_p)
+
+    @property
+    def apart_gate(self) -> float:
+        return chi2_gate(self.apart_p)
+
+    @property
+    def feature_gate(self) -> float:
+        """The priority's gate (1 degree of freedom) at ``gate_p``."""
+        return chi2_gate_1(self.gate_p)
+
+    @property
+    def treated_feature_gate(self) -> float:
+        return chi2_gate_1(self.treated_gate_p)
 
     @property
     def extent_var(self) -> float:
@@ -126,15 +181,26 @@ EXACT_MAP = AssociationParams(map_sigma_m=0.5, extent_m=1.0)
 
 
 def sighting(pos: Sequence[float], nav_sigma_m: float,
-             params: AssociationParams = DEFAULT_PARAMS) -> Estimate:
+             params: AssociationParams = DEFAULT_PARAMS, priority: float | None = None
+             ) -> Estimate:
     """A sighting's estimate: the vehicle's navigation sigma (its `NavFix.sigma_m` when it
-    saw it) and the camera's, combined."""
-    return Estimate(tuple(float(c) for c in pos), math.hypot(nav_sigma_m, params.camera_sigma_m))
+    saw it) and the camera's, combined; with the rho the camera measured (``priority``),
+    uncertain by ``camera_priority_sigma`` (none when that is 0)."""
+    keep = priority is not None and params.camera_priority_sigma > 0
+    return Estimate(tuple(float(c) for c in pos), math.hypot(nav_sigma_m, params.camera_sigma_m),
+                    float(priority) if keep and priority is not None else None,
+                    params.camera_priority_sigma if keep else 0.0)
 
 
-def predicted(pos: Sequence[float], params: AssociationParams = DEFAULT_PARAMS) -> Estimate:
-    """A predicted spot's estimate: the map's position, uncertain by ``map_sigma_m``."""
-    return Estimate(tuple(float(c) for c in pos), params.map_sigma_m)
+def predicted(pos: Sequence[float], params: AssociationParams = DEFAULT_PARAMS,
+              priority: float | None = None) -> Estimate:
+    """A predicted spot's estimate: the map's position, uncertain by ``map_sigma_m``; and
+    the map's rho, uncertain by ``map_priority_sigma`` (none when that is 0: the map's
+    priorities are not held against what the camera measures)."""
+    keep = priority is not None and params.map_priority_sigma > 0
+    return Estimate(tuple(float(c) for c in pos), params.map_sigma_m,
+                    float(priority) if keep and priority is not None else None,
+                    params.map_priority_sigma if keep else 0.0)
 
 
 def innovation_var(a: Estimate, b: Estimate, params: AssociationParams = DEFAULT_PARAMS
@@ -152,16 +218,65 @@ def distance2(a: Estimate, b: Estimate, params: AssociationParams = DEFAULT_PARA
     return d2 / s
 
 
+def feature2(a: Estimate, b: Estimate) -> float | None:
+    """The squared normalised difference of ln rho under "one aggregation" (one degree of
+    freedom: both measure the same rho, each with its relative error), or None when either
+    does not know its rho."""
+    la, lb = a.log_priority, b.log_priority
+    if la is None or lb is None:
+        return None
+    v = a.priority_sigma ** 2 + b.priority_sigma ** 2
+    if v <= 0.0:
+        return 0.0 if la == lb else math.inf
+    return (la - lb) ** 2 / v
+
+
+def _inside(a: Estimate, b: Estimate, params: AssociationParams, gate: float,
+            feature_gate: float) -> bool:
+    """Inside both gates: the position's and, where both know rho, the priority's (each
+    at the same probability: a pair of one aggregation passes both with about p**2). Two
+    estimates inside ``apart_gate`` are one whatever their rho: a vehicle sent to inject
+    one of them treats whichever its true position is nearer (hard reef seed 6, 1 %
+    drift: aggregations of rho 51 and 13.7 lie 1 m apart; auv3 named both, then injected
+    the first twice)."""
+    d2 = distance2(a, b, params)
+    if d2 > gate:
+        return False
+    if d2 <= params.apart_gate:
+        return True
+    f = feature2(a, b)
+    return f is None or f <= feature_gate
+
+
 def same_aggregation(a: Estimate, b: Estimate,
                      params: AssociationParams = DEFAULT_PARAMS) -> bool:
-    """Are ``a`` and ``b`` one aggregation (inside the gate at ``gate_p``)?"""
-    return distance2(a, b, params) <= params.gate
+    """Are ``a`` and ``b`` one aggregation (inside the gates at ``gate_p``)?"""
+    return _inside(a, b, params, params.gate, params.feature_gate)
+
+
+def could_be_treated(candidate: Estimate, treated: Estimate,
+                     params: AssociationParams = DEFAULT_PARAMS) -> bool:
+    """Could ``candidate`` be the aggregation ``treated`` (the looser gates at
+    ``treated_gate_p``)?"""
+    return _inside(candidate, treated, params, params.treated_gate,
+                   params.treated_feature_gate)
 
 
 def _cost(a: Estimate, b: Estimate, params: AssociationParams) -> float:
-    """Generalised distance: d2 + ln det S (S isotropic 2x2: ln det = 2 ln s)."""
+    """Generalised distance, -2 ln of the likelihood up to a constant shared by every
+    candidate: d2 + ln det S (S isotropic 2x2: ln det = 2 ln s); where ``a`` (the sighting)
+    knows its rho, plus the priority's: f + ln v + ln 2 pi for a candidate that knows its
+    rho, 2 ln(span) for one that does not (the measured ln rho is then anywhere in
+    ``priority_log_span``), so candidates with and without a rho compare fairly."""
     s = innovation_var(a, b, params)
-    return distance2(a, b, params) + (2.0 * math.log(s) if s > 0 else -_INFEASIBLE)
+    cost = distance2(a, b, params) + (2.0 * math.log(s) if s > 0 else -_INFEASIBLE)
+    if a.priority is None:
+        return cost
+    f = feature2(a, b)
+    if f is None:
+        return cost + 2.0 * math.log(params.priority_log_span)
+    v = a.priority_sigma ** 2 + b.priority_sigma ** 2
+    return cost + f + (math.log(v) + _LN_2PI if v > 0 else 0.0)
 
 
 def gated(seen: Estimate, candidates: Iterable[tuple[K, Estimate]],
@@ -169,7 +284,7 @@ def gated(seen: Estimate, candidates: Iterable[tuple[K, Estimate]],
     """The candidates ``seen`` may be (inside the gate), nearest in generalised distance
     first (ties in the order listed)."""
     inside = [(_cost(seen, est, params), k, key) for k, (key, est) in enumerate(candidates)
-              if distance2(seen, est, params) <= params.gate]
+              if same_aggregation(seen, est, params)]
     return [key for _, _, key in sorted(inside, key=lambda e: e[:2])]
 
 
@@ -179,7 +294,7 @@ def posteriors(seen: Estimate, candidates: Iterable[tuple[K, Estimate]],
     it is one of them (Gaussian likelihoods, equal priors: exp(-cost / 2) normalised),
     nearest first."""
     inside = [(_cost(seen, est, params), k, key) for k, (key, est) in enumerate(candidates)
-              if distance2(seen, est, params) <= params.gate]
+              if same_aggregation(seen, est, params)]
     if not inside:
         return []
     inside.sort(key=lambda e: e[:2])
@@ -229,7 +344,7 @@ def assign(seen: Sequence[Estimate], candidates: Sequence[tuple[K, Estimate]],
     cost = np.full((len(seen), len(candidates)), _INFEASIBLE)
     for i, s in enumerate(seen):
         for j, (_, est) in enumerate(candidates):
-            if distance2(s, est, params) <= params.gate:
+            if same_aggregation(s, est, params):
                 cost[i, j] = _cost(s, est, params)  # tens at most: a miss costs far more
     rows, cols = linear_sum_assignment(cost)
     out: list[K | None] = [None] * len(seen)
@@ -242,10 +357,9 @@ def assign(seen: Sequence[Estimate], candidates: Sequence[tuple[K, Estimate]],
 def probably_treated(candidate: Estimate, treated: Iterable[Estimate],
                      params: AssociationParams = DEFAULT_PARAMS) -> bool:
     """Could ``candidate`` be an aggregation already treated (by anyone: each treated
-    estimate with the sigma of the vehicle that treated it)? Inside the looser gate
-    ``treated_gate_p`` of any of them."""
-    gate = params.treated_gate
-    return any(distance2(candidate, t, params) <= gate for t in treated)
+    estimate with the sigma of the vehicle that treated it)? Inside the looser gates
+    ``treated_gate_p`` of any of them (`could_be_treated`)."""
+    return any(could_be_treated(candidate, t, params) for t in treated)
 
 
 def fuse(a: Estimate, b: Estimate) -> Estimate:
@@ -259,4 +373,16 @@ def fuse(a: Estimate, b: Estimate) -> Estimate:
     x = w * a.xy[0] + (1 - w) * b.xy[0]
     y = w * a.xy[1] + (1 - w) * b.xy[1]
     var = va * vb / (va + vb) if va + vb > 0 else 0.0
-    return Estimate((x, y), math.sqrt(var))
+    return Estimate((x, y), math.sqrt(var), *_fused_priority(a, b))
+
+
+def _fused_priority(a: Estimate, b: Estimate) -> tuple[float | None, float]:
+    """The two rho in ln, inverse-variance weighted (the one known if only one is)."""
+    la, lb = a.log_priority, b.log_priority
+    if la is None or lb is None:
+        known = a if la is not None else b
+        return known.priority, known.priority_sigma
+    va, vb = a.priority_sigma ** 2, b.priority_sigma ** 2
+    w = 0.5 if va + vb == 0.0 else vb / (va + vb)
+    var = va * vb / (va + vb) if va + vb > 0 else 0.0
+    return math.exp(w * la + (1 - w) * lb), math.sqrt(var)

@@ -7,10 +7,11 @@ missed become *finds*, task indices beyond the scenario's: ``n + finder * find_s
 counter``, so two finders never name two finds alike and the fleet's bitmaps (cleared set,
 claims) cover them as they cover predicted spots. Every position is an estimate
 (`fleet_agent.association`): a predicted spot uncertain by the map's error, a find by its
-finder's navigation sigma (it travels with the find). Finds whose estimates pass the gate are
-one aggregation seen twice (`same_aggregation`, grouped as connected components over all the
-finds, so every vehicle folds the same aliases from the same finds whatever their order): the
-lowest index of a group is the spot, the others aliases nobody plans.
+finder's navigation sigma (it travels with the find). Finds whose estimates pass the gates are
+one aggregation seen twice (`same_aggregation`: near enough, and of a rho alike; grouped as
+connected components over all the finds, so every vehicle folds the same aliases from the
+same finds whatever their order): the lowest index of a group is the spot, the others
+aliases nobody plans.
 
 After the finds' slots come the operator's (``operator_slots``, also on an exact map): the
 spot of the operator's add-spot number ``a`` (`fleet_bus.orders.Order.added`) is task index
@@ -36,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fleet_agent.association import Estimate, predicted, resolve
+from fleet_agent.association import PRIORITY_FLOOR, Estimate, predicted, resolve
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
@@ -200,24 +201,35 @@ class Beliefs:
         return Digest(self._count & 0x7F, self._hash)
 
     def estimate(self, task: int) -> Estimate:
-        """Where spot ``task`` is, as an estimate: a predicted spot's map position, a find's
-        finder's."""
+        """Where spot ``task`` is, as an estimate: a predicted spot's map position (and the
+        map's rho: `association.predicted`), a find's finder's with the rho its camera
+        measured; an operator's added spot by position alone (its rho is the operator's
+        figure, not a measurement)."""
         if task < self.n:
-            return predicted(self.scenario.tasks[task].pos, self.params)
+            t = self.scenario.tasks[task]
+            return predicted(t.pos, self.params, t.priority)
         if task in self.added:
             return self.added[task].estimate
-        return self.finds[task].estimate
+        return self.find_estimate(self.finds[task])
 
-    def resolve(self, seen: Estimate) -> tuple[tuple[str, int] | None, bool]:
+    def find_estimate(self, f: Find) -> Estimate:
+        """A find as an estimate: its finder's position and sigma, and the rho its camera
+        measured (uncertain by the camera's error, `AssociationParams`)."""
+        sigma = self.params.camera_priority_sigma
+        return Estimate(f.pos, f.sigma_m, f.priority if sigma > 0 else None, sigma)
+
+    def resolve(self, seen: Estimate, but: int | None = None
+                ) -> tuple[tuple[str, int] | None, bool]:
         """What a sighting ``seen`` is (`association.resolve`): ("task", t) a predicted spot
         not known empty, ("find", s) a known find (its group's head), or None (news); and
-        whether that is sure (several alike: only a look can tell which)."""
+        whether that is sure (several alike: only a look can tell which). ``but``: a spot
+        it is known not to be."""
         cands: list[tuple[tuple[str, int], Estimate]] = [
             (("task", t), self.estimate(t)) for t in self._near(seen, self.n)
-            if self.state[t] != EMPTY]
-        cands += [(("find", s), f.estimate) for s, f in sorted(self.finds.items())
-                  if s not in self.alias]
-        cands += [(("find", s), f.estimate) for s, f in sorted(self.added.items())]
+            if self.state[t] != EMPTY and t != but]
+        cands += [(("find", s), self.find_estimate(f)) for s, f in sorted(self.finds.items())
+                  if s not in self.alias and s != but]
+        cands += [(("find", s), f.estimate) for s, f in sorted(self.added.items()) if s != but]
         return resolve(seen, cands, self.params)
 
     def _near(self, seen: Estimate, n: int) -> list[int]:
@@ -354,7 +366,14 @@ class Beliefs:
         var = np.array([self.finds[s].sigma_m ** 2 for s in slots], dtype=float)
         d2 = ((xy[:, None, :] - xy[None, :, :]) ** 2).sum(axis=2)
         # `same_aggregation` for every pair at once (the gate on the Mahalanobis distance)
-        inside = d2 <= self.params.gate * (var[:, None] + var[None, :] + self.params.extent_var)
+        p = self.params
+        inside = d2 <= p.gate * (var[:, None] + var[None, :] + p.extent_var)
+        if p.camera_priority_sigma > 0:  # and the priority's gate (both measured by cameras)
+            rho = np.log(np.maximum([self.finds[s].priority for s in slots], PRIORITY_FLOOR))
+            alike = (rho[:, None] - rho[None, :]) ** 2 <= \
+                p.feature_gate * 2.0 * p.camera_priority_sigma ** 2
+            inside &= alike | (d2 <= p.apart_gate * (var[:, None] + var[None, :]
+                                                     + p.extent_var))
         for i, j in zip(*np.nonzero(np.triu(inside, 1))):
             ha, hb = head(slots[int(i)]), head(slots[int(j)])
             if ha != hb:

@@ -131,6 +131,12 @@ class AgentConfig:
     # the survey: 0.5 for the dynamic generator's exact maps) and an aggregation's radius.
     map_sigma_m: float = 3.0
     aggregation_extent_m: float = 5.0
+    # And by the priority the camera measures (feature-aided: two estimates of unlike rho
+    # are two aggregations): the camera's error on rho and the map's (relative, 1 sigma of
+    # ln rho; 0: not compared. 0.3 for the dynamic generator's maps; a diver-checked map
+    # like Green Island's is off by an absolute +-15 and is best left at 0).
+    camera_priority_sigma: float = 0.1
+    map_priority_sigma: float = 0.0
     # Map-relative navigation: a sighting surely of a predicted spot tells the vehicle its
     # navigation error (the map is the landmark); goals and reports are corrected by it.
     map_relative_nav: bool = True
@@ -191,6 +197,7 @@ class AgentConfig:
                      "find_settle_cycles", "claim_settle_cycles", "takeover_wait_s",
                      "slot_reuse_m", "schedule_margin_m",
                      "takeover_doubt", "map_sigma_m", "aggregation_extent_m",
+                     "camera_priority_sigma", "map_priority_sigma",
                      "search_per_spot", "search_ring_min_m", "search_ring_max_m",
                      "search_spread_m", "search_empty_weight", "search_margin"):
             value = getattr(self, name)
@@ -213,7 +220,9 @@ class AgentConfig:
     def association(self) -> AssociationParams:
         """The matching rule's figures (`fleet_agent.association`)."""
         return AssociationParams(map_sigma_m=self.map_sigma_m,
-                                 extent_m=self.aggregation_extent_m)
+                                 extent_m=self.aggregation_extent_m,
+                                 camera_priority_sigma=self.camera_priority_sigma,
+                                 map_priority_sigma=self.map_priority_sigma)
 
     @property
     def fleet_key(self) -> bytes:

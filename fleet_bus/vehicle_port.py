@@ -24,6 +24,8 @@ helm runs on its own; `poll` returns what it reported since the last call.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from enum import Enum
 from typing import Protocol, Union
@@ -131,12 +133,23 @@ class Looked:
 class Injected:
     """The injection at spot ``task`` ended at ``t_s``; ``pos``: where the camera measured
     the COTS it injected, in the vehicle's navigation frame as `Sighted` (None: nothing was
-    there, or the helm does not say). A drifted vehicle sent to a spot may inject whatever
-    is in view there: the agent holds later sightings against where it really injected."""
+    there, or the helm does not say), and ``priority``: the rho it measured of them (None:
+    the helm does not say). A drifted vehicle sent to a spot may inject whatever is in view
+    there: the agent holds later sightings against where, and what, it really injected.
+    The helm says both or neither: a priority without a position is an error."""
 
     t_s: float
     task: int
     pos: Point3 | None = None
+    priority: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.priority is not None:
+            if self.pos is None:
+                raise ValueError("Injected: a priority needs the position it was measured at")
+            if not (math.isfinite(self.priority) and self.priority >= 0):
+                raise ValueError(f"Injected: priority must be finite and >= 0, "
+                                 f"got {self.priority!r}")
 
 
 @dataclass(frozen=True)

@@ -331,7 +331,11 @@ class SimVehicle:
                           self._measured(i) if seen.present and i is not None else None)
         spot = None if self.camera is None else self.camera.treated(work.task, self.pos)
         self.treatments.append(Treatment(self.t_s, work.task, self.pos, spot))
-        return Injected(self.t_s, work.task, None if spot is None else self._measured(spot))
+        if spot is None:
+            return Injected(self.t_s, work.task)
+        assert self.camera is not None  # a treated spot needs a camera to see it
+        return Injected(self.t_s, work.task, self._measured(spot),
+                        float(self.camera.reef.spots[spot].priority))
 
     def _measured(self, i: int) -> Point3:
         """Where the camera, keeping station here, measures truth spot ``i`` (a look's or an

@@ -26,7 +26,6 @@ The report is the mission report (`cotsfleet.mission.report.build_report`, mode
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from enum import Enum
@@ -237,7 +236,7 @@ class Central:
 
     def _sighted(self, seat: Seat, r: Sighted) -> bool:
         a = self.params.association
-        seen = sighting(r.pos, seat.sigma_m, a)
+        seen = sighting(r.pos, seat.sigma_m, a, r.priority)
         candidates = [(i, it.estimate) for i, it in enumerate(self.items)
                       if it.kind != "search" and it.state != EMPTY]
         i, sure = resolve(seen, candidates, a)
@@ -331,8 +330,8 @@ class Central:
             return False
         it = self.items[r.task]
         it.done = True
-        self.treated_at.append((Estimate(seat.est, math.hypot(
-            seat.sigma_m, self.params.association.camera_sigma_m)), it.kind == "find"))
+        self.treated_at.append((sighting(seat.est, seat.sigma_m, self.params.association,
+                                         r.priority), it.kind == "find"))
         seat.treated.append(it.task_id)
         seat.collected += it.priority
         detail = position_detail(it.pos) if it.kind == "find" else ""

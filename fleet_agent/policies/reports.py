@@ -50,7 +50,8 @@ def take(know: Knowledge, config: AgentConfig, codec: Codec, r: VehicleReport,
         return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True, at=at)),
                 Tell(done.t_s, EventKind.CLEARED, (done.task,),
                      detail=discovery.where(know, done.task)),
-                *searching.after_injection(know, config, done.task)]
+                *searching.after_injection(know, config, done.task),
+                *discovery.treated_elsewhere(know, codec, r)]
     elif isinstance(r, Looked):
         return discovery.on_looked(know, config, r)
     elif isinstance(r, Sighted):
