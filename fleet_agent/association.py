@@ -23,6 +23,13 @@ let a vague candidate win by its vagueness alone: Blackman & Popoli, sec. 6.2); 
 sightings at once are assigned together (`assign`: global nearest neighbour, each candidate
 to at most one sighting, by `scipy.optimize.linear_sum_assignment`).
 
+The camera measures what it sees as well as where: an estimate may carry the rho it measured
+(eq. 2's priority; feature-aided association, Bar-Shalom, Willett & Tian 2011, sec. 3.6), and
+two estimates that both know theirs are one aggregation only if ln rho also falls in its gate
+of one degree of freedom. Drifting vehicles' position gates reach 25-40 m; the rho tells
+apart most of what they hold (docs/search.md, "The priority beside the position"). Two
+estimates inside ``apart_p``'s gate stay one whatever their rho: nobody can aim between them.
+
 "Never treated twice" is the same test with a looser gate (``treated_gate_p``): a candidate
 spot is *probably treated* if any treated estimate could be it (`probably_treated`). Skipping
 a distinct aggregation that close to a treated one costs its priority; treating one twice

@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fleet_agent.association import (AssociationParams, Estimate, assign, chi2_gate,
+from fleet_agent.association import (AssociationParams, Estimate, assign, chi2_gate, chi2_gate_1,
                                      distance2, fuse, match, posteriors, predicted,
                                      probably_treated, resolve, same_aggregation, sighting)
 
@@ -227,3 +227,125 @@ def test_drifting_vehicles_estimates_of_one_aggregation_merge_at_the_gate_rate()
             looks.append(Estimate(tuple(where), s))
         merged += same_aggregation(*looks, P)
     assert merged / n == pytest.approx(P.gate_p, abs=0.01)
+
+
+# -- the priority beside the position (feature-aided association) ---------------------------
+
+
+def rated(pos, sigma_m: float, rho: float) -> Estimate:
+    """A sighting at ``pos`` (navigation sigma ``sigma_m``) of COTS measured at ``rho``."""
+    return sighting(pos, sigma_m, P, rho)
+
+
+def test_the_priority_gate_is_the_chi_square_quantile_of_one_degree_of_freedom():
+    assert chi2_gate_1(0.99) == pytest.approx(6.6349, abs=1e-4)
+    assert chi2_gate_1(0.999) == pytest.approx(10.8276, abs=1e-4)
+
+
+def test_a_rho_is_attached_only_where_its_error_is_known():
+    assert sighting((0.0, 0.0), 1.0, P, 40.0).priority == 40.0
+    assert sighting((0.0, 0.0), 1.0, P).priority is None
+    off = AssociationParams(camera_priority_sigma=0.0)
+    assert sighting((0.0, 0.0), 1.0, off, 40.0).priority is None
+    # the map's priorities are not compared unless their error is given
+    assert predicted((0.0, 0.0), P, 40.0).priority is None
+    with_map = AssociationParams(map_priority_sigma=0.3)
+    spot = predicted((0.0, 0.0), with_map, 40.0)
+    assert (spot.priority, spot.priority_sigma) == (40.0, 0.3)
+
+
+def test_two_aggregations_in_one_gate_are_told_apart_by_their_rho():
+    """Hard reef, 1 % drift: a find's 0.99 gate between two 8 m estimates reaches 34 m, so
+    by position an aggregation 20 m away was taken for it; its COTS (rho 13.7 against
+    51) say it is another, while the same rho (the wire's 0.1 rounding) is the same one."""
+    find = rated((0.0, 0.0), 8.0, 51.0)
+    assert distance2(find, rated((20.0, 0.0), 8.0, 13.7), P) <= P.gate  # one, by position
+    assert not same_aggregation(find, rated((20.0, 0.0), 8.0, 13.7), P)
+    assert same_aggregation(find, rated((20.0, 0.0), 8.0, 51.03), P)
+    assert resolve(rated((20.0, 0.0), 8.0, 13.7), [("find", find)], P) == (None, True)
+    # 1.3x apart is within the camera's 10 % at 0.99 (|ln 1.3| = 0.26 < 2.58 * 0.14)
+    assert same_aggregation(find, rated((20.0, 0.0), 8.0, 51.0 * 1.3), P)
+
+
+def test_estimates_too_close_to_aim_between_are_one_whatever_their_rho():
+    """Hard reef seed 6, 1 % drift: aggregations of rho 51 and 13.7 lie 1 m apart; named
+    apart, the vehicle sent to the second injected the first again."""
+    a, b = rated((0.0, 0.0), 2.0, 51.0), rated((0.8, 0.0), 2.5, 13.7)
+    assert distance2(a, b, P) <= P.apart_gate
+    assert same_aggregation(a, b, P) and probably_treated(b, [a], P)
+
+
+def test_a_treated_aggregation_is_held_by_its_rho_too():
+    treated = rated((0.0, 0.0), 3.0, 51.0)
+    assert probably_treated(rated((15.0, 0.0), 3.0, 51.0), [treated], P)
+    assert not probably_treated(rated((15.0, 0.0), 3.0, 13.7), [treated], P)
+    # a treated estimate without a rho (an injection whose helm did not say) holds by
+    # position alone, as before
+    assert probably_treated(rated((15.0, 0.0), 3.0, 13.7), [sighting((0.0, 0.0), 3.0, P)], P)
+
+
+def test_a_candidate_of_the_same_rho_outweighs_one_whose_rho_is_unknown():
+    """A find of the measured rho against a predicted spot (rho not compared) at the same
+    distance: the find, as likely as the Gaussian of ln rho over the spread of ln rho
+    (13 times the spot's at the defaults); a find of a rho 2.5 sigma off (still inside the
+    gate) loses to the spot."""
+    seen = rated((0.0, 0.0), 2.0, 40.0)
+    spot = predicted((5.0, 0.0), P, 40.0)
+    same = rated((-5.0, 0.0), 2.0, 40.0)
+    post = dict(posteriors(seen, [("spot", spot), ("find", same)], P))
+    v = 2 * P.camera_priority_sigma ** 2
+    ratio = math.exp(-0.5 * (math.log(v) + math.log(2 * math.pi))) * P.priority_log_span
+    # both at the same d2; the spot is the map's sigma, the find the camera's: compare
+    # their position likelihoods first
+    s_spot = seen.sigma_m ** 2 + spot.sigma_m ** 2 + P.extent_var
+    s_find = seen.sigma_m ** 2 + same.sigma_m ** 2 + P.extent_var
+    pos_ratio = (s_spot / s_find) * math.exp(-12.5 / s_find + 12.5 / s_spot)
+    assert post["find"] / post["spot"] == pytest.approx(ratio * pos_ratio, rel=1e-9)
+    off = rated((-5.0, 0.0), 2.0, 40.0 * math.exp(2.5 * math.sqrt(v)))
+    assert same_aggregation(seen, off, P)
+    post = dict(posteriors(seen, [("spot", spot), ("find", off)], P))
+    assert post["spot"] > post["find"]
+
+
+def test_without_any_rho_the_rule_is_the_position_alone():
+    """Estimates without a rho (a helm that does not say, or the camera's error set to 0)
+    match exactly as before the priority was weighed."""
+    off = AssociationParams(camera_priority_sigma=0.0)
+    a, b = sighting((0.0, 0.0), 3.0, off, 51.0), sighting((20.0, 0.0), 3.0, off, 13.7)
+    assert same_aggregation(a, b, off) == (distance2(a, b, off) <= off.gate)
+
+
+def test_bad_priorities_are_refused():
+    for bad in (-1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="priority"):
+            Estimate((0.0, 0.0), 1.0, bad, 0.1)
+    with pytest.raises(ValueError, match="priority_sigma"):
+        Estimate((0.0, 0.0), 1.0, 40.0, -0.1)
+    for name in ("camera_priority_sigma", "map_priority_sigma"):
+        with pytest.raises(ValueError, match=name):
+            AssociationParams(**{name: -1.0})
+    with pytest.raises(ValueError, match="apart_p"):
+        AssociationParams(apart_p=1.0)
+    with pytest.raises(ValueError, match="priority_log_span"):
+        AssociationParams(priority_log_span=0.0)
+
+
+rhos = st.floats(0.0, 200.0, allow_nan=False)
+
+
+@given(rhos, rhos, st.floats(0.0, 40.0), st.floats(0.5, 10.0))
+def test_a_rho_only_ever_splits_what_the_position_would_merge(ra, rb, d, sigma):
+    """Weighing the rho never merges two estimates the position keeps apart, and never
+    splits two of one rho."""
+    a, b = rated((0.0, 0.0), sigma, ra), rated((d, 0.0), sigma, rb)
+    by_position = distance2(a, b, P) <= P.gate
+    assert not same_aggregation(a, b, P) or by_position
+    if ra == rb:
+        assert same_aggregation(a, b, P) == by_position
+
+
+def test_fusing_keeps_the_rho_in_logs():
+    f = fuse(rated((0.0, 0.0), 1.0, 10.0), rated((2.0, 0.0), 1.0, 40.0))
+    assert f.priority == pytest.approx(20.0)
+    assert f.priority_sigma == pytest.approx(P.camera_priority_sigma / math.sqrt(2))
+    assert fuse(rated((0.0, 0.0), 1.0, 10.0), Estimate((1.0, 0.0), 1.0)).priority == 10.0

@@ -514,3 +514,86 @@ def test_a_spot_known_present_from_a_sighting_is_looked_at_after_an_injection_ne
     _inject_at_head(agent, fleet, (q[0] + injected_off_m, q[1], q[2]))
     assert (b.state[u] == "unknown") is doubted and (u in b.sighted) is not doubted
     assert b.unknown(u) is doubted  # unknown: the vehicle looks before it injects
+
+
+# -- the priority beside the position -----------------------------------------------------------
+
+
+def test_finds_in_one_gate_of_unlike_rho_stay_two_and_too_close_to_aim_between_are_one(fleet):
+    """Two finds 20 m apart by finders 8 m unsure: one by position (the 0.99 gate reaches
+    34 m), two by their rho (51 and 13.7: the cameras would not differ so); 1 m apart
+    they are one whatever their rho (a vehicle sent to one treats whichever is nearer)."""
+    b = Beliefs(fleet.dynamic.scenario, fleet.dynamic.camera, CONFIG, 0, 0, 7.5)
+    pos = off_map(fleet)
+    a, c = b.n + CONFIG.find_slots, b.n + 2 * CONFIG.find_slots
+    assert b.add_find(a, pos, 51.0, 60.0, 0.0, 8.0)
+    assert b.add_find(c, (pos[0] + 20.0, pos[1], pos[2]), 13.7, 60.0, 0.0, 8.0)
+    assert b.alias == {}
+    assert b.add_find(c + 1, (pos[0], pos[1] + 20.0, pos[2]), 51.0, 60.0, 0.0, 8.0)
+    assert b.alias == {c + 1: a}  # the same rho: the first aggregation seen again
+    assert b.add_find(c + 2, (pos[0], pos[1] + 1.0, pos[2]), 90.0, 60.0, 0.0, 2.0)
+    assert b.alias == {c + 1: a, c + 2: a}
+
+
+def test_a_sighting_in_a_finds_gate_of_another_rho_is_named(fleet):
+    """The loss measured at 1 % drift: sightings of an aggregation the map missed taken
+    for a known find 20-30 m off. Its rho tells it apart: a find of its own."""
+    agent = Agent(fleet, 1, CONFIG)
+    pos = off_map(fleet)
+    agent.step(Tick(1.0), [NavFix(1.0, pos, sigma_m=8.0), Sighted(1.0, pos, 51.0, 60.0)])
+    near = (pos[0] + 20.0, pos[1], pos[2])
+    agent.step(Tick(2.0), [Sighted(2.0, near, 51.0, 60.0)])
+    assert len(agent.know.beliefs.finds) == 1  # the same aggregation, seen again
+    agent.step(Tick(3.0), [Sighted(3.0, near, 13.7, 60.0)])
+    b = agent.know.beliefs
+    assert sorted(f.priority for f in b.finds.values()) == [13.7, 51.0] and not b.alias
+
+
+@pytest.mark.parametrize("rho, elsewhere", [(50.0, False), (50.0 * 1.2, False),
+                                            (12.0, True)])
+def test_an_injection_that_measured_another_rho_tells_the_fleet_what_it_treated(
+        fleet, rho, elsewhere):
+    """A drifted vehicle sent to a spot treats whatever is in view (preset seed 17, 1 %
+    drift: sent to spot 0, auv2 injected spot 28's aggregation 18 m off, and auv3 injected
+    it again at 28). The camera's rho of what it injected against the look's: another
+    aggregation is named a find and cleared at once, so the fleet holds it treated; the
+    look's own (within the camera's error) is nothing more."""
+    agent = Agent(fleet, 0, CONFIG)
+    know = agent.know
+    pos = off_map(fleet)
+    head = agent.own.route[0]
+    p = fleet.dynamic.scenario.tasks[head].pos
+    agent.step(Tick(1.0), [NavFix(1.0, p, sigma_m=DRIFT_SIGMA), Arrived(1.0, head)])
+    agent.step(Tick(2.0), [Looked(2.0, head, True, 50.0, 60.0)])
+    agent.step(Tick(70.0), [NavFix(70.0, pos, sigma_m=DRIFT_SIGMA),
+                            Injected(70.0, head, pos, rho)])
+    assert head in know.cleared
+    b = know.beliefs
+    named = [s for s, f in b.finds.items() if f.priority == rho]
+    assert agent.counters.get("injected_elsewhere", 0) == int(elsewhere)
+    assert len(named) == int(elsewhere)
+    if elsewhere:
+        assert named[0] in know.cleared
+        # a peer's later sighting of it there is no news: it is held treated
+        finds = len(b.finds)
+        agent.step(Tick(80.0), [Sighted(80.0, (pos[0] + 3.0, pos[1], pos[2]), rho, 60.0)])
+        assert len(b.finds) == finds
+
+
+def test_an_injection_elsewhere_at_a_known_find_clears_that_find(fleet):
+    agent = Agent(fleet, 0, CONFIG)
+    know = agent.know
+    pos = off_map(fleet)
+    peer = know.beliefs.n + 2 * CONFIG.find_slots
+    codec = fleet.codec
+    msg = codec.decode(codec.encode(Found(2, 1, Digest(1, 0), peer, pos, 12.0, 60.0,
+                                          sigma_m=DRIFT_SIGMA)))
+    discovery.on_found(know, msg, 1.0)
+    head = agent.own.route[0]
+    p = fleet.dynamic.scenario.tasks[head].pos
+    agent.step(Tick(1.0), [NavFix(1.0, p, sigma_m=DRIFT_SIGMA), Arrived(1.0, head)])
+    agent.step(Tick(2.0), [Looked(2.0, head, True, 50.0, 60.0)])
+    agent.step(Tick(70.0), [NavFix(70.0, pos, sigma_m=DRIFT_SIGMA),
+                            Injected(70.0, head, (pos[0] + 2.0, pos[1], pos[2]), 12.0)])
+    assert peer in know.cleared and len(know.beliefs.finds) == 1
+    assert agent.counters["injected_elsewhere"] == 1

@@ -9,7 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from fleet_bus.vehicle_port import Arrived, GoTo, Looked, NavFix, Sighted, StationKeep, Work
+from fleet_bus.vehicle_port import (Arrived, GoTo, Injected, Looked, NavFix, Sighted, StationKeep,
+                                    Work)
 from hfc_core.model.errors import ScenarioError
 from hfc_core.model.problem import Problem, Task, Vehicle as Spec
 from reef_sim.camera import ReefCamera
@@ -247,6 +248,29 @@ def test_the_world_books_what_an_injection_really_treated():
     v.poll(v.t_s + 60.0)
     # ...with an unmapped aggregation 8 m off: the vehicle treated that one
     assert [(t.task, t.spot) for t in v.treatments] == [(0, 0), (1, 1), (7, 1)]
+
+
+def test_an_injection_reports_where_and_what_its_camera_measured_it_treated():
+    """`Injected` carries the treated aggregation's position and rho (the agent holds a
+    find's or a look's rho against it: `discovery.treated_elsewhere`); bare seabed says
+    neither."""
+    p = field(((500.0, 0.0, -5.0), (0.0, 300.0, -5.0)))
+    reef = Reef(25.0, 1.0, 20.0, (TruthSpot((8.0, 300.0, -5.0), 30.0, 60.0, None),))
+    v = SimVehicle(p, 0, camera=ReefCamera(reef, 0, 0), pos=(0.0, 300.0, -5.0))
+    v.command(StationKeep(Work.INJECT, 1, 60.0), 0.0)
+    (done,) = [r for r in v.poll(60.0) if isinstance(r, Injected)]
+    assert done == Injected(60.0, 1, (8.0, 300.0, -5.0), 30.0)
+    bare = SimVehicle(p, 0, camera=ReefCamera(reef, 0, 0), pos=(500.0, 0.0, -5.0))
+    bare.command(StationKeep(Work.INJECT, 0, 60.0), 0.0)
+    assert [r for r in bare.poll(60.0) if isinstance(r, Injected)] == [Injected(60.0, 0)]
+
+
+def test_an_injection_priority_needs_its_position_and_a_sane_value():
+    with pytest.raises(ValueError, match="needs the position"):
+        Injected(1.0, 0, None, 30.0)
+    for bad in (-1.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="priority"):
+            Injected(1.0, 0, (0.0, 0.0, 0.0), bad)
 
 
 def test_zero_error_navigation_reports_exactly_what_exact_navigation_does():
