@@ -131,6 +131,10 @@ class Beliefs:
         # Predicted spots known present from a sighting along the track, not a look: which
         # aggregation a sighting is rests on the frame (`doubt`).
         self.sighted: set[int] = set()
+        # ... of which those seen with a navigation sigma above `look_first_sigma_m`: the
+        # vehicle may be a look's footprint off where it thinks, and inject a neighbour or
+        # bare seabed; it looks first (the look is also a landmark for its frame).
+        self.look_first: set[int] = set()
         self.finds: dict[int, Find] = {}
         self.added: dict[int, Find] = {}  # the operator's spots, by slot
         self.alias: dict[int, int] = {}  # slot -> the slot it is an alias of
@@ -155,8 +159,9 @@ class Beliefs:
     # -- queries ---------------------------------------------------------------------------
 
     def unknown(self, task: int) -> bool:
-        """Must the vehicle look before injecting ``task``?"""
-        return task < self.n and self.state[task] == UNKNOWN
+        """Must the vehicle look before injecting ``task``? Unknown, or known present only
+        from a sighting its navigation was too unsure of (`look_first`)."""
+        return task < self.n and (self.state[task] == UNKNOWN or task in self.look_first)
 
     def task_id(self, slot: int) -> int:
         if slot >= self.op_from:
@@ -256,6 +261,7 @@ class Beliefs:
             self.sighted.add(task)
         else:
             self.sighted.discard(task)
+            self.look_first.discard(task)
         new = PRESENT if present else EMPTY
         if self.state[task] == new and (not present
                                         or self.real.get(task) == (priority, service_s)):
@@ -270,6 +276,7 @@ class Beliefs:
         """A spot known present from a sighting alone may have been another aggregation:
         unknown again, so the vehicle looks before it injects there."""
         self.sighted.discard(task)
+        self.look_first.discard(task)
         if self.state[task] == PRESENT:
             self.state[task] = UNKNOWN
             self.real.pop(task, None)

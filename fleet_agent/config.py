@@ -137,6 +137,10 @@ class AgentConfig:
     # like Green Island's is off by an absolute +-15 and is best left at 0).
     camera_priority_sigma: float = 0.1
     map_priority_sigma: float = 0.0
+    # A predicted spot known present only from a sighting made with a navigation sigma above
+    # this is looked at before it is injected: the vehicle may be a look's footprint (15 m,
+    # 3.5 sigma of 4.3 m) off where it thinks, and would inject a neighbour or bare seabed.
+    look_first_sigma_m: float = 4.0
     # Map-relative navigation: a sighting surely of a predicted spot tells the vehicle its
     # navigation error (the map is the landmark); goals and reports are corrected by it.
     map_relative_nav: bool = True
@@ -197,7 +201,7 @@ class AgentConfig:
                      "find_settle_cycles", "claim_settle_cycles", "takeover_wait_s",
                      "slot_reuse_m", "schedule_margin_m",
                      "takeover_doubt", "map_sigma_m", "aggregation_extent_m",
-                     "camera_priority_sigma", "map_priority_sigma",
+                     "camera_priority_sigma", "map_priority_sigma", "look_first_sigma_m",
                      "search_per_spot", "search_ring_min_m", "search_ring_max_m",
                      "search_spread_m", "search_empty_weight", "search_margin"):
             value = getattr(self, name)

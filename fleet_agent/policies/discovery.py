@@ -147,6 +147,8 @@ def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted
             if _treated_already(know, spot, est):
                 return [Count("sightings_treated")]  # a look there will tell
             b.learn(spot, True, seen.priority, seen.service_s, sighted=True)
+            if est.sigma_m > config.look_first_sigma_m:
+                b.look_first.add(spot)
             if know.search is not None:
                 know.search.learn(spot, True)
     return [] if sure else [Count("sightings_ambiguous")]  # a look will tell which
@@ -193,11 +195,10 @@ def treated_elsewhere(know: Knowledge, codec: Codec, r: Injected) -> list[Intent
     if r.pos is None or r.priority is None or b.exact:
         return []
     seen = _seen(know, r.pos, r.priority)
-    expected = _measured_rho(know, r.task)
-    if expected is None or seen.priority is None:
+    measured = _measured(know, r.task)
+    if measured is None or seen.priority is None:  # (None too when rho is not compared)
         return []
-    if not b.params.camera_priority_sigma > 0:
-        return []
+    expected, service_s = measured
     twin = Estimate(seen.pos, seen.sigma_m, expected, b.params.camera_priority_sigma)
     f = feature2(seen, twin)
     if f is None or f <= b.params.treated_feature_gate:
@@ -212,8 +213,7 @@ def treated_elsewhere(know: Knowledge, codec: Codec, r: Injected) -> list[Intent
             return out
         return out + _judge_treated(know, (spot,), r.t_s, owe=True)
     named = b.own_found
-    out += _discover(know, codec, Sighted(r.t_s, r.pos, r.priority, _service_of(know, r.task)),
-                     seen, r.t_s)
+    out += _discover(know, codec, Sighted(r.t_s, r.pos, r.priority, service_s), seen, r.t_s)
     if b.own_found > named:
         slot = b.n + b.index * b.cap + named
         if slot in b.finds:
@@ -221,21 +221,16 @@ def treated_elsewhere(know: Knowledge, codec: Codec, r: Injected) -> list[Intent
     return out
 
 
-def _measured_rho(know: Knowledge, task: int) -> float | None:
-    """The rho a camera measured of spot ``task``: a predicted spot's look (or sighting),
-    a find's finder's; None if none did (an operator's spot, a spot never seen)."""
+def _measured(know: Knowledge, task: int) -> tuple[float, float] | None:
+    """The rho and t a camera measured of spot ``task``: a predicted spot's look (or
+    sighting), a find's finder's; None if none did (an operator's spot, a spot never seen).
+    A find named for what was injected instead carries them: it is cleared at once and
+    never planned."""
     b = know.beliefs
     if task < b.n:
-        real = b.real.get(task)
-        return None if real is None else real[0]
+        return b.real.get(task)
     f = b.finds.get(task)
-    return None if f is None else f.priority
-
-
-def _service_of(know: Knowledge, task: int) -> float:
-    """The injection time planned for ``task`` (a find named for what was injected instead
-    carries it: it is cleared at once and never planned)."""
-    return float(know.problem.service_s[task])
+    return None if f is None else (f.priority, f.service_s)
 
 
 def treated_estimates(know: Knowledge, finds_only: bool = False,

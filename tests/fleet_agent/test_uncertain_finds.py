@@ -597,3 +597,32 @@ def test_an_injection_elsewhere_at_a_known_find_clears_that_find(fleet):
                             Injected(70.0, head, (pos[0] + 2.0, pos[1], pos[2]), 12.0)])
     assert peer in know.cleared and len(know.beliefs.finds) == 1
     assert agent.counters["injected_elsewhere"] == 1
+
+
+@pytest.mark.parametrize("sigma_m, looks", [(1.0, False), (8.0, True)])
+def test_a_spot_known_from_an_unsure_sighting_is_looked_at_before_it_is_injected(
+        sigma_m, looks):
+    """Preset seed 17 at 1 % drift: auv3 knew spot 28 present from a sighting 8 m unsure
+    (of another aggregation), injected there without a look, and treated what auv2 had
+    treated as spot 0. Above `look_first_sigma_m` the sighting still raises the spot's
+    value, and the vehicle looks (its camera names the aggregation; a landmark for its
+    frame) before injecting; a sure navigation injects at once."""
+    exact = dataclasses.replace(CONFIG, map_sigma_m=0.5, aggregation_extent_m=1.0)
+    f = build(exact)
+    agent = Agent(f, 0, exact)
+    sc = f.dynamic.scenario
+    d = np.linalg.norm(sc.xyz[:, None, :2] - sc.xyz[None, :, :2], axis=2)
+    np.fill_diagonal(d, np.inf)
+    spot = max(range(sc.n_tasks), key=lambda t: d[t].min())
+    p = sc.tasks[spot].pos
+    agent.step(Tick(1.0), [NavFix(1.0, agent.own.pos, sigma_m=sigma_m),
+                           Sighted(1.0, (p[0] + 1.0, p[1], p[2]), 50.0, 60.0)])
+    b = agent.know.beliefs
+    assert b.state[spot] == "present" and b.unknown(spot) is looks
+    agent.own.set_route([spot])
+    agent.step(Tick(2.0), [NavFix(2.0, p, sigma_m=sigma_m), Arrived(2.0, spot)])
+    assert (agent.own.inspecting == spot) is looks
+    assert (agent.own.injecting == spot) is not looks
+    if looks:  # the look settles it: injected, and no look again
+        agent.step(Tick(30.0), [Looked(30.0, spot, True, 50.0, 60.0)])
+        assert agent.own.injecting == spot and not b.unknown(spot)
