@@ -361,6 +361,44 @@ def assign(seen: Sequence[Estimate], candidates: Sequence[tuple[K, Estimate]],
     return out
 
 
+def aliases(keyed: Sequence[tuple[int, Estimate]],
+            params: AssociationParams = DEFAULT_PARAMS) -> dict[int, int]:
+    """Group estimates that are one aggregation (`same_aggregation` for every pair at once)
+    as connected components: each key that is not the lowest of its group, mapped to that
+    lowest key. Order-free: the same estimates give the same groups in any order (every
+    vehicle folds the same aliases from the same finds)."""
+    keyed = sorted(keyed, key=lambda e: e[0])
+    keys = [k for k, _ in keyed]
+    parent = {k: k for k in keys}
+
+    def head(k: int) -> int:
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    ests = [e for _, e in keyed]
+    xy = np.array([e.xy for e in ests], dtype=float).reshape(-1, 2)
+    var = np.array([e.sigma_m ** 2 for e in ests], dtype=float)
+    s = var[:, None] + var[None, :] + params.extent_var
+    d2 = ((xy[:, None, :] - xy[None, :, :]) ** 2).sum(axis=2)
+    inside = d2 <= params.gate * s
+    rho = np.array([np.nan if e.log_priority is None else e.log_priority for e in ests])
+    rvar = np.array([e.priority_sigma ** 2 for e in ests], dtype=float)
+    known = ~np.isnan(rho)
+    both = known[:, None] & known[None, :]
+    if both.any():  # the priority's gate where both know rho, unless too close to aim
+        diff2 = np.where(both, (np.nan_to_num(rho)[:, None] - np.nan_to_num(rho)[None, :]) ** 2,
+                         0.0)
+        alike = ~both | (diff2 <= params.feature_gate * (rvar[:, None] + rvar[None, :]))
+        inside &= alike | (d2 <= params.apart_gate * s)
+    for i, j in zip(*np.nonzero(np.triu(inside, 1))):
+        ha, hb = head(keys[int(i)]), head(keys[int(j)])
+        if ha != hb:
+            parent[max(ha, hb)] = min(ha, hb)
+    return {k: head(k) for k in keys if head(k) != k}
+
+
 def probably_treated(candidate: Estimate, treated: Iterable[Estimate],
                      params: AssociationParams = DEFAULT_PARAMS) -> bool:
     """Could ``candidate`` be an aggregation already treated (by anyone: each treated

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fleet_agent.association import PRIORITY_FLOOR, Estimate, predicted, resolve
+from fleet_agent.association import Estimate, aliases, predicted, resolve
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
@@ -357,35 +357,11 @@ class Beliefs:
         return land is None or not bool(land.inside(np.array([pos], dtype=float))[0])
 
     def _merge(self) -> None:
-        """Group the finds that are one aggregation (`same_aggregation`), as connected
-        components over every pair: the lowest index of a group is the spot, the rest its
-        aliases. Order-free: the same finds give the same aliases on every vehicle."""
-        slots = sorted(self.finds)
-        parent = {s: s for s in slots}
-
-        def head(s: int) -> int:
-            while parent[s] != s:
-                parent[s] = parent[parent[s]]
-                s = parent[s]
-            return s
-
-        xy = np.array([self.finds[s].pos[:2] for s in slots], dtype=float).reshape(-1, 2)
-        var = np.array([self.finds[s].sigma_m ** 2 for s in slots], dtype=float)
-        d2 = ((xy[:, None, :] - xy[None, :, :]) ** 2).sum(axis=2)
-        # `same_aggregation` for every pair at once (the gate on the Mahalanobis distance)
-        p = self.params
-        inside = d2 <= p.gate * (var[:, None] + var[None, :] + p.extent_var)
-        if p.camera_priority_sigma > 0:  # and the priority's gate (both measured by cameras)
-            rho = np.log(np.maximum([self.finds[s].priority for s in slots], PRIORITY_FLOOR))
-            alike = (rho[:, None] - rho[None, :]) ** 2 <= \
-                p.feature_gate * 2.0 * p.camera_priority_sigma ** 2
-            inside &= alike | (d2 <= p.apart_gate * (var[:, None] + var[None, :]
-                                                     + p.extent_var))
-        for i, j in zip(*np.nonzero(np.triu(inside, 1))):
-            ha, hb = head(slots[int(i)]), head(slots[int(j)])
-            if ha != hb:
-                parent[max(ha, hb)] = min(ha, hb)
-        self.alias = {s: head(s) for s in slots if head(s) != s}
+        """Group the finds that are one aggregation (`association.aliases`): the lowest
+        index of a group is the spot, the rest its aliases; the same finds give the same
+        aliases on every vehicle."""
+        self.alias = aliases([(s, self.find_estimate(self.finds[s])) for s in self.finds],
+                             self.params)
 
     def _changed(self) -> None:
         self.version += 1

@@ -12,7 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fleet_agent.association import (AssociationParams, Estimate, assign, chi2_gate, chi2_gate_1,
+from fleet_agent.association import (AssociationParams, Estimate, aliases, assign, chi2_gate,
+                                     chi2_gate_1,
                                      distance2, fuse, match, posteriors, predicted,
                                      probably_treated, resolve, same_aggregation, sighting)
 
@@ -349,3 +350,29 @@ def test_fusing_keeps_the_rho_in_logs():
     assert f.priority == pytest.approx(20.0)
     assert f.priority_sigma == pytest.approx(P.camera_priority_sigma / math.sqrt(2))
     assert fuse(rated((0.0, 0.0), 1.0, 10.0), Estimate((1.0, 0.0), 1.0)).priority == 10.0
+
+
+@settings(max_examples=60)
+@given(st.lists(st.tuples(st.floats(0.0, 60.0), st.floats(0.0, 60.0), st.floats(0.5, 8.0),
+                          st.one_of(st.none(), st.floats(1.0, 100.0))),
+                min_size=1, max_size=8))
+def test_aliases_are_the_components_of_same_aggregation(rows):
+    """`aliases` (every pair at once, vectorised) groups exactly as `same_aggregation`
+    pair by pair, each group named by its lowest key, whatever the order given."""
+    ests = [(10 + k, rated((x, y), s, rho) if rho is not None else sighting((x, y), s, P))
+            for k, (x, y, s, rho) in enumerate(rows)]
+    head = {k: k for k, _ in ests}
+
+    def find(k: int) -> int:
+        while head[k] != k:
+            k = head[k]
+        return k
+
+    for i, (a, ea) in enumerate(ests):
+        for b, eb in ests[i + 1:]:
+            if same_aggregation(ea, eb, P):
+                ha, hb = find(a), find(b)
+                head[max(ha, hb)] = min(ha, hb)
+    expected = {k: find(k) for k, _ in ests if find(k) != k}
+    assert aliases(ests, P) == expected
+    assert aliases(list(reversed(ests)), P) == expected
