@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from statistics import NormalDist
 from typing import Hashable, Iterable, Sequence, TypeVar
 
@@ -68,6 +69,7 @@ def chi2_gate(p: float) -> float:
     return -2.0 * math.log1p(-p)
 
 
+@lru_cache(maxsize=16)
 def chi2_gate_1(p: float) -> float:
     """The chi-square quantile of 1 degree of freedom at ``p``: the square of the normal
     quantile at (1 + p) / 2 (6.63 at 0.99)."""
@@ -193,10 +195,16 @@ def sighting(pos: Sequence[float], nav_sigma_m: float,
     """A sighting's estimate: the vehicle's navigation sigma (its `NavFix.sigma_m` when it
     saw it) and the camera's, combined; with the rho the camera measured (``priority``),
     uncertain by ``camera_priority_sigma`` (none when that is 0)."""
-    keep = priority is not None and params.camera_priority_sigma > 0
     return Estimate(tuple(float(c) for c in pos), math.hypot(nav_sigma_m, params.camera_sigma_m),
-                    float(priority) if keep and priority is not None else None,
-                    params.camera_priority_sigma if keep else 0.0)
+                    *_rated(priority, params.camera_priority_sigma))
+
+
+def found(pos: Sequence[float], sigma_m: float, params: AssociationParams = DEFAULT_PARAMS,
+          priority: float | None = None) -> Estimate:
+    """A find's estimate: where its finder named it, with the sigma that travels with it (the
+    sighting's, already combined), and the rho its camera measured."""
+    return Estimate(tuple(float(c) for c in pos), sigma_m,
+                    *_rated(priority, params.camera_priority_sigma))
 
 
 def predicted(pos: Sequence[float], params: AssociationParams = DEFAULT_PARAMS,
@@ -204,10 +212,14 @@ def predicted(pos: Sequence[float], params: AssociationParams = DEFAULT_PARAMS,
     """A predicted spot's estimate: the map's position, uncertain by ``map_sigma_m``; and
     the map's rho, uncertain by ``map_priority_sigma`` (none when that is 0: the map's
     priorities are not held against what the camera measures)."""
-    keep = priority is not None and params.map_priority_sigma > 0
     return Estimate(tuple(float(c) for c in pos), params.map_sigma_m,
-                    float(priority) if keep and priority is not None else None,
-                    params.map_priority_sigma if keep else 0.0)
+                    *_rated(priority, params.map_priority_sigma))
+
+
+def _rated(priority: float | None, sigma: float) -> tuple[float | None, float]:
+    """(rho, its sigma) where rho is known and compared (its error is given: > 0), else
+    (None, 0)."""
+    return (float(priority), sigma) if priority is not None and sigma > 0 else (None, 0.0)
 
 
 def innovation_var(a: Estimate, b: Estimate, params: AssociationParams = DEFAULT_PARAMS
@@ -229,13 +241,19 @@ def feature2(a: Estimate, b: Estimate) -> float | None:
     """The squared normalised difference of ln rho under "one aggregation" (one degree of
     freedom: both measure the same rho, each with its relative error), or None when either
     does not know its rho."""
+    fv = _feature(a, b)
+    return None if fv is None else fv[0]
+
+
+def _feature(a: Estimate, b: Estimate) -> tuple[float, float] | None:
+    """`feature2` and the variance of the difference of ln rho, or None."""
     la, lb = a.log_priority, b.log_priority
     if la is None or lb is None:
         return None
     v = a.priority_sigma ** 2 + b.priority_sigma ** 2
     if v <= 0.0:
-        return 0.0 if la == lb else math.inf
-    return (la - lb) ** 2 / v
+        return (0.0 if la == lb else math.inf), v
+    return (la - lb) ** 2 / v, v
 
 
 def _inside(a: Estimate, b: Estimate, params: AssociationParams, gate: float,
@@ -279,10 +297,10 @@ def _cost(a: Estimate, b: Estimate, params: AssociationParams) -> float:
     cost = distance2(a, b, params) + (2.0 * math.log(s) if s > 0 else -_INFEASIBLE)
     if a.priority is None:
         return cost
-    f = feature2(a, b)
-    if f is None:
+    fv = _feature(a, b)
+    if fv is None:
         return cost + 2.0 * math.log(params.priority_log_span)
-    v = a.priority_sigma ** 2 + b.priority_sigma ** 2
+    f, v = fv
     return cost + f + (math.log(v) + _LN_2PI if v > 0 else 0.0)
 
 
@@ -383,15 +401,14 @@ def aliases(keyed: Sequence[tuple[int, Estimate]],
     s = var[:, None] + var[None, :] + params.extent_var
     d2 = ((xy[:, None, :] - xy[None, :, :]) ** 2).sum(axis=2)
     inside = d2 <= params.gate * s
-    rho = np.array([np.nan if e.log_priority is None else e.log_priority for e in ests])
-    rvar = np.array([e.priority_sigma ** 2 for e in ests], dtype=float)
-    known = ~np.isnan(rho)
+    known = np.array([e.log_priority is not None for e in ests], dtype=bool)
     both = known[:, None] & known[None, :]
     if both.any():  # the priority's gate where both know rho, unless too close to aim
-        diff2 = np.where(both, (np.nan_to_num(rho)[:, None] - np.nan_to_num(rho)[None, :]) ** 2,
-                         0.0)
-        alike = ~both | (diff2 <= params.feature_gate * (rvar[:, None] + rvar[None, :]))
-        inside &= alike | (d2 <= params.apart_gate * s)
+        rho = np.array([0.0 if e.log_priority is None else e.log_priority for e in ests])
+        rvar = np.array([e.priority_sigma ** 2 for e in ests], dtype=float)
+        alike = (rho[:, None] - rho[None, :]) ** 2 <= \
+            params.feature_gate * (rvar[:, None] + rvar[None, :])
+        inside &= ~both | alike | (d2 <= params.apart_gate * s)
     for i, j in zip(*np.nonzero(np.triu(inside, 1))):
         ha, hb = head(keys[int(i)]), head(keys[int(j)])
         if ha != hb:
@@ -410,15 +427,18 @@ def probably_treated(candidate: Estimate, treated: Iterable[Estimate],
 def fuse(a: Estimate, b: Estimate) -> Estimate:
     """One estimate of an aggregation seen twice: the inverse-variance weighted mean (the
     aggregation's own extent is not reduced by looking twice; the navigation errors are)."""
-    va, vb = a.sigma_m ** 2, b.sigma_m ** 2
-    if va + vb == 0.0:
-        w = 0.5
-    else:
-        w = vb / (va + vb)  # weight of a
+    w, var = _inverse_variance(a.sigma_m ** 2, b.sigma_m ** 2)
     x = w * a.xy[0] + (1 - w) * b.xy[0]
     y = w * a.xy[1] + (1 - w) * b.xy[1]
-    var = va * vb / (va + vb) if va + vb > 0 else 0.0
     return Estimate((x, y), math.sqrt(var), *_fused_priority(a, b))
+
+
+def _inverse_variance(va: float, vb: float) -> tuple[float, float]:
+    """The weight of the first of two measures of variances ``va`` and ``vb`` and the
+    variance of their weighted mean (equal weights, variance 0, for two exact ones)."""
+    if va + vb == 0.0:
+        return 0.5, 0.0
+    return vb / (va + vb), va * vb / (va + vb)
 
 
 def _fused_priority(a: Estimate, b: Estimate) -> tuple[float | None, float]:
@@ -427,7 +447,5 @@ def _fused_priority(a: Estimate, b: Estimate) -> tuple[float | None, float]:
     if la is None or lb is None:
         known = a if la is not None else b
         return known.priority, known.priority_sigma
-    va, vb = a.priority_sigma ** 2, b.priority_sigma ** 2
-    w = 0.5 if va + vb == 0.0 else vb / (va + vb)
-    var = va * vb / (va + vb) if va + vb > 0 else 0.0
+    w, var = _inverse_variance(a.priority_sigma ** 2, b.priority_sigma ** 2)
     return math.exp(w * la + (1 - w) * lb), math.sqrt(var)

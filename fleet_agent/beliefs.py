@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fleet_agent.association import Estimate, aliases, predicted, resolve
+from fleet_agent.association import Estimate, aliases, found, predicted, resolve
 from fleet_agent.config import AgentConfig
 from fleet_agent.plans import Planner
 from fleet_agent.sensor import Camera
@@ -220,8 +220,7 @@ class Beliefs:
     def find_estimate(self, f: Find) -> Estimate:
         """A find as an estimate: its finder's position and sigma, and the rho its camera
         measured (uncertain by the camera's error, `AssociationParams`)."""
-        sigma = self.params.camera_priority_sigma
-        return Estimate(f.pos, f.sigma_m, f.priority if sigma > 0 else None, sigma)
+        return found(f.pos, f.sigma_m, self.params, f.priority)
 
     def resolve(self, seen: Estimate, but: int | None = None
                 ) -> tuple[tuple[str, int] | None, bool]:

@@ -139,7 +139,7 @@ class AgentConfig:
     map_priority_sigma: float = 0.0
     # A predicted spot known present only from a sighting made with a navigation sigma above
     # this is looked at before it is injected: the vehicle may be a look's footprint (15 m,
-    # 3.5 sigma of 4.3 m) off where it thinks, and would inject a neighbour or bare seabed.
+    # 3.75 sigma of 4 m) off where it thinks, and would inject a neighbour or bare seabed.
     look_first_sigma_m: float = 4.0
     # Map-relative navigation: a sighting surely of a predicted spot tells the vehicle its
     # navigation error (the map is the landmark); goals and reports are corrected by it.

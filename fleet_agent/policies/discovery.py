@@ -10,6 +10,8 @@ find. On an exact map there is nothing to see and nothing here runs.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from fleet_agent.association import (Estimate, could_be_treated, distance2, feature2,
                                      probably_treated, sighting)
 from fleet_agent.beliefs import EMPTY, UNKNOWN
@@ -164,10 +166,10 @@ def _landmark(know: Knowledge, seen_vehicle: tuple[float, ...], task: int) -> bo
                                    + params.extent_var / 2)
 
 
-def remember_injection(know: Knowledge, r: Injected) -> tuple[float, float, float] | None:
+def remember_injection(know: Knowledge, r: Injected) -> Estimate | None:
     """Keep where the camera measured what this injection treated (an estimate in the
-    map's frame, appended to ``know.injections``); returned for the journal as x, y, sigma,
-    or None when the vehicle did not say."""
+    map's frame, appended to ``know.injections``, and returned), or None when the vehicle
+    did not say."""
     if r.pos is None or know.beliefs.exact:
         return None
     b = know.beliefs
@@ -180,27 +182,25 @@ def remember_injection(know: Knowledge, r: Injected) -> tuple[float, float, floa
     for t in [t for t in b.sighted if t not in know.cleared
               and probably_treated(b.estimate(t), (est,), b.params)]:
         b.doubt(t)
-    return (*est.xy, est.sigma_m)
+    return est
 
 
-def treated_elsewhere(know: Knowledge, codec: Codec, r: Injected) -> list[Intent]:
+def treated_elsewhere(know: Knowledge, codec: Codec, r: Injected, seen: Estimate | None
+                      ) -> list[Intent]:
     """The injection at ``r.task`` measured COTS of another rho than the spot's (its look's,
     or the find's): a drifted vehicle sent to a spot treated whatever was in view, its
-    neighbour (hard reef, 1 % drift: 18 of 1,240 injections over 20 missions). Where the
-    vehicle really injected is its own (`remember_injection`); the fleet must learn it too,
+    neighbour (hard reef, 1 % drift: 18 of 1,236 injections over 20 missions). Where the
+    vehicle really injected, ``seen``, is its own (`remember_injection`); the fleet must
+    learn it too,
     or another vehicle treats that aggregation again under its own name: the known spot it
     surely is is cleared as treated, or a find is named for it and cleared at once. The
     spot sent to stays cleared (the cleared set only grows): its aggregation is a miss."""
     b = know.beliefs
-    if r.pos is None or r.priority is None or b.exact:
-        return []
-    seen = _seen(know, r.pos, r.priority)
     measured = _measured(know, r.task)
-    if measured is None or seen.priority is None:  # (None too when rho is not compared)
+    if seen is None or seen.priority is None or measured is None:  # (no rho: not compared)
         return []
     expected, service_s = measured
-    twin = Estimate(seen.pos, seen.sigma_m, expected, b.params.camera_priority_sigma)
-    f = feature2(seen, twin)
+    f = feature2(seen, replace(seen, priority=expected))
     if f is None or f <= b.params.treated_feature_gate:
         return []  # the spot's own COTS (or too alike to tell)
     out: list[Intent] = [Count("injected_elsewhere")]
@@ -212,13 +212,10 @@ def treated_elsewhere(know: Knowledge, codec: Codec, r: Injected) -> list[Intent
         if spot in know.cleared:
             return out
         return out + _judge_treated(know, (spot,), r.t_s, owe=True)
-    named = b.own_found
-    out += _discover(know, codec, Sighted(r.t_s, r.pos, r.priority, service_s), seen, r.t_s)
-    if b.own_found > named:
-        slot = b.n + b.index * b.cap + named
-        if slot in b.finds:
-            out += _judge_treated(know, (slot,), r.t_s, owe=True)
-    return out
+    assert r.pos is not None and r.priority is not None  # ``seen`` was measured from them
+    slot, told = _name(know, codec, Sighted(r.t_s, r.pos, r.priority, service_s), seen, r.t_s)
+    out += told
+    return out if slot is None else out + _judge_treated(know, (slot,), r.t_s, owe=True)
 
 
 def _measured(know: Knowledge, task: int) -> tuple[float, float] | None:
@@ -326,21 +323,28 @@ def await_gaps(know: Knowledge, now: float) -> frozenset[int]:
 def _discover(know: Knowledge, codec: Codec, seen: Sighted, est: Estimate,
               now: float) -> list[Intent]:
     """An aggregation the map missed: name it, tell the fleet, plan it once settled."""
+    return _name(know, codec, seen, est, now)[1]
+
+
+def _name(know: Knowledge, codec: Codec, seen: Sighted, est: Estimate, now: float
+          ) -> tuple[int | None, list[Intent]]:
+    """Name a find for ``seen`` in this vehicle's next slot and tell the fleet: the slot
+    (None if none was free, or the find fell on land) and what follows."""
     b = know.beliefs
     slot = b.own_slot()
     if slot is None:
-        return [Count("finds_dropped")]
+        return None, [Count("finds_dropped")]
     # What the fleet will know: the wire's figures, so every vehicle plans the same find.
     pos = codec.dequantise(*codec.quantise((*est.xy, seen.pos[2])))
     rho = min(round(seen.priority * 10), MAX_TENTHS) / 10
     service = min(round(seen.service_s * 10), MAX_TENTHS) / 10
     sigma = sigma_code(est.sigma_m) * SIGMA_UNIT_M
     if not b.add_find(slot, pos, rho, service, now, sigma):
-        return [Count("finds_refused")]  # on land once on the wire's grid: nobody could go
-    return [Count("finds"), Note(FoundSpot(now, slot, pos, rho, service, durable=True,
-                                           sigma_m=sigma)),
-            Owe(Owed.FIND, slot), Tell(now, EventKind.FOUND, (slot,),
-                                      detail=f"{where(know, slot)} rho {rho:g}")]
+        return None, [Count("finds_refused")]  # on land once on the wire's grid: nobody goes
+    return slot, [Count("finds"), Note(FoundSpot(now, slot, pos, rho, service, durable=True,
+                                                 sigma_m=sigma)),
+                  Owe(Owed.FIND, slot), Tell(now, EventKind.FOUND, (slot,),
+                                            detail=f"{where(know, slot)} rho {rho:g}")]
 
 
 def on_found(know: Knowledge, msg: Found, now: float) -> list[Intent]:

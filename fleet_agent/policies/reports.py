@@ -46,12 +46,13 @@ def take(know: Knowledge, config: AgentConfig, codec: Codec, r: VehicleReport,
         if done is None:
             return [Count("injection_stale")]
         know.treat(done.task, done.t_s)
-        at = discovery.remember_injection(know, r)
+        seen = discovery.remember_injection(know, r)
+        at = None if seen is None else (*seen.xy, seen.sigma_m)
         return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True, at=at)),
                 Tell(done.t_s, EventKind.CLEARED, (done.task,),
                      detail=discovery.where(know, done.task)),
                 *searching.after_injection(know, config, done.task),
-                *discovery.treated_elsewhere(know, codec, r)]
+                *discovery.treated_elsewhere(know, codec, r, seen)]
     elif isinstance(r, Looked):
         return discovery.on_looked(know, config, r)
     elif isinstance(r, Sighted):

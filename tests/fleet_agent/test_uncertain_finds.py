@@ -33,6 +33,8 @@ KEY = bytes(range(16))
 RUN = "test-uncertain"
 CONFIG = AgentConfig(plan_iterations=30, replan_iterations=10).with_key(KEY)
 DRIFT_SIGMA = 3.0  # 1 % drift over 300 m, per axis
+# The dynamic generator's exact map: spots where their aggregations are, aggregations points
+EXACT = dataclasses.replace(CONFIG, map_sigma_m=0.5, aggregation_extent_m=1.0)
 
 
 def small_doc(seed: int = 5) -> dict:
@@ -63,6 +65,16 @@ def off_map(fleet: Fleet, clear_m: float = 60.0) -> tuple[float, float, float]:
             if np.linalg.norm(xyz[:, :2] - (x, y), axis=1).min() > clear_m:
                 return (float(x), float(y), -3.0)
     raise AssertionError("no place off the map")
+
+
+def _lonely_spot(fleet: Fleet, but: int | None = None) -> int:
+    """The predicted spot farthest from any other (a sighting of it is sure), not ``but``."""
+    xy = fleet.dynamic.scenario.xyz[:fleet.dynamic.scenario.n_tasks, :2]
+    d = np.linalg.norm(xy[:, None] - xy[None], axis=2)
+    np.fill_diagonal(d, np.inf)
+    if but is not None:
+        d[but] = -1.0
+    return int(np.argmax(d.min(axis=1)))
 
 
 # -- merging ------------------------------------------------------------------------------------
@@ -275,9 +287,8 @@ def test_a_look_at_a_predicted_spot_moves_the_goals(fleet):
     """A drifted vehicle (3 m per axis) looks at its first spot and its camera shows the
     COTS 3 m east of the map's: its frame's offset is the Kalman update toward 3 m east, and
     the next goal it is sent to moves by it, in its own frame."""
-    exact = dataclasses.replace(CONFIG, map_sigma_m=0.5, aggregation_extent_m=1.0)
-    f = build(exact)
-    agent = Agent(f, 0, exact)
+    f = build(EXACT)
+    agent = Agent(f, 0, EXACT)
     head = agent.own.route[0]
     p = f.dynamic.scenario.tasks[head].pos
     agent.step(Tick(1.0), [NavFix(1.0, p, sigma_m=DRIFT_SIGMA), Arrived(1.0, head)])
@@ -298,14 +309,10 @@ def test_a_look_at_a_predicted_spot_moves_the_goals(fleet):
 def test_a_sighting_along_the_track_never_moves_the_frame(fleet):
     """Which spot a sighting is rests on the frame itself (a missed aggregation near a
     spot, taken for it, would move the frame and then confirm itself): only looks do."""
-    exact = dataclasses.replace(CONFIG, map_sigma_m=0.5, aggregation_extent_m=1.0)
-    f = build(exact)
-    agent = Agent(f, 0, exact)
-    sc = f.dynamic.scenario
-    d = np.linalg.norm(sc.xyz[:, None, :2] - sc.xyz[None, :, :2], axis=2)
-    np.fill_diagonal(d, np.inf)
-    spot = max(range(sc.n_tasks), key=lambda t: d[t].min())
-    p = sc.tasks[spot].pos  # the loneliest spot: surely the one seen
+    f = build(EXACT)
+    agent = Agent(f, 0, EXACT)
+    spot = _lonely_spot(f)
+    p = f.dynamic.scenario.tasks[spot].pos  # the loneliest spot: surely the one seen
     agent.step(Tick(1.0), [NavFix(1.0, agent.own.pos, sigma_m=DRIFT_SIGMA),
                            Sighted(1.0, (p[0] + 3.0, p[1], p[2]), 50.0, 60.0)])
     assert agent.own.frame.fixes == 0 and agent.own.frame.offset == (0.0, 0.0)
@@ -455,15 +462,6 @@ def test_the_held_map_kept_up_to_date_equals_one_rebuilt(fleet, seed):
     assert know.held_map() == _held_rebuilt(know)
 
 
-def _lonely_spot(fleet: Fleet, but: int) -> int:
-    """The predicted spot farthest from any other (a sighting of it is sure), not ``but``."""
-    xy = fleet.dynamic.scenario.xyz[:fleet.dynamic.scenario.n_tasks, :2]
-    d = np.linalg.norm(xy[:, None] - xy[None], axis=2)
-    np.fill_diagonal(d, np.inf)
-    d[but] = -1.0
-    return int(np.argmax(d.min(axis=1)))
-
-
 def _inject_at_head(agent: Agent, fleet: Fleet, measured: tuple[float, float, float]) -> int:
     """The agent's first spot: arrive, look (present), inject what its camera measured at
     ``measured``; the spot."""
@@ -607,14 +605,10 @@ def test_a_spot_known_from_an_unsure_sighting_is_looked_at_before_it_is_injected
     treated as spot 0. Above `look_first_sigma_m` the sighting still raises the spot's
     value, and the vehicle looks (its camera names the aggregation; a landmark for its
     frame) before injecting; a sure navigation injects at once."""
-    exact = dataclasses.replace(CONFIG, map_sigma_m=0.5, aggregation_extent_m=1.0)
-    f = build(exact)
-    agent = Agent(f, 0, exact)
-    sc = f.dynamic.scenario
-    d = np.linalg.norm(sc.xyz[:, None, :2] - sc.xyz[None, :, :2], axis=2)
-    np.fill_diagonal(d, np.inf)
-    spot = max(range(sc.n_tasks), key=lambda t: d[t].min())
-    p = sc.tasks[spot].pos
+    f = build(EXACT)
+    agent = Agent(f, 0, EXACT)
+    spot = _lonely_spot(f)
+    p = f.dynamic.scenario.tasks[spot].pos
     agent.step(Tick(1.0), [NavFix(1.0, agent.own.pos, sigma_m=sigma_m),
                            Sighted(1.0, (p[0] + 1.0, p[1], p[2]), 50.0, 60.0)])
     b = agent.know.beliefs
