@@ -137,6 +137,16 @@ class Knowledge:
             self.touch()
         return changed
 
+    def add_find(self, slot: int, pos: Point3, priority: float, service_s: float, now: float,
+                 sigma_m: float = 0.0) -> bool:
+        """A find, own or heard (`Beliefs.add_find`), held by its finder from now on
+        (`Holdings.found`); True if news."""
+        if not self.beliefs.add_find(slot, pos, priority, service_s, now, sigma_m):
+            return False
+        self.holdings.found(slot, self.beliefs.finder(slot))
+        self.touch()
+        return True
+
     def rebind(self) -> bool:
         """The beliefs changed (a find, a look): the vehicle times its route on the new
         working problem. True if they had."""
@@ -266,7 +276,9 @@ class Knowledge:
                 and self.members.status(v) == mb.HOME}
         if not home:
             return set()
-        return {t for t in tasks if self.holdings.holder(t, home.__contains__) is not None}
+        # A find held by its FOUND alone was never taken on: it went home without it.
+        return {t for t in tasks
+                if self.holdings.holder(t, home.__contains__, found=False) is not None}
 
     def settled_s(self, task: int) -> float:
         """When this vehicle may start work at ``task``: at once (0) on its initial plan,

@@ -10,7 +10,9 @@ going to the lower vehicle index. So:
 - a claim dies with its claimer: a lost or aborted vehicle holds nothing, so its spots fall
   to the next claimant or become free (the takeover), and come back to it if it revives
   (a false alarm costs a detour, not a duplicate);
-- cooperation and takeover never fight the initial plan of a live vehicle (time 0 wins).
+- cooperation and takeover never fight the initial plan of a live vehicle (time 0 wins);
+- a find is its finder's from its FOUND frame on, as if in the initial plan, until the
+  finder claims it in its own time or gives it up (`Holdings.found`).
 """
 
 from __future__ import annotations
@@ -66,12 +68,31 @@ class Holdings:
         # spots whose record changed since `take_touched` last ran (its one reader keeps a
         # map of holders up to date from them; a set, so bounded by the spots)
         self._touched: set[int] = set()
+        # find -> its finder, who holds it from its FOUND on (`found`)
+        self._found: dict[int, int] = {}
 
     def _record(self, task: int, v: int) -> Record | None:
         rec = self._events.get(task, {}).get(v)
-        if rec is None and v in self.base.owners.get(task, ()):
+        if rec is None and (v in self.base.owners.get(task, ()) or self._found.get(task) == v):
             return BASE
         return rec
+
+    def found(self, task: int, finder: int) -> None:
+        """A find named by ``finder``: held by it from its FOUND on, a claim at time 0 (as the
+        initial plan's), until its finder claims it in its own time or releases it. Why:
+        without it a peer that heard the FOUND and not the finder's claim took the find for
+        free, and both treated it (hard seed 15 at 1 % drift: named 3057 s, claimed 3080 s; a
+        peer heard the FOUND at 3118 s, claimed at 3140 s)."""
+        if task in self._found:
+            return
+        self._found[task] = int(finder)
+        self._later.setdefault(task, len(self._later))
+        self._touched.add(task)
+        self.version += 1
+
+    def reserved_by(self, v: int) -> list[int]:
+        """Finds ``v`` holds by their FOUND alone: it has neither claimed nor released them."""
+        return [t for t, f in self._found.items() if f == v and v not in self._events.get(t, {})]
 
     def apply(self, v: int, t_s: int, tasks: Iterable[int], claim: bool) -> list[int]:
         """Record a claim (``claim``) or release by ``v`` at ``t_s``; returns the spots whose
@@ -105,18 +126,22 @@ class Holdings:
         touched, self._touched = self._touched, set()
         return touched
 
-    def holder(self, task: int, alive: Alive) -> int | None:
-        best = self.holding(task, alive)
+    def holder(self, task: int, alive: Alive, found: bool = True) -> int | None:
+        best = self.holding(task, alive, found)
         return None if best is None else best[1]
 
-    def holding(self, task: int, alive: Alive) -> tuple[int, int] | None:
-        """The winning claim of ``task``: (its time, its claimer), the initial plan's at 0;
-        the earliest wins, ties to the lower index (None: nobody alive holds it)."""
+    def holding(self, task: int, alive: Alive, found: bool = True) -> tuple[int, int] | None:
+        """The winning claim of ``task``: (its time, its claimer), the initial plan's and a
+        finder's (`found`; not with ``found`` False) at 0; the earliest wins, ties to the
+        lower index (None: nobody alive holds it)."""
         best: tuple[int, int] | None = None
         row = self._events.get(task, {})
         for v in self.base.owners.get(task, ()):
             if v not in row and alive(v) and (best is None or v < best[1]):
                 best = (0, v)  # its initial plan's claim, not replaced since
+        f = self._found.get(task) if found else None
+        if f is not None and f not in row and alive(f) and (best is None or f < best[1]):
+            best = (0, f)  # its finder's, neither claimed in its own time nor released
         for v, (t, is_claim) in row.items():
             if is_claim and alive(v) and (best is None or (t, v) < best):
                 best = (t, v)

@@ -91,7 +91,7 @@ def restore(snap: Snapshot, know: Knowledge, radio: Radio, base_route: Sequence[
     know.treated = list(snap.treated)
     know.injections.extend(Estimate((x, y), s) for x, y, s in snap.injections)
     for f in snap.finds:
-        know.beliefs.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s, f.sigma_m)
+        know.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s, f.sigma_m)
     for a in snap.added:
         know.beliefs.add_spot(a.slot, a.pos, a.priority, a.t_s, a.service_s)
     for h in snap.holds:

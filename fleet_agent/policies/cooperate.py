@@ -39,6 +39,15 @@ class CoopClock:
         return True
 
 
+def held_finds(know: Knowledge, now: float) -> list[int]:
+    """This vehicle's settled finds that it holds by their FOUND alone (neither claimed nor
+    released yet, `Holdings.found`): `cooperate` weighs them, then claims or releases each."""
+    blocked = know.blocked(now)
+    return [t for t in know.holdings.reserved_by(know.index) if t not in know.cleared
+            and t not in blocked and t not in know.doubtful and t not in know.awaiting
+            and know.holder(t) == know.index]
+
+
 def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
     """The free spots this vehicle takes, and its route with them."""
     beliefs = know.beliefs
@@ -52,7 +61,10 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
         # made cooperation grow with fleet x reef.
         return []
     free = know.free_spots(now)
-    if not free:
+    # Its finds it holds by their FOUND alone (`Holdings.found`): weighed here like a free
+    # find of its own, then claimed in its own time or released to the fleet.
+    reserved = held_finds(know, now) if not beliefs.exact else []
+    if not free and not reserved:
         return []
     # A find may be worth more than a predicted spot on the route (worth only what it is
     # expected to hold): its finder weighs it even when no detour fits the slack, or a
@@ -63,7 +75,7 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
     # added spots are weighed by every vehicle: nobody found them, the operator asked for
     # them, and the claim contest (earliest claim, settled before work) leaves one vehicle.
     weigh = [t for t in free if (beliefs.is_find_slot(t) and beliefs.finder(t) == know.index)
-             or t in beliefs.added]
+             or t in beliefs.added] + reserved
     finds = bool(weigh)
     if not finds and (slack < config.coop_min_slack_s or not detour_fits(own, free, slack)):
         return []
@@ -76,7 +88,10 @@ def cooperate(know: Knowledge, config: AgentConfig, now: float) -> list[Intent]:
                              know.held_map(), seed=know.fleet.seed * 1000 + 100 + know.index,
                              offered=offered)
     out: list[Intent] = [Count("replans")]
-    gained = [t for t in mine if t in free]
+    declined = tuple(t for t in reserved if t not in mine)
+    if declined:  # the fleet may have them now
+        out.append(Hold(declined, False))
+    gained = [t for t in mine if t in free or t in reserved]
     if not gained:
         return out
     out.append(Hold(tuple(gained), True))

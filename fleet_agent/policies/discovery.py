@@ -339,7 +339,7 @@ def _name(know: Knowledge, codec: Codec, seen: Sighted, est: Estimate, now: floa
     rho = min(round(seen.priority * 10), MAX_TENTHS) / 10
     service = min(round(seen.service_s * 10), MAX_TENTHS) / 10
     sigma = sigma_code(est.sigma_m) * SIGMA_UNIT_M
-    if not b.add_find(slot, pos, rho, service, now, sigma):
+    if not know.add_find(slot, pos, rho, service, now, sigma):
         return None, [Count("finds_refused")]  # on land once on the wire's grid: nobody goes
     return slot, [Count("finds"), Note(FoundSpot(now, slot, pos, rho, service, durable=True,
                                                  sigma_m=sigma)),
@@ -357,7 +357,7 @@ def on_found(know: Knowledge, msg: Found, now: float) -> list[Intent]:
         return [Count("drop_found_not_a_find")]  # the operator's slots: from its orders only
     conflicts, refused = b.conflicts, b.refused
     out: list[Intent] = []
-    if b.add_find(msg.slot, msg.pos, msg.priority, msg.service_s, now, msg.sigma_m):
+    if know.add_find(msg.slot, msg.pos, msg.priority, msg.service_s, now, msg.sigma_m):
         out.append(Note(FoundSpot(now, msg.slot, msg.pos, msg.priority, msg.service_s,
                                   sigma_m=msg.sigma_m)))
     elif b.conflicts != conflicts:

@@ -245,3 +245,36 @@ def test_a_spot_in_two_initial_routes_goes_to_the_lower_index_then_the_other() -
     h.apply(0, 10, [0], False)
     assert h.holder(0, everyone) == 1  # its time-0 claim stands
     assert h.claimed_by(0) == [] and h.claimed_by(1) == [0, 1]
+
+
+def test_a_find_is_its_finders_from_its_found_until_it_claims_or_releases_it() -> None:
+    h = Holdings(10, [[0], [1], [2]])
+    everyone = lambda v: True  # noqa: E731
+    h.found(7, 2)
+    assert h.holder(7, everyone) == 2 and h.reserved_by(2) == [7]
+    assert h.claim_time(7, 2) == 0 and h.claimed_by(2) == [2]  # held, not yet taken on
+    h.apply(0, 40, [7], True)  # a peer that heard the FOUND and not the finder's claim
+    assert h.holder(7, everyone) == 2
+    assert h.holder(7, lambda v: v != 2) == 0  # it dies with its finder
+    assert h.holder(7, lambda v: v == 2, found=False) is None  # a finder gone home: not held
+    h.apply(2, 30, [7], True)  # the finder's claim in its own time: the earliest wins
+    assert h.holder(7, everyone) == 2 and h.reserved_by(2) == [] and h.claimed_by(2) == [2, 7]
+    h.apply(2, 50, [7], False)  # given up: the peer's claim stands
+    assert h.holder(7, everyone) == 0
+    h.found(7, 1)  # named once: a second naming changes nothing
+    assert h.holder(7, lambda v: v != 0) is None
+
+
+def test_the_finders_hold_resolves_the_same_whatever_the_arrival_order() -> None:
+    events = [("found", 8, 1), ("apply", 0, 20, [8], True), ("apply", 1, 25, [8], True),
+              ("found", 9, 0), ("apply", 0, 30, [9], False), ("apply", 2, 35, [9], True)]
+    results = set()
+    for order in itertools.permutations(events):
+        h = Holdings(10, [[], [], []])
+        for e in order:
+            if e[0] == "found":
+                h.found(e[1], e[2])
+            else:
+                h.apply(*e[1:])
+        results.add(tuple(sorted(h.holders(lambda v: True).items())))
+    assert results == {((8, 0), (9, 2))}

@@ -20,7 +20,9 @@ from fleet_agent.io_types import Helm, Tick
 from fleet_agent.landmarks import MapFrame
 from fleet_agent.motion import Activity
 from fleet_agent import records as rec
+from fleet_agent.intents import Hold
 from fleet_agent.policies import discovery, searching
+from fleet_agent.policies.cooperate import cooperate, held_finds
 from fleet_agent.restore import fold
 from fleet_agent.wire import MAX_SIGMA_M, Codec, Digest, Found
 from fleet_bus.vehicle_port import Arrived, GoTo, Injected, Looked, NavFix, Sighted
@@ -234,10 +236,69 @@ def test_a_claim_under_an_alias_settles_a_cycle_after_the_other_name_is_learned(
     codec = fleet.codec
     msg = codec.decode(codec.encode(Found(0, 1, Digest(1, 0), theirs, pos, 50.0, 60.0)))
     discovery.on_found(know, msg, 40.0)
-    assert b.alias == {mine: theirs} and know.holder(theirs) == 1
+    # auv0 holds its find from its FOUND on (a claim at 0), until it claims in its own time
+    assert b.alias == {mine: theirs} and know.holder(theirs) == 0
+    assert theirs not in know.held_by(1)
+    know.hold(0, 50, [theirs], True)  # later than ours: ours holds
+    assert know.holder(theirs) == 1
     assert know.settled_s(theirs) == 40.0 + know.claim_settle_s
-    know.hold(0, 1, [theirs], True)  # auv1's earlier claim arrives within that cycle
-    assert know.holder(theirs) == 0 and theirs not in know.held_by(1)
+
+
+def test_a_peer_that_heard_the_found_and_not_the_claim_leaves_the_find_to_its_finder(fleet):
+    """The claim race of hard seed 15 at 1 % drift: a peer heard a find's FOUND and not its
+    finder's claim, took the settled find for free, and both treated it. A find is its
+    finder's from the FOUND on: not free, not in anyone else's plan, until its finder gives
+    it up or is gone."""
+    agent = Agent(fleet, 1, CONFIG)
+    know, b = agent.know, agent.know.beliefs
+    theirs = b.n  # auv1's first find
+    codec = fleet.codec
+    msg = codec.decode(codec.encode(Found(0, 1, Digest(1, 0), theirs, off_map(fleet), 90.0,
+                                          60.0)))
+    discovery.on_found(know, msg, 10.0)
+    later = 10.0 + b.settle_s + 1.0
+    assert theirs not in b.blocked(later)  # settled: planned by whoever may
+    assert know.holder(theirs) == 0 and theirs not in know.free_spots(later)
+    assert theirs not in held_finds(know, later)  # the finder's to weigh, not ours
+    assert theirs not in cooperate(know, CONFIG, later)[-1:] and theirs not in agent.own.route
+    know.hold(0, int(later), [theirs], False)  # its finder gave it up: the fleet's now
+    assert know.holder(theirs) is None and theirs in know.free_spots(later)
+
+
+def test_a_find_of_a_finder_gone_home_or_lost_is_free():
+    fleet = build()
+    agent = Agent(fleet, 1, CONFIG)
+    know, b = agent.know, agent.know.beliefs
+    theirs, other = b.n, b.n + 2 * CONFIG.find_slots
+    codec = fleet.codec
+    pos = off_map(fleet)
+    for finder, slot, dx in ((0, theirs, 0.0), (2, other, 30.0)):
+        msg = codec.decode(codec.encode(Found(finder, 1, Digest(1, 0), slot,
+                                              (pos[0] + dx, pos[1], pos[2]), 40.0, 60.0)))
+        discovery.on_found(know, msg, 10.0)
+    later = 10.0 + b.settle_s + 1.0
+    assert {theirs, other} <= set(b.finds)
+    assert {theirs, other}.isdisjoint(know.free_spots(later))
+    assert know.members.mark(0, "home", later) and know.members.mark(2, "lost", later)
+    assert {theirs, other} <= know.free_spots(later)  # home without it; lost: taken over
+
+
+def test_a_finder_weighs_its_held_find_then_claims_it_or_gives_it_up(fleet):
+    agent = Agent(fleet, 1, CONFIG)
+    know, b = agent.know, agent.know.beliefs
+    pos = off_map(fleet)
+    agent.step(Tick(1.0), [NavFix(1.0, pos), Sighted(1.0, pos, 90.0, 60.0)])
+    (mine,) = b.finds
+    assert know.holder(mine) == 1 and held_finds(know, 1.0) == []  # settling: not weighed yet
+    assert mine not in agent.own.route  # nor flown to
+    later = b.finds[mine].learned_s + b.settle_s + 1.0
+    assert held_finds(know, later) == [mine]
+    out = cooperate(know, CONFIG, later)
+    holds = [i for i in out if isinstance(i, Hold)]
+    assert holds == [Hold((mine,), True)]  # rich and next to it: taken on, in its own time
+    agent.own.capacity_s = agent.own.t_s + 1.0  # no battery left for anything
+    out = cooperate(know, CONFIG, later)
+    assert Hold((mine,), False) in out  # given up to the fleet
 
 
 def test_a_predicted_spot_is_judged_treated_only_by_a_treated_find(fleet):
