@@ -292,6 +292,7 @@ def test_a_restarted_agent_gets_its_finds_back_and_heads_for_the_one_it_was_goin
     agent = Agent(fleet, 1, CONFIG, now=100.0, journal=journal)
     assert agent.know.beliefs.finds[slot].priority == 44.0
     assert agent.know.beliefs.own_found == 2  # its next find takes the slot after
+    assert agent.know.holder(slot) == 1  # its finder's again, from the journal's find
     assert agent.own.route[:1] == [slot]
     goto = agent.own.command()
     assert isinstance(goto, GoTo) and goto.target == slot
