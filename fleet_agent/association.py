@@ -195,8 +195,7 @@ def sighting(pos: Sequence[float], nav_sigma_m: float,
     """A sighting's estimate: the vehicle's navigation sigma (its `NavFix.sigma_m` when it
     saw it) and the camera's, combined; with the rho the camera measured (``priority``),
     uncertain by ``camera_priority_sigma`` (none when that is 0)."""
-    return Estimate(tuple(float(c) for c in pos), math.hypot(nav_sigma_m, params.camera_sigma_m),
-                    *_rated(priority, params.camera_priority_sigma))
+    return found(pos, math.hypot(nav_sigma_m, params.camera_sigma_m), params, priority)
 
 
 def found(pos: Sequence[float], sigma_m: float, params: AssociationParams = DEFAULT_PARAMS,

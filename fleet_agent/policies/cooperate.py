@@ -42,9 +42,12 @@ class CoopClock:
 def held_finds(know: Knowledge, now: float) -> list[int]:
     """This vehicle's settled finds that it holds by their FOUND alone (neither claimed nor
     released yet, `Holdings.found`): `cooperate` weighs them, then claims or releases each."""
+    mine = know.holdings.reserved_by(know.index)
+    if not mine:  # most coops: the walk over every find slot (`blocked`) is skipped
+        return []
     blocked = know.blocked(now)
-    return [t for t in know.holdings.reserved_by(know.index) if t not in know.cleared
-            and t not in blocked and t not in know.doubtful and t not in know.awaiting
+    return [t for t in mine if t not in know.cleared and t not in blocked
+            and t not in know.doubtful and t not in know.awaiting
             and know.holder(t) == know.index]
 
 

@@ -138,7 +138,7 @@ def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted
     if what is None:
         if probably_treated(est, treated_estimates(know), params):
             return [Count("sightings_treated")]  # seen again: never treated twice
-        return _discover(know, codec, seen, est, now)
+        return _name(know, codec, seen, est, now)[1]  # missed by the map: a find
     kind, spot = what
     if kind == "task" and sure:
         # No landmark from a sighting along the track: which aggregation it is rests on the
@@ -191,9 +191,9 @@ def treated_elsewhere(know: Knowledge, codec: Codec, r: Injected, seen: Estimate
     or the find's): a drifted vehicle sent to a spot treated whatever was in view, its
     neighbour (hard reef, 1 % drift: 18 of 1,236 injections over 20 missions). Where the
     vehicle really injected, ``seen``, is its own (`remember_injection`); the fleet must
-    learn it too,
-    or another vehicle treats that aggregation again under its own name: the known spot it
-    surely is is cleared as treated, or a find is named for it and cleared at once. The
+    learn it too, or another vehicle treats that aggregation again under its own name: the
+    known spot it surely is is cleared as treated, or a find is named for it and cleared at
+    once. The
     spot sent to stays cleared (the cleared set only grows): its aggregation is a miss."""
     b = know.beliefs
     measured = _measured(know, r.task)
@@ -318,12 +318,6 @@ def await_gaps(know: Knowledge, now: float) -> frozenset[int]:
                 out.add(s)
                 break
     return frozenset(out)
-
-
-def _discover(know: Knowledge, codec: Codec, seen: Sighted, est: Estimate,
-              now: float) -> list[Intent]:
-    """An aggregation the map missed: name it, tell the fleet, plan it once settled."""
-    return _name(know, codec, seen, est, now)[1]
 
 
 def _name(know: Knowledge, codec: Codec, seen: Sighted, est: Estimate, now: float

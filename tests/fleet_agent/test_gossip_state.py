@@ -266,7 +266,10 @@ def test_a_find_is_its_finders_from_its_found_until_it_claims_or_releases_it() -
 
 
 def test_the_finders_hold_resolves_the_same_whatever_the_arrival_order() -> None:
-    events = [("found", 8, 1), ("apply", 0, 20, [8], True), ("apply", 1, 25, [8], True),
+    # 5: a peer's claim against the finder's hold (the hold wins, FOUND first or last); 8: the
+    # finder's own claim in its own time, later than a peer's; 9: the finder's release
+    events = [("found", 5, 2), ("apply", 0, 10, [5], True),
+              ("found", 8, 1), ("apply", 0, 20, [8], True), ("apply", 1, 25, [8], True),
               ("found", 9, 0), ("apply", 0, 30, [9], False), ("apply", 2, 35, [9], True)]
     results = set()
     for order in itertools.permutations(events):
@@ -277,4 +280,4 @@ def test_the_finders_hold_resolves_the_same_whatever_the_arrival_order() -> None
             else:
                 h.apply(*e[1:])
         results.add(tuple(sorted(h.holders(lambda v: True).items())))
-    assert results == {((8, 0), (9, 2))}
+    assert results == {((5, 2), (8, 0), (9, 2))}
