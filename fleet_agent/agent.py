@@ -38,7 +38,7 @@ from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, 
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
-from fleet_agent.policies import discovery, hearing, searching
+from fleet_agent.policies import discovery, hearing, searching, unproven
 from fleet_agent.policies import reports as reports_policy
 from fleet_agent.policies.cooperate import CoopClock, cooperate
 from fleet_agent.policies.navigation import Navigation
@@ -79,7 +79,7 @@ class Agent:
                           fleet.seed, slots.cycle_s, fleet.planner, p)
         self.own = OwnVehicle(p, index, fleet.paths, Conduct(
             self._settled_s, beliefs.unknown, 0.0 if dyn is None else dyn.camera.inspect_s,
-            config.battery_reserve_s), now)
+            config.battery_reserve_s, self._held_back), now)
         self.own.frame.enabled = dyn is not None and config.map_relative_nav
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)
         self.know.search = searching.belief_of(self.know, config)
@@ -103,6 +103,7 @@ class Agent:
         self._peers_at = -1  # the membership version `_peers` was built at
         self._synced = -1  # the knowledge's version the route was last checked against
         self._commanded: object = None  # what the vehicle was last told (its command's key)
+        self._held_at: set[int] = set()  # spots waited at on an unproven frame (`_held_back`)
         self._boot = self._outputs()
         lost = "damaged" if journal_damaged else None
         if journal:
@@ -126,6 +127,17 @@ class Agent:
 
     def _settled_s(self, task: int) -> float:
         return self.know.settled_s(task)
+
+    def _held_back(self, task: int, settled_s: float) -> float:
+        """Until when the vehicle at ``task`` waits past its claim's settle: a frame not yet
+        proven may hold an earlier claim of it (`policies.unproven`); 0 if none does."""
+        held = self.provenance.unproven()
+        if not unproven.rival(self.know, held, task, self.own.t_s):
+            return 0.0
+        if task not in self._held_at:  # counted once a spot (judged again at every wake)
+            self._held_at.add(task)
+            self.count("waits_unproven")
+        return settled_s + self.know.unproven_wait_s
 
     # -- the state machine -----------------------------------------------------------------
 

@@ -47,6 +47,11 @@ class AgentConfig:
     # heard by then on a working link and the later claimer gives way instead of treating
     # the spot too (two vehicles that claimed a find seconds apart and were both at it).
     claim_settle_cycles: float = 1.0
+    # ... and, settled, it waits up to this many cycles more while a frame heard but not yet
+    # proven its sender's (`fleet_bus.tesla`) holds an earlier claim of it or a find that may
+    # be it (`policies.unproven`): under loss the proof of a claim heard in time can come a
+    # cycle or more after the settle.
+    unproven_wait_cycles: float = 4.0
     abort_repeats: int = 4
     home_repeats: int = 3
     # A vehicle done with the mission (home or aborted) keeps watch: after its announcements
@@ -198,7 +203,8 @@ class AgentConfig:
                                  f"{getattr(self, name)!r}")
         for name in ("coop_min_slack_s", "battery_reserve_s", "aggregation_radius_m",
                      "pause_margin_s",
-                     "find_settle_cycles", "claim_settle_cycles", "takeover_wait_s",
+                     "find_settle_cycles", "claim_settle_cycles", "unproven_wait_cycles",
+                     "takeover_wait_s",
                      "slot_reuse_m", "schedule_margin_m",
                      "takeover_doubt", "map_sigma_m", "aggregation_extent_m",
                      "camera_priority_sigma", "map_priority_sigma", "look_first_sigma_m",

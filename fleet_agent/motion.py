@@ -66,6 +66,9 @@ class Conduct:
     needs_look: Callable[[int], bool]
     inspect_s: float = 0.0
     reserve_s: float = 0.0
+    # At the spot, past ``not_before``: until when to wait longer (0: not at all), given the
+    # task and ``not_before``'s time; an earlier claim of it may be in a frame not yet proven.
+    held_back: Callable[[int, float], float] | None = None
 
 
 @dataclass(frozen=True)
@@ -120,6 +123,7 @@ class OwnVehicle:
         self.aborted = False
         self.home_at_s: float | None = None
         self.busy_until_s: float | None = None  # when the work at the spot ends
+        self._waited_s = 0.0  # when a wait at the spot was last judged still on
         # A search flown on the way to the next spot (`policies.searching`): its waypoints,
         # from and back to where the vehicle is, and how long they take.
         self.detour: tuple[tuple[Point3, ...], float] | None = None
@@ -234,22 +238,34 @@ class OwnVehicle:
                 return ReachedHome(self.t_s)
             return None
         if self.activity is Activity.TRANSIT and self.route and self.route[0] == target:
-            wait_until = self.conduct.not_before(target)
+            wait_until = self._wait_until(target)
             if wait_until > self.t_s:
                 self.activity, self.busy_until_s = Activity.WAITING, wait_until
+                self._waited_s = self.t_s
             else:
                 self._begin(target, self.t_s)
         return None
 
+    def _wait_until(self, task: int) -> float:
+        """Until when a vehicle at ``task`` waits before working it (`Conduct`)."""
+        until = self.conduct.not_before(task)
+        held = self.conduct.held_back
+        return max(until, held(task, until)) if until and held is not None else until
+
     def wake(self, t_s: float) -> bool:
-        """Time passed: a wait for a claim to settle that is over begins the work at its end
-        (whenever the host gets to it). True if the activity changed."""
+        """Time passed: a wait judged over begins the work at its end, and not before the
+        last time it was judged still on (whenever the host gets to it). The wait is judged
+        again at every wake: a claim proven meanwhile may end or lengthen it. True if the
+        activity changed."""
         self.at_time(t_s)
-        if self.activity is Activity.WAITING and self.busy_until_s is not None \
-                and self.busy_until_s <= self.t_s:
-            self._begin(self.route[0], self.busy_until_s)
-            return True
-        return False
+        if self.activity is not Activity.WAITING or self.busy_until_s is None:
+            return False
+        until = max(self._wait_until(self.route[0]), self._waited_s)
+        if until > self.t_s:
+            self.busy_until_s, self._waited_s = until, self.t_s
+            return False
+        self._begin(self.route[0], until)
+        return True
 
     def looked(self, task: int, service_s: float | None, t_s: float) -> Inspected | None:
         """The look at ``task`` ended: inject what is there (``service_s``) if it fits the

@@ -98,6 +98,11 @@ class Provenance:
             self.drops[DropReason.FORGED] += len(forged)
         return Taken(msg, tuple(cast(Message, h.payload) for h in proven))
 
+    def unproven(self) -> list[Message]:
+        """What the frames held for their keys say: never acted on, only waited on (a claim
+        in one may be earlier than ours, `policies.unproven`)."""
+        return [cast(Message, h.payload) for s in self.senders.values() for h in s.held]
+
     def last_words(self, v: int) -> list[Message]:
         """What ``v`` said and never proved (a vehicle gone before its next key), forgotten
         here: the caller takes what a lie in it could cost ``v`` alone."""

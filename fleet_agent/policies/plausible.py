@@ -29,7 +29,7 @@ vehicle, a find slot each hold a set of at most the fleet's peers).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 from scipy.sparse.csgraph import minimum_spanning_tree
@@ -108,19 +108,31 @@ def claims(know: Knowledge, sender: int, tasks: Iterable[int]) -> list[int]:
     held = know.held_by(sender)  # from its own claims, not a walk over every spot
     mine = set(held)
     take = [t for t in tasks if t not in mine and t not in know.cleared]
-    while take and (work_s(p, here, spec.speed_mps, take) > CLAIM_SLACK * budget
-                    or work_s(p, here, spec.speed_mps, held + take) > HELD_SLACK * budget):
+    # A find of its own we have not heard of (its FOUND lost) lies where it saw it, near
+    # where it is, not at the slot's placeholder (the station): judged there, or a claim
+    # late in a dive would be refused and its find planned by a second vehicle.
+    b = know.beliefs
+    unheard = {t: here for t in take
+               if b.is_find_slot(t) and t not in b.finds and b.finder(t) == sender}
+    while take and (work_s(p, here, spec.speed_mps, take, unheard) > CLAIM_SLACK * budget
+                    or work_s(p, here, spec.speed_mps, held + take, unheard)
+                    > HELD_SLACK * budget):
         take.pop()
     return [t for t in tasks if t in mine or t in know.cleared or t in take]
 
 
-def work_s(problem: Problem, here: Iterable[float], speed: float, spots: list[int]) -> float:
+def work_s(problem: Problem, here: Iterable[float], speed: float, spots: list[int],
+           at: Mapping[int, Iterable[float]] | None = None) -> float:
     """A lower bound of the time to treat ``spots`` from ``here``: their injections, and a
-    minimum spanning tree through them and ``here`` at ``speed``."""
+    minimum spanning tree through them and ``here`` at ``speed`` (a spot in ``at`` taken
+    to lie there)."""
     service = float(sum(problem.service_s[t] for t in spots))
     if not spots:
         return service
     pts = np.vstack([np.asarray(tuple(here), dtype=float)[None, :], problem.xyz[spots]])
+    for i, t in enumerate(spots):
+        if at and t in at:
+            pts[i + 1] = tuple(at[t])
     tree = minimum_spanning_tree(squareform(pdist(pts))).sum()
     return service + float(tree) / speed
 

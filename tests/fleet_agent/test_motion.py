@@ -74,6 +74,30 @@ def test_a_spot_not_yet_settled_is_waited_for_then_worked(step_s: float) -> None
     assert events[-1].t_s == pytest.approx(planned, abs=1e-6)
 
 
+def test_a_wait_held_back_by_an_unproven_frame_is_judged_again_at_every_wake() -> None:
+    """Spot 0 settles at 130 s; a frame not yet proven holds it back to 200 s at most
+    (`Conduct.held_back`). Proven harmless at 150 s, the work begins then, not at 130 s (the
+    vehicle was still waiting at its last wake) and not at 200 s."""
+    p = small_problem()
+    proven = {"at": math.inf}
+
+    def held_back(task: int, settled_s: float) -> float:
+        return 200.0 if loop.own.t_s < proven["at"] else 0.0
+
+    loop = Loop(p, rules=conduct(not_before=lambda task: 130.0 if task == 0 else 0.0,
+                                 held_back=held_back))
+    loop.set_route([0, 1])
+    loop.run_until(140.0)
+    assert loop.own.activity is Activity.WAITING and loop.own.busy_until_s == 200.0
+    loop.run_until(150.0)
+    proven["at"] = 150.0  # the frame's key came in at 150 s
+    loop.step(150.0)
+    assert loop.own.activity is Activity.INJECTING
+    events = loop.run_home()
+    assert (type(events[0]), events[0].task) == (Cleared, 0)
+    assert events[0].t_s == pytest.approx(150.0 + 60.0)  # begun at 150 s, its 60 s injection
+
+
 def test_a_vehicle_waiting_at_a_spot_leaves_it_when_the_spot_is_taken_away() -> None:
     p = small_problem()
     loop = Loop(p, rules=conduct(not_before=lambda task: 130.0))

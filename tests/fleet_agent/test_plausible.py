@@ -198,3 +198,21 @@ def test_a_peers_track_says_where_it_was() -> None:
     assert position_on(track, 150.0) == (150.0, 300.0, 0.0)
     assert position_on(track, -5.0) == (0.0, 0.0, 0.0)
     assert position_on(track, 300.0) is None and position_on(new_track(), 10.0) is None
+
+
+def test_a_claim_of_its_own_unheard_find_late_in_a_dive_is_taken() -> None:
+    """Its FOUND lost, a find is judged where its finder is, not at the slot's placeholder
+    (the station): late in a dive that would be beyond its battery, the claim refused, and
+    the find planned by a second vehicle (preset seed 2 at 30 % loss, docs/search.md)."""
+    agent = dynamic_agent()
+    know, b = agent.know, agent.know.beliefs
+    spec = know.problem.vehicles[2]
+    far = (spec.start[0] + 400.0, spec.start[1] + 400.0, -3.0)
+    late = spec.battery_s - 200.0  # 200 s of battery left: the station is 566 m away
+    hear(agent, Pose(2, int(late), far, 0, "transit", Digest(0, 0)), late)
+    know.clear(know.held_by(2))  # its plan is done
+    own, others = b.n + 2 * b.cap, b.n + 1 * b.cap  # auv3's find; auv2's, both unheard
+    hear(agent, Claim(2, int(late) + 1, int(late) + 1, (own,)), late + 1)
+    assert know.holder(own) == 2 and not know.suspicion
+    hear(agent, Claim(2, int(late) + 2, int(late) + 2, (others,)), late + 2)
+    assert know.holder(others) != 2 and know.suspicion[2] == 1  # another's: where it is unknown
