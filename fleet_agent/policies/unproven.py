@@ -5,8 +5,9 @@ A peer's frame is proven only when a later frame of the same sender discloses it
 after the claim settle (`Knowledge.settled_s`) has run out. Preset seed 2 at 30 % loss:
 auv3 named a find at 3263 s and claimed it at 3285 s; auv1, beside it, named the same
 aggregation at 3280 s and claimed it at 3302 s. auv3's claim was heard at 3290.7 s, but the
-frames that disclose its key were lost until 3320.7 s, 0.2 s after auv1's claim had
-settled, and both vehicles injected the aggregation.
+one frame of auv3's that could have disclosed its key in time (a pose discloses none) was
+lost: it was proven at 3320.7 s, 0.2 s after auv1's claim had settled, and both vehicles
+injected the aggregation.
 
 So a vehicle at a spot whose claim has settled waits on, up to ``unproven_wait_cycles``
 more, while a held frame says something that, proven, would take the spot from it (its
