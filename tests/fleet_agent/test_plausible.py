@@ -5,6 +5,8 @@ is counted against it (the report's suspects)."""
 
 from __future__ import annotations
 
+import math
+
 from fleet_agent.agent import Agent
 from fleet_agent.fleet import Fleet
 from fleet_agent.helms.sim import camera_figures
@@ -216,3 +218,61 @@ def test_a_claim_of_its_own_unheard_find_late_in_a_dive_is_taken() -> None:
     assert know.holder(own) == 2 and not know.suspicion
     hear(agent, Claim(2, int(late) + 2, int(late) + 2, (others,)), late + 2)
     assert know.holder(others) != 2 and know.suspicion[2] == 1  # another's: where it is unknown
+
+
+def test_held_spots_its_track_passed_leave_the_bound_on_all_it_holds() -> None:
+    """Hard seed 31 at 30 % loss: auv2's clears of spots it had treated were lost to auv1,
+    which then refused auv2's claim of one more spot (all it seemed to hold did not fit its
+    battery twice over), took the spot as free and treated it too. A held spot the
+    claimer's heard track has passed counts as done in that bound; one it has not passed
+    still counts."""
+    from fleet_agent.witness import extend, new_track
+
+    def claim_after_passing(passed: bool) -> tuple[Agent, int]:
+        agent = dynamic_agent()
+        know = agent.know
+        spec = know.problem.vehicles[2]
+        held = know.held_by(2)
+        late = spec.battery_s - 400.0  # 400 s of battery left
+        spot = max((t for t in range(know.beliefs.n) if know.holder(t) is None),
+                   key=lambda t: min(math.dist(know.problem.xyz[t][:2], know.problem.xyz[h][:2])
+                                     for h in held))  # a free spot away from what it holds
+        here = tuple(float(c) for c in know.problem.xyz[spot])
+        here = (here[0] + 5.0, here[1], here[2])
+        if passed:  # its track went over every spot it holds, then here
+            track = know.tracks[2] = new_track(spec.start)
+            for i, t in enumerate(held):
+                extend(track, (late - 100.0) * (i + 1) / len(held), tuple(know.problem.xyz[t]))
+        else:  # heard only here, lately
+            track = know.tracks[2] = new_track()
+        for t in (late - 60.0, late - 30.0):
+            extend(track, t, here)
+        hear(agent, Pose(2, int(late), here, 0, "transit", Digest(0, 0)), late)
+        assert plausible.work_s(know.problem, here, spec.speed_mps, [spot]) < 400.0
+        assert plausible.work_s(know.problem, here, spec.speed_mps, [*held, spot]) > 800.0
+        hear(agent, Claim(2, int(late) + 1, int(late) + 1, (spot,)), late + 1)
+        return agent, spot
+
+    agent, spot = claim_after_passing(True)
+    assert agent.know.holder(spot) == 2 and not agent.know.suspicion
+    agent, spot = claim_after_passing(False)
+    assert agent.know.holder(spot) != 2 and agent.know.suspicion[2] == 1
+
+
+def test_hard_seed_31_at_30_percent_loss_treats_each_aggregation_once() -> None:
+    """The mission the rule above came from (beyond `benchmarks/dynamic.py`'s 20 seeds)."""
+    import numpy as np
+
+    from benchmarks.dynamic import SETTINGS, config_of
+    from cotsfleet.mission.inprocess import simulate
+    from reef_sim.scenarios.dynamic import generate_dynamic_doc
+    from reef_sim.score import world_tally
+
+    params = SETTINGS["hard"]
+    doc = generate_dynamic_doc(params, np.random.default_rng(31))
+    problem = problem_from_dict(doc)
+    reef = reef_from_doc(doc, problem)
+    result = simulate(problem, config_of(params, search=True), seed=31, loss=0.3, reef=reef)
+    books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
+             if seat.driver is not None}
+    assert world_tally(reef, books)["duplicates"] == 0
