@@ -101,7 +101,8 @@ def claims(know: Knowledge, sender: int, tasks: Iterable[int]) -> list[int]:
     the budget is the battery left at ``tp``, not now. Two bounds: what it claims now must fit
     (`CLAIM_SLACK`: its route holds all of it), and all it holds with it must fit twice over
     (`HELD_SLACK`: a vehicle that claims new work releases the work it gives up a frame
-    later, and until the release arrives it seems to hold both)."""
+    later, and until the release arrives it seems to hold both; the held spots its heard
+    track has passed are left out of it where it would refuse)."""
     p = know.problem
     spec = p.vehicles[sender]
     pose = know.peer_pose.get(sender)
