@@ -137,7 +137,7 @@ class Agent:
         if task not in self._held_at:  # counted once a spot (judged again at every wake)
             self._held_at.add(task)
             self.count("waits_unproven")
-        return settled_s + self.know.unproven_wait_s
+        return settled_s + self.config.unproven_wait_cycles * self.radio.slots.cycle_s
 
     # -- the state machine -----------------------------------------------------------------
 

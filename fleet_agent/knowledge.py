@@ -70,7 +70,6 @@ class Knowledge:
         # A claim has settled once any earlier claim of its spot has been heard and proven its
         # claimer's (`settled_s`; proving takes a cycle, `fleet_bus.tesla`).
         self.claim_settle_s = (config.claim_settle_cycles + 1.0) * cycle_s + config.slot_s + 1.0
-        self.unproven_wait_s = config.unproven_wait_cycles * cycle_s  # (`policies.unproven`)
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
@@ -289,12 +288,6 @@ class Knowledge:
         slot more, and proven its claimer's a cycle later; by then, on a working link, we know
         we lost the spot. Without the wait, two vehicles near a find that both claimed it
         seconds apart each treat it."""
-        c = self.claimed_s(task)
-        return c + self.claim_settle_s if c else 0.0
-
-    def claimed_s(self, task: int) -> float:
-        """When this vehicle's claim of ``task`` counts from for `settled_s` (0: its initial
-        plan's, or none)."""
         names = self.names(task)
         c: float | None
         if len(names) == 1:  # asked for every spot of the route at every step: kept short
@@ -307,7 +300,7 @@ class Knowledge:
                 # ours were in flight before we knew to look for them; they get a cycle.
                 finds = self.beliefs.finds
                 c = max([c, *(finds[t].learned_s for t in names if t in finds)])
-        return float(c) if c else 0.0
+        return float(c) + self.claim_settle_s if c else 0.0
 
     def standing_claims(self) -> dict[int, int]:
         """Spots this vehicle claimed after the initial plan and still holds: spot -> time."""

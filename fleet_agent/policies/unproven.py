@@ -31,9 +31,10 @@ from fleet_agent.wire import Claim, Found, Message
 def rival(know: Knowledge, held: Iterable[Message], task: int, now: float) -> bool:
     """Does a frame in ``held`` (unproven, `Provenance.unproven`) say what would take
     ``task``, claimed by this vehicle, from it (the module docstring)?"""
-    since = know.claimed_s(task)
-    if not since:
+    settled = know.settled_s(task)
+    if not settled:
         return False  # the initial plan's: no claim is earlier
+    since = settled - know.claim_settle_s + 1e-6  # our claim's time (whole seconds, or more)
     b = know.beliefs
     names = set(know.names(task))
     is_find = b.is_find_slot(task)

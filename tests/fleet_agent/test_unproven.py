@@ -83,17 +83,18 @@ def test_the_agent_waits_while_such_a_frame_is_held_and_no_longer_once_it_is_pro
     agent, slot = finder()
     peer = Agent(agent.fleet, 2, agent.config)
     settled = agent.know.settled_s(slot)
+    capped = settled + agent.config.unproven_wait_cycles * agent.radio.slots.cycle_s
     sent = peer.radio.slots.next_from(CLAIMED - 4.0)
     frame = peer.provenance.seal(Claim(2, int(sent), CLAIMED - 5, (slot,)))
     assert frame is not None
     agent.provenance.hear(frame, sent + 0.5)
     assert agent.provenance.unproven()  # heard, not proven
-    assert agent._held_back(slot, settled) == settled + agent.know.unproven_wait_s
+    assert agent._held_back(slot, settled) == capped
     later = peer.radio.slots.next_from(sent + 1.0)
     pose = peer.provenance.seal(Pose(2, int(later), HERE, 0, "transit", Digest(0, 0)))
     assert pose is not None
     assert not agent.provenance.hear(pose, later + 0.5).proven  # a pose discloses no key
-    assert agent._held_back(slot, settled) == settled + agent.know.unproven_wait_s
+    assert agent._held_back(slot, settled) == capped
     later = peer.radio.slots.next_from(later + 1.0)
     key = peer.provenance.seal(Key(2, int(later)))
     assert key is not None
