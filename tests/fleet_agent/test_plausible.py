@@ -261,18 +261,6 @@ def test_held_spots_its_track_passed_leave_the_bound_on_all_it_holds() -> None:
 
 def test_hard_seed_31_at_30_percent_loss_treats_each_aggregation_once() -> None:
     """The mission the rule above came from (beyond `benchmarks/dynamic.py`'s 20 seeds)."""
-    import numpy as np
+    from test_unproven import lossy_mission
 
-    from benchmarks.dynamic import SETTINGS, config_of
-    from cotsfleet.mission.inprocess import simulate
-    from reef_sim.scenarios.dynamic import generate_dynamic_doc
-    from reef_sim.score import world_tally
-
-    params = SETTINGS["hard"]
-    doc = generate_dynamic_doc(params, np.random.default_rng(31))
-    problem = problem_from_dict(doc)
-    reef = reef_from_doc(doc, problem)
-    result = simulate(problem, config_of(params, search=True), seed=31, loss=0.3, reef=reef)
-    books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
-             if seat.driver is not None}
-    assert world_tally(reef, books)["duplicates"] == 0
+    assert lossy_mission("hard", 31)[1] == 0

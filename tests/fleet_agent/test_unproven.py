@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from benchmarks.dynamic import SETTINGS, config_of
-from cotsfleet.mission.inprocess import simulate
+from cotsfleet.mission.inprocess import SimResult, simulate
 from fleet_agent.agent import Agent
 from fleet_agent.wire import Claim, Digest, Found, Key, Pose
 from fleet_agent.witness import new_track
@@ -104,16 +104,23 @@ def test_the_agent_waits_while_such_a_frame_is_held_and_no_longer_once_it_is_pro
     assert agent.counters.get("waits_unproven") == 1
 
 
+def lossy_mission(setting: str, seed: int) -> tuple[SimResult, int]:
+    """`benchmarks/dynamic.py`'s mission of ``setting`` and ``seed`` at 30 % extra loss, and
+    its duplicate treatments by the world's book."""
+    params = SETTINGS[setting]
+    doc = generate_dynamic_doc(params, np.random.default_rng(seed))
+    problem = problem_from_dict(doc)
+    reef = reef_from_doc(doc, problem)
+    result = simulate(problem, config_of(params, search=True), seed=seed, loss=0.3, reef=reef)
+    books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
+             if seat.driver is not None}
+    return result, world_tally(reef, books)["duplicates"]
+
+
 def test_preset_seed_2_at_30_percent_loss_treats_each_aggregation_once() -> None:
     """The dynamic benchmark's last duplicate (docs/search.md): auv3's claim of its find was
     heard 12 s before auv1's claim of the same aggregation settled, but proven 0.2 s after;
     auv1 now waits for the proof, takes the claim, and leaves the find to auv3."""
-    params = SETTINGS["preset"]
-    doc = generate_dynamic_doc(params, np.random.default_rng(2))
-    problem = problem_from_dict(doc)
-    reef = reef_from_doc(doc, problem)
-    result = simulate(problem, config_of(params, search=True), seed=2, loss=0.3, reef=reef)
-    books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
-             if seat.driver is not None}
-    assert world_tally(reef, books)["duplicates"] == 0
+    result, duplicates = lossy_mission("preset", 2)
+    assert duplicates == 0
     assert sum(v.counters.get("waits_unproven", 0) for v in result.report.vehicles) >= 1
