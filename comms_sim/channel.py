@@ -19,6 +19,12 @@ receiver settles when that reception ends, because it depends on later transmiss
 When several apply the first listed is reported. Everything within the hearing range and not
 partitioned is audible: it interferes and deafens even when it cannot be decoded.
 
+A reception whose fate is partition, range or sinr is lost whatever happens next (those reasons
+come first), so it asks for no wake-up of its own (`next_due_s`): it is settled, in its place
+in time order, when `advance` next runs past its end (at the latest when nothing else is due).
+In a large fleet most pairs are far apart: at 100 vehicles 56 % of all receptions are such, and
+their wake-ups cost the simulator more than the frames delivered.
+
 Physical decisions (see `comms_sim.acoustics`): a reception's mean level is SL - TL(d) and its
 SNR that over the band noise; the frame fades by a power gain x drawn for it (Rician, one per
 frame and link); the decoder works at x S / (L N + I) with L the modem's implementation loss
@@ -54,6 +60,7 @@ __all__ = ["Channel", "ChannelConfig", "LinkEvent", "Partition", "TdmaConfig", "
            "DROP_REASONS", "BROADCAST"]
 
 _WAKE, _RX = 0, 1  # heap entry kinds: a sender may start its next frame; a reception ends
+_LOST_ANYWAY = ("partition", "range", "sinr")  # fates decided at transmission, never changed
 
 
 @dataclass(eq=False, slots=True)
@@ -123,6 +130,9 @@ class Channel:
             self._slots = {n: i for i, n in enumerate(config.tdma.order)}
         self._stats = LinkStats()
         self._settled: list[LinkEvent] = []  # settled by a catch-up, returned by `advance`
+        # Receptions lost from the start, by (end, seq): merged with the heap in (time, seq)
+        # order when settled, but never a reason to wake up (see the module's docstring).
+        self._lost: list[tuple[float, int, _Reception]] = []
         self._physical = config.model == "physical"
         self._horizon_m = config.horizon_m
         if self._physical:  # per-frame work below is a logarithm and an error function
@@ -241,7 +251,7 @@ class Channel:
                 heapq.heappop(self._heap)  # superseded wake-up
                 continue
             return t
-        return None
+        return self._lost[0][0] if self._lost else None
 
     def advance(self, t_s: float) -> list[LinkEvent]:
         """Start due transmissions and settle receptions ending by ``t_s``, in time order."""
@@ -270,8 +280,18 @@ class Channel:
         self._run_heap(lambda t: t < t_s)
 
     def _run_heap(self, due: Callable[[float], bool]) -> None:
-        while self._heap and due(self._heap[0][0]):
-            t, seq, kind, obj = heapq.heappop(self._heap)
+        heap, lost = self._heap, self._lost
+        while True:
+            if lost and (not heap or lost[0][:2] < heap[0][:2]):
+                if not due(lost[0][0]):
+                    return
+                t, _, r = heapq.heappop(lost)
+                self._now_s = max(self._now_s, t)
+                self._settled.append(self._settle(r))
+                continue
+            if not heap or not due(heap[0][0]):
+                return
+            t, seq, kind, obj = heapq.heappop(heap)
             self._now_s = max(self._now_s, t)
             if isinstance(obj, _Reception):  # kind _RX
                 self._settled.append(self._settle(obj))
@@ -375,7 +395,10 @@ class Channel:
                     if q.start_s < r.end_s and r.start_s < q.end_s:
                         q.collided = r.collided = True
             dst_node.pending.append(r)
-        heapq.heappush(self._heap, (r.end_s, next(self._seq), _RX, r))
+        if r.fate in _LOST_ANYWAY:
+            heapq.heappush(self._lost, (r.end_s, next(self._seq), r))
+        else:
+            heapq.heappush(self._heap, (r.end_s, next(self._seq), _RX, r))
 
     def _decide_alone(self, r: _Reception, range_m: float, draws: list[float]) -> None:
         """Physical model, at transmission: the frame's level, its fade, and whether it would

@@ -120,6 +120,9 @@ class SimVehicle:
         self._held: list[VehicleReport] = []  # reported while catching up to a command
         self.navigation = navigation
         self._seg_end: Point3 = self.pos  # where the segment under way really ends
+        # `_flight_end_s` of a segment: the flight's waypoints change only with a new segment
+        # (a waypoint reached, a new flight, a fix), and the agent asks at every step.
+        self._flight_end: tuple[_Segment, float] | None = None
         self._fixed_s = self.t_s  # the last time navigation fixes were taken up to
         self._swept: tuple[Point3, float] = (self.pos, self.odometer_m)  # the camera's last
         self.treatments: list[Treatment] = []
@@ -282,7 +285,16 @@ class SimVehicle:
         self.odometer_m = seg.odometer0_m + run_m
 
     def _flight_end_s(self) -> float:
-        """When the flight under way ends (from the segment's origin: independent of polling)."""
+        """When the flight under way ends (from the segment's origin: independent of polling;
+        kept per segment)."""
+        cached = self._flight_end
+        if cached is not None and cached[0] is self._segment:
+            return cached[1]
+        t = self._sum_flight_s()
+        self._flight_end = (self._segment, t)
+        return t
+
+    def _sum_flight_s(self) -> float:
         t = self._segment.end_s
         prev = self._seg_end if self._waypoints else self.pos
         odometer = self._segment.odometer0_m + math.dist(self._segment.origin, prev)
@@ -309,7 +321,7 @@ class SimVehicle:
     # -- station keeping and the camera ----------------------------------------------------
 
     def _keep_station(self, cmd: StationKeep) -> None:
-        self._waypoints, self.target = [], None
+        self._waypoints, self.target, self._flight_end = [], None, None
         if cmd.work is Work.WAIT:
             self.phase, self._work = Phase.HOLDING, None
             return

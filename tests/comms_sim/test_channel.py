@@ -381,3 +381,22 @@ def test_link_event_codec_round_trip_and_garbage() -> None:
             LinkEvent.decode(garbage)
     with pytest.raises(ValueError):
         LinkEvent("a", "b", 0.0, 1.0, 1, False, "gremlins", b"x")
+
+
+def test_a_reception_lost_from_the_start_asks_for_no_wake_up() -> None:
+    """A frame cut off by a partition (or out of range, or too weak alone) is lost whatever
+    happens next: it is settled in its place in time order when the channel next runs past
+    it, and never wakes the simulation by itself (100 vehicles: most receptions are such)."""
+    ch = channel(a=0.0, z=150.0, b=1500.0, far=9000.0)  # far: beyond max_range_m
+    ch.add_partition(Partition(0.0, 100.0, (("a", "b", "far"), ("z",))))
+    ch.submit("a", b"m", 1.0)
+    ch.advance(1.0)  # the transmission starts
+    airtime = ch.airtime_s(1)
+    to_b = 1.0 + 1500.0 / ch.config.sound_speed_mps + airtime
+    assert ch.next_due_s() == pytest.approx(to_b)  # not a->z's earlier end
+    events = ch.advance(to_b)
+    assert [(e.dst, e.reason) for e in events] == [("z", "partition"), ("b", None)]
+    assert events[0].t_s < events[1].t_s  # in time order, settled together
+    assert ch.next_due_s() is not None and ch.next_due_s() > to_b  # nothing else left: far
+    assert [(e.dst, e.reason) for e in run(ch)] == [("far", "range")]
+    assert totals(ch.stats())["sent"] == 3
