@@ -140,6 +140,9 @@ class Membership:
         self._due: list[tuple[float, int]] = []
         for v in self.peers:
             self._queue(v)
+        # Peers suspected or lost: those `heard_field` may lead its window with (a frame of a
+        # 100-vehicle fleet scanned all 99 peers for the few it doubts).
+        self._doubted: set[int] = set()
 
     @property
     def period_s(self) -> float:
@@ -158,11 +161,16 @@ class Membership:
             p.queued = True
             heapq.heappush(self._due, (self._deadline(v, self._checked_s), v))
 
-    def _set(self, p: Peer, status: str, now_s: float) -> None:
+    def _set(self, v: int, status: str, now_s: float) -> None:
+        p = self.peers[v]
         if (p.status in WORKING) != (status in WORKING):
             self.alive_version += 1
         p.status, p.since_s = status, now_s
         p.witnesses.clear()
+        if status in (SUSPECT, LOST):
+            self._doubted.add(v)
+        else:
+            self._doubted.discard(v)
         self.version += 1
 
     def lost_after_s(self, v: int, t_s: float, since_s: float | None = None) -> float:
@@ -203,10 +211,10 @@ class Membership:
             return False
         p.evidence_s = t_s
         if p.status == SUSPECT and now_s < t_s + self.lost_after_s(v, now_s, t_s):
-            self._set(p, ALIVE, now_s)  # only suspected: nobody acted on it
+            self._set(v, ALIVE, now_s)  # only suspected: nobody acted on it
             self._queue(v)
         elif p.status == LOST and t_s > p.since_s:
-            self._set(p, ALIVE, now_s)
+            self._set(v, ALIVE, now_s)
             self._queue(v)
             return True
         return False
@@ -216,7 +224,7 @@ class Membership:
         p = self.peers[v]
         if p.status in (ABORTED, HOME) or p.status == status:
             return False
-        self._set(p, status, now_s)
+        self._set(v, status, now_s)
         return True
 
     def check(self, now_s: float) -> list[int]:
@@ -232,7 +240,7 @@ class Membership:
             if now_s < self._deadline(v, now_s):  # heard since, or its turns grew longer
                 self._queue(v)
                 continue
-            self._set(p, SUSPECT, now_s)
+            self._set(v, SUSPECT, now_s)
             suspected.append(v)
         return sorted(suspected)
 
@@ -255,7 +263,7 @@ class Membership:
                 continue
             p.witnesses.add(sender)
             if len(p.witnesses) + 1 >= OBSERVERS:
-                self._set(p, LOST, now_s)
+                self._set(v, LOST, now_s)
                 lost.append(v)
         return lost
 
@@ -311,7 +319,7 @@ class Membership:
         return (1.0 - self.reception(now_s)) ** (2.0 * self.lost_after_cycles)
 
     def suspects(self) -> list[int]:
-        return [v for v, p in self.peers.items() if p.status == SUSPECT]
+        return [v for v in sorted(self._doubted) if self.peers[v].status == SUSPECT]
 
     def next_deadline_s(self) -> float | None:
         """When `check` could next find a silent peer (the silence thresholds as they stand
@@ -341,7 +349,7 @@ class Membership:
         cycle = int(now_s // period)
         offset = heard_offset(self.me, cycle, n)
         if n > heard_window(n):
-            urgent = [v for v, p in self.peers.items()
+            urgent = [v for v, p in ((u, self.peers[u]) for u in sorted(self._doubted))
                       if (p.status == SUSPECT or (p.status == LOST and now_s - p.since_s
                                                   <= self.lost_after_s(v, now_s)))
                       and self._judges(v, now_s)]
