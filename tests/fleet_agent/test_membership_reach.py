@@ -136,3 +136,27 @@ def test_only_a_vehicle_that_heard_the_suspect_about_as_late_as_anyone_judges_it
     m.heard(2, 119.0, 119.5)
     assert m.check(120.0) == [1]
     assert m.confirm(2, never(3, 1), sent_s=122.0, now_s=123.0) == [1]
+
+
+def test_the_doubted_peers_follow_every_change_of_status() -> None:
+    """`suspects` and the heard window's lead come from the peers membership doubts, kept as
+    statuses change rather than scanned from the roster: they agree with the roster at every
+    step (suspected, revived, aborted, lost)."""
+    n = 40
+    x = {v: 100.0 * v for v in range(n)}  # all within reach of one another
+    m = member(0, x)
+
+    def scanned() -> list[int]:
+        return [v for v in range(1, n) if m.status(v) == SUSPECT]
+
+    for v in range(1, n):
+        m.heard(v, 10.0, 10.5)
+    m.check(60.0)  # all silent since 10 s
+    assert m.suspects() == scanned() == list(range(1, n))
+    m.heard(5, 61.0, 61.5)  # revived
+    m.mark(7, "aborted", 62.0)  # announced its abort
+    for w in (1, 2):  # two witnesses confirm 9's silence
+        m.confirm(w, never(n, 9), 63.0, 63.5)
+    assert m.status(9) == LOST and m.status(5) == ALIVE
+    assert m.suspects() == scanned() and not {5, 7, 9} & set(m.suspects())
+    assert m.heard_field(64.0).offset in m.suspects() + [9]
