@@ -288,19 +288,8 @@ class Knowledge:
         slot more, and proven its claimer's a cycle later; by then, on a working link, we know
         we lost the spot. Without the wait, two vehicles near a find that both claimed it
         seconds apart each treat it."""
-        names = self.names(task)
-        c: float | None
-        if len(names) == 1:  # asked for every spot of the route at every step: kept short
-            c = self.holdings.claim_time(task, self.index)
-        else:
-            c = max((t for t in (self.holdings.claim_time(n, self.index) for n in names) if t),
-                    default=None)
-            if c:
-                # One aggregation under several names: the claims under a name learned after
-                # ours were in flight before we knew to look for them; they get a cycle.
-                finds = self.beliefs.finds
-                c = max([c, *(finds[t].learned_s for t in names if t in finds)])
-        return float(c) + self.claim_settle_s if c else 0.0
+        c = own_claim_s(self, task)
+        return c + self.claim_settle_s if c else 0.0
 
     def standing_claims(self) -> dict[int, int]:
         """Spots this vehicle claimed after the initial plan and still holds: spot -> time."""
@@ -395,3 +384,22 @@ class Knowledge:
     def priority_of(self, tasks: Iterable[int]) -> float:
         priority = self.problem.priority
         return float(sum(priority[t] for t in tasks))
+
+
+def own_claim_s(know: Knowledge, task: int) -> float:
+    """When this vehicle's claim of ``task`` counts from (0: its initial plan's, or none):
+    what `Knowledge.settled_s` waits from, and what `policies.unproven` compares a rival
+    claim with."""
+    names = know.names(task)
+    c: float | None
+    if len(names) == 1:  # asked for every spot of the route at every step: kept short
+        c = know.holdings.claim_time(task, know.index)
+    else:
+        c = max((t for t in (know.holdings.claim_time(n, know.index) for n in names) if t),
+                default=None)
+        if c:
+            # One aggregation under several names: the claims under a name learned after
+            # ours were in flight before we knew to look for them; they get a cycle.
+            finds = know.beliefs.finds
+            c = max([c, *(finds[t].learned_s for t in names if t in finds)])
+    return float(c) if c else 0.0

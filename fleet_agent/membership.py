@@ -349,9 +349,9 @@ class Membership:
         cycle = int(now_s // period)
         offset = heard_offset(self.me, cycle, n)
         if n > heard_window(n):
-            urgent = [v for v, p in ((u, self.peers[u]) for u in sorted(self._doubted))
-                      if (p.status == SUSPECT or (p.status == LOST and now_s - p.since_s
-                                                  <= self.lost_after_s(v, now_s)))
+            urgent = [v for v in sorted(self._doubted)  # suspected, or lost within a threshold
+                      if (self.peers[v].status == SUSPECT
+                          or now_s - self.peers[v].since_s <= self.lost_after_s(v, now_s))
                       and self._judges(v, now_s)]
             if urgent:
                 offset = urgent[cycle % len(urgent)]

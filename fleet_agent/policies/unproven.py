@@ -23,7 +23,7 @@ from __future__ import annotations
 from typing import Iterable
 
 from fleet_agent.association import found, same_aggregation
-from fleet_agent.knowledge import Knowledge
+from fleet_agent.knowledge import Knowledge, own_claim_s
 from fleet_agent.policies.plausible import been_there
 from fleet_agent.wire import Claim, Found, Message
 
@@ -31,10 +31,9 @@ from fleet_agent.wire import Claim, Found, Message
 def rival(know: Knowledge, held: Iterable[Message], task: int, now: float) -> bool:
     """Does a frame in ``held`` (unproven, `Provenance.unproven`) say what would take
     ``task``, claimed by this vehicle, from it (the module docstring)?"""
-    settled = know.settled_s(task)
-    if not settled:
+    since = own_claim_s(know, task)
+    if not since:
         return False  # the initial plan's: no claim is earlier
-    since = settled - know.claim_settle_s + 1e-6  # our claim's time (whole seconds, or more)
     b = know.beliefs
     names = set(know.names(task))
     is_find = b.is_find_slot(task)
