@@ -200,6 +200,8 @@ class OwnVehicle:
         self.frame.nav(nav.sigma_m, nav.pos)
         pos = self.frame.to_map(as_point3(nav.pos)) if self.frame.enabled else \
             as_point3(nav.pos)
+        if self.problem.land is not None:  # a drifted estimate may lie on land: paths start at sea
+            pos = as_point3(self.problem.land.to_water(pos))
         if nav.odometer_m is not None:
             self.distance_m = float(nav.odometer_m)
         elif nav.t_s >= self.t_s:

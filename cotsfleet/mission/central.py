@@ -208,6 +208,8 @@ class Central:
 
     def _fix(self, seat: Seat, nav: NavFix) -> None:
         seat.est, seat.sigma_m = as_point3(nav.pos), float(nav.sigma_m)
+        if self.problem.land is not None:  # a drifted estimate may lie on land (as the agent's)
+            seat.est = as_point3(self.problem.land.to_water(seat.est))
         if nav.odometer_m is not None:
             seat.distance_m = float(nav.odometer_m)
         if not seat.track or seat.track[-1] != seat.est[:2]:

@@ -63,6 +63,26 @@ class LandMap:
         if len(bad):
             raise LandError(f"{what} {np.asarray(xyz)[bad[0]].tolist()} is on land")
 
+    def to_water(self, p: Sequence[float]) -> tuple[float, ...]:
+        """``p`` if it is in the water, else the nearest point of the coast pushed
+        ``clearance_m`` out to sea (the nearest sea corner if that lands on other land).
+        A vehicle is always in the water; its estimate of where it is may not be (a drifted
+        dead reckoning near the shore), and paths must start from the sea."""
+        xy = np.asarray(p, dtype=float)[:2]
+        if not self.inside(xy)[0]:
+            return tuple(float(c) for c in p)
+        a, e = self._a, self._b - self._a
+        t = np.clip(((xy - a) * e).sum(axis=1) / np.maximum((e * e).sum(axis=1), 1e-300), 0, 1)
+        foot = a + t[:, None] * e
+        gap = np.linalg.norm(foot - xy, axis=1)
+        i = int(gap.argmin())
+        # Outward normal of a CCW edge: right of its direction (as `_corners`).
+        n = np.array([e[i, 1], -e[i, 0]]) / max(float(np.linalg.norm(e[i])), 1e-300)
+        out = foot[i] + n * self.clearance_m
+        if self.inside(out)[0] and len(self.corners):
+            out = self.corners[int(np.linalg.norm(self.corners - xy, axis=1).argmin())]
+        return (float(out[0]), float(out[1]), *(float(c) for c in p[2:]))
+
     def visible(self, p: ArrayLike, q: ArrayLike) -> np.ndarray:
         """Elementwise: does the segment ``p[i] -> q[i]`` stay out of every polygon's interior?"""
         p = np.atleast_2d(np.asarray(p, dtype=float))[:, :2]

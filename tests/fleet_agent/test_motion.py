@@ -182,3 +182,19 @@ def test_the_vehicle_knows_where_it_was() -> None:
     assert own.position_at(385.0)[0] == pytest.approx(385.0)  # between the last point and now
     assert own.position_at(-50.0) == (0.0, 0.0, 0.0)
     assert len(own.trail) == math.ceil(400 / motion.TRAIL_STEP_S)
+
+
+def test_an_estimate_on_land_is_taken_at_the_nearest_sea() -> None:
+    """A drifted dead reckoning near the shore puts the vehicle's estimate on the island
+    (Green Island at 1 % drift: a path from it raised `LandError` and ended the mission).
+    The vehicle is at sea: its position is the nearest sea, and its route is timed from
+    there."""
+    island = [(40.0, -20.0), (60.0, -20.0), (60.0, 20.0), (40.0, 20.0)]
+    tasks = [Task(1, (100.0, 0.0, -10.0), 50.0, 60.0), Task(2, (0.0, 100.0, 0.0), 70.0, 75.0)]
+    spec = Spec("auv1", (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 3600.0, 1.0)
+    p = Problem.build("island", [spec], tasks, [island])
+    own = motion.OwnVehicle(p, 0, path_function(p), conduct())
+    own.set_route([0, 1])
+    own.fix(NavFix(10.0, (45.0, 2.0, -3.0), sigma_m=8.0))
+    assert own.pos == pytest.approx((39.5, 2.0, -3.0))  # the west coast, the clearance out
+    assert math.isfinite(own.time_to_finish_s())

@@ -98,6 +98,22 @@ def test_points_on_land_are_errors():
     assert not land.inside(np.array([[0.0, 5.0]]))[0]  # on the coast is water
 
 
+@pytest.mark.parametrize("point, expected", [
+    ((3.0, 5.0, -4.0), (-0.5, 5.0, -4.0)),    # nearest the west coast: out past it, depth kept
+    ((5.0, 9.0, -2.0), (5.0, 10.5, -2.0)),    # nearest the north coast
+    ((12.0, 5.0, -1.0), (12.0, 5.0, -1.0)),   # already at sea: unchanged
+    ((25.0, 4.0, -3.0), (25.0, -0.5, -3.0)),  # the U's south wall: the nearest coast is below
+])
+def test_a_point_on_land_goes_to_the_nearest_sea_past_the_clearance(point, expected):
+    """A drifted dead reckoning near the shore puts the vehicle's estimate on land; paths
+    must start at sea (`LandMap.to_water`): the nearest coast, `clearance_m` out."""
+    land = LandMap([SQUARE] if point[0] < 20 else [U_SHAPE], clearance_m=0.5)
+    out = land.to_water(point)
+    assert out == pytest.approx(expected)
+    assert not land.inside(np.array([out]))[0]
+    land.shortest_path(out, (40.0, 40.0, 0.0))  # paths start from it without an error
+
+
 def test_problem_with_land_rejects_a_spot_on_land_and_keeps_its_land_map():
     vehicles = [Vehicle("a", (-5, 5, 0), (15, 5, 0), 100.0, 1.0)]
     with pytest.raises(ScenarioError, match="task 1: pos .* on land"):
