@@ -73,8 +73,10 @@ class Knowledge:
         self.replay = ReplayWindow()
         self.treated: list[tuple[int, float]] = []  # own treatments: (task, time), in order
         self.peer_pose: dict[int, PeerPose] = {}
-        # Spots a peer that fell silent had probably treated before (its clear may have died
-        # with it): left out of every plan of this vehicle (`policies.takeover`).
+        # Spots left out of every plan of this vehicle, not cleared (others may work them):
+        # those a peer that fell silent had probably treated before (its clear may have died
+        # with it, `policies.takeover`), and those whose look showed a find a peer holds
+        # (`policies.discovery`).
         self.doubtful: set[int] = set()
         # Finds left out of plans while a find some peer has cleared is unknown here and that
         # peer may have been at them (`policies.discovery.await_gaps`): its FOUND was lost,

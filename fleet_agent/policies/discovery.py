@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from fleet_agent.association import (Estimate, could_be_treated, distance2, feature2,
-                                     probably_treated, sighting)
+                                     probably_treated, same_aggregation, sighting)
 from fleet_agent.beliefs import EMPTY, UNKNOWN
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Hold, Intent, Note, Owe, SeekWork, Tell
@@ -41,9 +41,11 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
     own = know.own
     if own.inspecting != r.task:
         return [Count("inspection_stale")]  # the look was abandoned meanwhile
-    if r.present and r.pos is not None and \
-            _treated_already(know, r.task, _seen(know, r.pos, r.priority)):
+    seen = _seen(know, r.pos, r.priority) if r.present and r.pos is not None else None
+    if seen is not None and _treated_already(know, r.task, seen):
         return _treated_at_look(know, config, r)
+    if seen is not None and _held_find(know, seen) is not None:
+        return _left_to_finder(know, config, r)
     if r.present:
         know.beliefs.learn(r.task, True, r.priority, r.service_s)  # a look is sure
         if r.pos is not None and r.task < know.beliefs.n and _landmark(know, r.pos, r.task):
@@ -83,6 +85,39 @@ def _treated_already(know: Knowledge, task: int, est: Estimate) -> bool:
     own = distance2(est, b.estimate(task), b.params)
     return any(distance2(est, t, b.params) < own and could_be_treated(est, t, b.params)
                for t in treated)
+
+
+def _held_find(know: Knowledge, est: Estimate) -> int | None:
+    """A find another vehicle holds (its finder from its FOUND on, or a claim) that ``est``
+    is, its rho alike (both measured): the look shows that find's aggregation, or None.
+    The map's spots are distinct, but a drifted vehicle may have named a spot's own
+    aggregation a find (hard seed 40, 1 % drift: auv3, 16 m off, named spot 30's
+    aggregation find 140 and treated it at 636 s; auv1 looked at spot 30 at 660 s, knowing
+    find 140 and its holder but not yet its clear, and injected it again)."""
+    b = know.beliefs
+    if b.exact or est.priority is None:
+        return None
+    for slot, f in b.finds.items():
+        if slot in know.cleared or slot in b.alias:
+            continue
+        holder = know.holder(slot)
+        if holder is not None and holder != know.index and \
+                same_aggregation(est, b.find_estimate(f), b.params):
+            return slot
+    return None
+
+
+def _left_to_finder(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
+    """The look shows a find a peer holds: not injected here, and the spot left out of this
+    vehicle's plans (`Knowledge.doubtful`), not cleared: the fleet learns nothing false (a
+    spot cleared here would make every peer judge the find treated, its holder included,
+    before anyone treated it). When the find is cleared, `fold_treated` judges the spot."""
+    if know.own.looked(r.task, None, r.t_s) is None:
+        return []
+    know.doubtful.add(r.task)
+    know.touch()
+    return [Count("looks_left_to_finder"), Hold((r.task,), False),
+            *([SeekWork()] if config.discovery else [])]
 
 
 def _treated_at_look(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:

@@ -681,3 +681,33 @@ def test_a_spot_known_from_an_unsure_sighting_is_looked_at_before_it_is_injected
     if looks:  # the look settles it: injected, and no look again
         agent.step(Tick(30.0), [Looked(30.0, spot, True, 50.0, 60.0)])
         assert agent.own.injecting == spot and not b.unknown(spot)
+
+
+@pytest.mark.parametrize("rho, left", [(48.0, True), (150.0, False)])
+def test_a_look_showing_a_find_a_peer_holds_is_left_to_it(rho, left):
+    """Hard seed 40 at 1 % drift: auv3, 16 m off, named predicted spot 30's aggregation a
+    find and treated it; auv1 looked at spot 30 before that clear reached it, knowing the
+    find and its holder, and injected it again. A look showing a find a peer holds, rho
+    alike, is that find: not injected, the spot left out of this vehicle's plans and not
+    cleared (the fleet would judge the find treated before anyone treated it). Of another
+    rho it is the spot's own aggregation, injected."""
+    f = build(EXACT)
+    agent = Agent(f, 0, EXACT)
+    know, b = agent.know, agent.know.beliefs
+    u = _lonely_spot(f)
+    q = f.dynamic.scenario.tasks[u].pos
+    slot = b.n + EXACT.find_slots  # auv2's find, 14 m east of the spot: auv2 holds it
+    assert b.add_find(slot, (q[0] + 14.0, q[1], q[2]), 48.0, 60.0, 5.0, DRIFT_SIGMA)
+    know.holdings.found(slot, 1)
+    assert know.holder(slot) == 1
+    agent.step(Tick(1.0), [NavFix(1.0, agent.own.pos, sigma_m=6.0)])
+    agent.own.set_route([u])
+    agent.step(Tick(10.0), [NavFix(10.0, q, sigma_m=6.0), Arrived(10.0, u)])
+    assert agent.own.inspecting == u
+    agent.step(Tick(40.0), [Looked(40.0, u, True, rho, 60.0, (q[0] + 4.0, q[1], q[2]))])
+    assert (agent.own.injecting == u) is not left
+    assert (u in know.doubtful) is left
+    assert u not in know.cleared and slot not in know.cleared
+    assert agent.counters.get("looks_left_to_finder", 0) == int(left)
+    if left:
+        assert u not in agent.own.route and u in know.unavailable(41.0)
