@@ -169,12 +169,19 @@ class Planner:
         from hfc_core.model.live import IndexedVehicle
         from hfc_core.replan import replan_indexed
 
-        live = [IndexedVehicle(v.index, (float(v.pos[0]), float(v.pos[1]), float(v.pos[2])),
-                               max(0.0, v.battery_s - self.reserve_s),
+        # Every position here is an estimate (own dead reckoning, a peer's pose carried
+        # forward along its route): near a coast it may lie on land, where the vehicle is
+        # not; the planner takes it at the nearest sea (`LandMap.to_water`).
+        sea = (lambda q: q) if problem.land is None else problem.land.to_water
+        live = [IndexedVehicle(v.index, _xyz(sea(v.pos)), max(0.0, v.battery_s - self.reserve_s),
                                route=v.route, locked=v.locked) for v in vehicles]
         with _planning():
             return replan_indexed(problem, live, cleared=unavailable, held=held,
                                   max_iterations=self.replan_iterations, seed=seed)
+
+
+def _xyz(p: Sequence[float]) -> tuple[float, float, float]:
+    return (float(p[0]), float(p[1]), float(p[2]))
 
 
 def subproblem(problem: Problem, tasks: Sequence[int], vehicles: Sequence[int]) -> Problem:

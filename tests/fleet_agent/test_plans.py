@@ -172,3 +172,22 @@ def test_a_scoped_replan_touches_only_its_spots_and_fits_the_whole_problem() -> 
     assert scope[0] not in out[2]  # held by vehicle 5: only 5 may have it
     for v, r in out.items():
         assert fits(p.route_time_s(v, r), 3000.0 - RESERVE_S), v
+
+
+def test_a_replan_from_positions_on_land_plans_from_the_nearest_sea() -> None:
+    """Green Island at 1 % drift, auv1 killed at 790 s (mission seed 3): auv3's takeover
+    replan placed auv2 where its last pose, carried forward, put it: on the island, 7 m
+    from where auv2 believed it was; the planner's `LandError` ended the mission. The
+    vehicles are at sea: the replan takes each position at the nearest sea."""
+    from pathlib import Path
+    import json
+    doc = json.loads((Path(__file__).resolve().parents[2] / "examples" /
+                      "green_island.json").read_text())
+    problem = problem_from_dict(doc)
+    assert problem.land is not None
+    island = problem.land.polygons[0]
+    on_land = (float(island[:, 0].mean()), float(island[:, 1].mean()), -3.0)
+    assert problem.land.inside([on_land[:2]])[0]
+    live = [Live(0, on_land, 2000.0), Live(1, problem.vehicles[1].start, 2000.0)]
+    routes = Planner(problem, 0, 0, 60).replan(live, frozenset(), {}, seed=1)
+    assert routes[0] and routes[1]
