@@ -133,8 +133,8 @@ def one_size(path: Path, seed: int, kill_s: float) -> dict[str, Any]:
     end = doc["end_s"]
     vehicle_hours = problem.n_vehicles * end / 3600.0
     # The work simulated: a vehicle home before the end costs little (it listens), and the
-    # sizes' areas make the work per vehicle differ (25 spots over 9 km2 per 24 vehicles,
-    # over 64 km2 per 100), so the battery the vehicles used says what was flown.
+    # sizes' areas make the work per vehicle differ (600 spots over 9 km2 for 24 vehicles,
+    # 2500 over 64 km2 for 100), so the battery the vehicles used says what was flown.
     at_sea_h = sum(v["battery_used_s"] for v in doc["vehicles"]) / 3600.0
     flown_km = sum(v["distance_m"] for v in doc["vehicles"]) / 1000.0
     used_s = statistics.median(v["battery_used_s"] for v in doc["vehicles"])

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, Callable, Collection, Iterator, Mapping, 
 import numpy as np
 
 from fleet_bus.tdma import Track
+from hfc_core.model.paths import as_point3
 from hfc_core.model.problem import Problem
 
 if TYPE_CHECKING:
@@ -173,15 +174,12 @@ class Planner:
         # forward along its route): near a coast it may lie on land, where the vehicle is
         # not; the planner takes it at the nearest sea (`LandMap.to_water`).
         sea = (lambda q: q) if problem.land is None else problem.land.to_water
-        live = [IndexedVehicle(v.index, _xyz(sea(v.pos)), max(0.0, v.battery_s - self.reserve_s),
+        live = [IndexedVehicle(v.index, as_point3(sea(v.pos)),
+                               max(0.0, v.battery_s - self.reserve_s),
                                route=v.route, locked=v.locked) for v in vehicles]
         with _planning():
             return replan_indexed(problem, live, cleared=unavailable, held=held,
                                   max_iterations=self.replan_iterations, seed=seed)
-
-
-def _xyz(p: Sequence[float]) -> tuple[float, float, float]:
-    return (float(p[0]), float(p[1]), float(p[2]))
 
 
 def subproblem(problem: Problem, tasks: Sequence[int], vehicles: Sequence[int]) -> Problem:

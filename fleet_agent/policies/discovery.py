@@ -42,10 +42,14 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
     if own.inspecting != r.task:
         return [Count("inspection_stale")]  # the look was abandoned meanwhile
     seen = _seen(know, r.pos, r.priority) if r.present and r.pos is not None else None
-    if seen is not None and _treated_already(know, r.task, seen):
-        return _treated_at_look(know, config, r)
-    if seen is not None and _held_find(know, seen) is not None:
-        return _left_to_finder(know, config, r)
+    if seen is not None:  # COTS that are not to be injected here: on to the next spot
+        skip = _treated_at_look if _treated_already(know, r.task, seen) else \
+            _left_to_finder if _held_find(know, seen) is not None else None
+        if skip is not None:
+            if own.looked(r.task, None, r.t_s) is None:
+                return []
+            know.touch()
+            return skip(know, r) + ([SeekWork()] if config.discovery else [])
     if r.present:
         know.beliefs.learn(r.task, True, r.priority, r.service_s)  # a look is sure
         if r.pos is not None and r.task < know.beliefs.n and _landmark(know, r.pos, r.task):
@@ -107,28 +111,20 @@ def _held_find(know: Knowledge, est: Estimate) -> int | None:
     return None
 
 
-def _left_to_finder(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
+def _left_to_finder(know: Knowledge, r: Looked) -> list[Intent]:
     """The look shows a find a peer holds: not injected here, and the spot left out of this
     vehicle's plans (`Knowledge.doubtful`), not cleared: the fleet learns nothing false (a
     spot cleared here would make every peer judge the find treated, its holder included,
     before anyone treated it). When the find is cleared, `fold_treated` judges the spot."""
-    if know.own.looked(r.task, None, r.t_s) is None:
-        return []
     know.doubtful.add(r.task)
-    know.touch()
-    return [Count("looks_left_to_finder"), Hold((r.task,), False),
-            *([SeekWork()] if config.discovery else [])]
+    return [Count("looks_left_to_finder"), Hold((r.task,), False)]
 
 
-def _treated_at_look(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
+def _treated_at_look(know: Knowledge, r: Looked) -> list[Intent]:
     """The look shows an aggregation this vehicle treated: not injected again, and the spot
     is taken as treated (it is the one the map put there, or it was never seen: either way
     nobody is to inject there again), as `fold_treated` judges one."""
-    if know.own.looked(r.task, None, r.t_s) is None:
-        return []
-    know.touch()
-    out = [Count("looks_treated"), *_judge_treated(know, (r.task,), r.t_s, owe=True)]
-    return out + ([SeekWork()] if config.discovery else [])
+    return [Count("looks_treated"), *_judge_treated(know, (r.task,), r.t_s, owe=True)]
 
 
 def _judge_treated(know: Knowledge, tasks: tuple[int, ...], t_s: float,
