@@ -78,7 +78,8 @@ class Agent:
         beliefs = Beliefs(fleet.given, None if dyn is None else dyn.camera, config, index,
                           fleet.seed, slots.cycle_s, fleet.planner, p)
         self.own = OwnVehicle(p, index, fleet.paths, Conduct(
-            self._settled_s, beliefs.unknown, 0.0 if dyn is None else dyn.camera.inspect_s,
+            self._settled_s, lambda task: discovery.needs_look(self.know, task),
+            0.0 if dyn is None else dyn.camera.inspect_s,
             config.battery_reserve_s, self._held_back), now)
         self.own.frame.enabled = dyn is not None and config.map_relative_nav
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)

@@ -146,6 +146,10 @@ class AgentConfig:
     # this is looked at before it is injected: the vehicle may be a look's footprint (15 m,
     # 3.75 sigma of 4 m) off where it thinks, and would inject a neighbour or bare seabed.
     look_first_sigma_m: float = 4.0
+    # A find is looked at before it is injected when the chance that the vehicle stands
+    # nearer a treated aggregation of another rho than the find (so that it would inject
+    # that one again: `discovery.needs_look`) exceeds this.
+    look_first_p: float = 0.05
     # Map-relative navigation: a sighting surely of a predicted spot tells the vehicle its
     # navigation error (the map is the landmark); goals and reports are corrected by it.
     map_relative_nav: bool = True
@@ -189,7 +193,7 @@ class AgentConfig:
             value = getattr(self, name)
             if not (isinstance(value, int) and value >= 0):
                 raise ValueError(f"agent config: {name} must be an integer >= 0, got {value!r}")
-        for name in ("p_cots", "p_cots_near_find"):
+        for name in ("p_cots", "p_cots_near_find", "look_first_p"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
                 raise ValueError(f"agent config: {name} must be in 0..1, got {value!r}")

@@ -1,6 +1,7 @@
 """The camera's figures: what an agent may know of the instrument its vehicle carries.
 
-A look at a predicted spot takes ``inspect_s``; along the track an aggregation within
+A look at a spot takes ``inspect_s`` and sees the seabed within ``look_radius_m`` of where the
+vehicle really is; along the track an aggregation within
 ``detect_radius_m`` is seen with probability ``p_detect`` per pass. The camera itself (on a
 real vehicle, its detector; in emulation, `reef_sim.camera` on the hidden reef) reports
 through the vehicle port (`fleet_bus.vehicle_port`: `Looked`, `Sighted`): the decision logic
@@ -19,3 +20,4 @@ class Camera:
     detect_radius_m: float
     p_detect: float
     inspect_s: float
+    look_radius_m: float = 15.0  # the look's footprint (`reef_sim.truth.DEFAULT_LOOK_RADIUS_M`)

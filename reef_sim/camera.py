@@ -9,7 +9,11 @@ Two things the camera does, both pure and seeded:
   vehicle's true position (`look`). A vehicle whose navigation put it farther off sees
   nothing there. Other aggregations around are the sweep's (the camera is always on), so a
   look answers one question, whether the predicted aggregation is here, and with exact
-  navigation it answers it as the truth's own bookkeeping does (`inspect`);
+  navigation it answers it as the truth's own bookkeeping does (`inspect`). A look at a
+  find (a task from ``n_predicted`` on: a slot an agent named, whose aggregation the map
+  does not name) shows the aggregation nearest under the camera within the footprint, the
+  one an injection there would treat (`treated`): which aggregation that is, the agent
+  tells from the rho it measures;
 - *sighting*: along any path (transit included), a truth spot within ``detect_radius_m`` of
   the vehicle's true track is seen with probability ``p_detect`` per pass. A pass begins when
   the track comes within reach of the spot after being out of it; each pass has its own draw,
@@ -99,8 +103,12 @@ class ReefCamera:
     # rounding of positions computed along a leg.
     REACH_EPS_M = 1e-6
 
-    def __init__(self, reef: Reef, seed: int, vehicle: int) -> None:
+    def __init__(self, reef: Reef, seed: int, vehicle: int,
+                 n_predicted: int | None = None) -> None:
+        """``n_predicted``: the map's spots; tasks from it on are finds (None: every task
+        is a predicted spot)."""
         self.reef, self.seed, self.vehicle = reef, int(seed), int(vehicle)
+        self.n_predicted = n_predicted
         self._xyz = np.array([s.pos for s in reef.spots], dtype=float).reshape(-1, 3)
         self._inside = np.zeros(len(reef.spots), dtype=bool)
         self._passes = np.zeros(len(reef.spots), dtype=np.int64)
@@ -130,9 +138,16 @@ class ReefCamera:
                                      entry_point(a, pos, s.pos, self.reach_m)))
         return seen
 
-    def inspect(self, task: int) -> Inspection:
+    def is_find(self, task: int) -> bool:
+        """Is ``task`` a find (a slot an agent named), not a predicted spot?"""
+        return self.n_predicted is not None and task >= self.n_predicted
+
+    def inspect(self, task: int, pos: Point3 | None = None) -> Inspection:
         """What predicted spot ``task`` really holds (the truth's bookkeeping, wherever the
-        vehicle is: for a helm that does not say where it really is)."""
+        vehicle is: for a helm that does not say where it really is). A find holds what
+        lies under the camera at ``pos`` (`look`), nothing without one."""
+        if self.is_find(task):
+            return Inspection(False) if pos is None else self.look(task, pos)
         i = self.reef.of_task(task)
         if i is None:
             return Inspection(False)
@@ -140,16 +155,26 @@ class ReefCamera:
         return Inspection(True, s.priority, s.service_s)
 
     def look(self, task: int, pos: Point3) -> Inspection:
-        """What a look at predicted spot ``task`` shows with the vehicle really at ``pos``:
-        the aggregation the spot names if it lies within ``look_radius_m`` (horizontally: the
-        camera looks down at the seabed), else nothing."""
-        i = self.reef.of_task(task)
+        """What a look at ``task`` shows with the vehicle really at ``pos`` (`seen_by_look`):
+        the aggregation's rho and injection time, or nothing."""
+        i = self.seen_by_look(task, pos)
         if i is None:
             return Inspection(False)
         s = self.reef.spots[i]
-        if math.dist(s.pos[:2], pos[:2]) > self.reef.look_radius_m + self.REACH_EPS_M:
-            return Inspection(False)
         return Inspection(True, s.priority, s.service_s)
+
+    def seen_by_look(self, task: int, pos: Point3) -> int | None:
+        """The truth spot a look at ``task`` sees with the vehicle really at ``pos``: at a
+        predicted spot the aggregation it names if within ``look_radius_m`` (horizontally:
+        the camera looks down at the seabed), at a find the nearest aggregation within it;
+        None: nothing."""
+        if self.is_find(task):
+            return self._nearest_under(pos)
+        i = self.reef.of_task(task)
+        if i is None or math.dist(self.reef.spots[i].pos[:2], pos[:2]) > \
+                self.reef.look_radius_m + self.REACH_EPS_M:
+            return None
+        return i
 
     def treated(self, task: int | None, pos: Point3) -> int | None:
         """The truth spot an injection at ``pos`` treats (the world's bookkeeping): the one
@@ -159,8 +184,12 @@ class ReefCamera:
         reach = self.reef.look_radius_m + self.REACH_EPS_M
         if i is not None and math.dist(self.reef.spots[i].pos[:2], pos[:2]) <= reach:
             return i
+        return self._nearest_under(pos)
+
+    def _nearest_under(self, pos: Point3) -> int | None:
+        """The truth spot nearest ``pos`` within the look's footprint, or None."""
         if not len(self._xyz):
             return None
         d = np.hypot(self._xyz[:, 0] - pos[0], self._xyz[:, 1] - pos[1])
         j = int(np.argmin(d))
-        return j if d[j] <= reach else None
+        return j if d[j] <= self.reef.look_radius_m + self.REACH_EPS_M else None

@@ -337,10 +337,11 @@ class SimVehicle:
         assert work is not None
         if work.work is Work.LOOK:
             assert self.camera is not None
-            seen = self.camera.look(work.task, self.pos)
-            i = self.camera.reef.of_task(work.task)
-            return Looked(self.t_s, work.task, seen.present, seen.priority, seen.service_s,
-                          self._measured(i) if seen.present and i is not None else None)
+            i = self.camera.seen_by_look(work.task, self.pos)
+            if i is None:
+                return Looked(self.t_s, work.task, False, 0.0, 0.0, None)
+            s = self.camera.reef.spots[i]
+            return Looked(self.t_s, work.task, True, s.priority, s.service_s, self._measured(i))
         spot = None if self.camera is None else self.camera.treated(work.task, self.pos)
         self.treatments.append(Treatment(self.t_s, work.task, self.pos, spot))
         if spot is None:

@@ -136,10 +136,16 @@ def build_report(problem: Problem, ledger: FleetLedger, link: LinkCounts | None,
                     if e.id == v.id and e.kind == EventKind.LOST and e.peer == gone and e.t_s >= t0]
             row[v.id] = round(min(seen) - t0, 1) if seen else None
         detection[gone] = row
+    # A 'lost' is true from the vehicle's first kill or abort on: a vehicle killed, restarted
+    # and killed again keeps its first kill here (``killed`` holds its last, for detection),
+    # else its first kill's detections counted as false alarms (a fault fuzz: preset seed 59).
+    out_from: dict[str, float] = {}
+    for f in faults:
+        if f.kind in (FaultKind.KILL, FaultKind.ABORT):
+            out_from[f.vid] = min(f.t_s, out_from.get(f.vid, f.t_s))
     false_alarms = sum(
         1 for e in events if e.kind == EventKind.LOST and e.detail == "silent"
-        and not (e.peer in killed and e.t_s >= killed[e.peer])
-        and not (e.peer in aborted and e.t_s >= aborted[e.peer]))
+        and not (e.peer in out_from and e.t_s >= out_from[e.peer]))
     taken_over = {t for e in events if e.kind == EventKind.TAKEOVER for t in e.tasks}
 
     agent_totals: dict[str, int] = {}

@@ -5,8 +5,9 @@ position): the adapter is given an object with two calls,
 
 - ``sweep(pos) -> [(pos, priority, service_s), ...]``: the aggregations seen along the track
   since the last call, the vehicle now at true position ``pos`` (scenario frame);
-- ``inspect(task) -> (present, priority, service_s)``: what hovering at predicted spot
-  ``task`` shows.
+- ``inspect(task, pos) -> (present, priority, service_s)``: what hovering at spot ``task``
+  shows: a predicted spot's aggregation as the truth has it, a find's (a task the map does
+  not name) what lies under the camera at true position ``pos`` (nothing without one).
 
 `reef_sim.camera.ReefCamera` has that shape. On board there is no
 camera object: the vehicle's detector posts detections as text (a MOOS variable, a ROS 2
@@ -35,7 +36,7 @@ MAX_DETECTION_CHARS = 512  # one detection is a short line; longer text is not o
 class Camera(Protocol):
     def sweep(self, pos: Point3) -> Iterable[SeenSpot]: ...
 
-    def inspect(self, task: int) -> tuple[bool, float, float]: ...
+    def inspect(self, task: int, pos: Point3 | None = None) -> tuple[bool, float, float]: ...
 
 
 class DetectionError(ValueError):

@@ -107,7 +107,8 @@ def open_vehicle(choice: HelmChoice, problem: Problem, index: int, *, clock: Clo
         sim = sim_vehicle(problem, index, seed=seed, reef=reef, t_s=t_s, pos=pos,
                           odometer_m=odometer_m)
         return sim, sim.true_pose
-    camera = ReefCamera(reef, seed, index) if choice.emulated and reef is not None else None
+    camera = (ReefCamera(reef, seed, index, problem.n_tasks)
+              if choice.emulated and reef is not None else None)
     start = problem.vehicles[index].start
     port: MoosHelm | Ros2Helm
     if choice.name == "moos":

@@ -160,6 +160,7 @@ class MoosHelm:
     def __init__(self, clock: Clock, config: MoosHelmConfig = MoosHelmConfig(),
                  camera: Camera | None = None, connect: bool = True) -> None:
         self.clock, self.config, self.camera = clock, config, camera
+        self._camera_at: Point3 | None = None  # the camera's last true position
         self._lock = threading.RLock()
         self._duty = Duty()
         self._reports = ReportBuffer(config.max_fixes, config.max_events)
@@ -304,8 +305,8 @@ class MoosHelm:
                 (ARRIVED_VAR, "false"), (MODE_VAR, mode)]
 
     def _look(self, task: int) -> tuple[bool, float, float]:
-        if self.camera is not None:
-            return self.camera.inspect(task)
+        if self.camera is not None:  # a find holds what lies under the camera
+            return self.camera.inspect(task, self._camera_at)
         seen = self._look_result
         if seen is not None and seen.task == task:
             self._look_result = None
@@ -375,6 +376,7 @@ class MoosHelm:
             true = self.config.frame.to_scenario(
                 self._truth["X"], self._truth["Y"], -self._truth.get("DEPTH", 0.0))
         if self.camera is not None:  # no camera on this vehicle: nothing to see
+            self._camera_at = true  # where a look at a find looks (`_look`)
             for s in sightings(self.camera, fix, true):
                 self._reports.add(s)
 

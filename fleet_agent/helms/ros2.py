@@ -38,8 +38,8 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 
-from fleet_agent.helms.camera import (Camera, DetectionError, LookResult, parse_detection,
-                                      sightings)
+from fleet_agent.helms.camera import (Camera, DetectionError, LookResult, Point3,
+                                      parse_detection, sightings)
 from fleet_agent.helms.duty import Duty
 from fleet_agent.helms.frames import LocalFrame, finite_points
 from fleet_agent.helms.reports import NavStats, ReportBuffer
@@ -102,6 +102,7 @@ class Ros2Helm:
     def __init__(self, clock: Clock, config: Ros2HelmConfig = Ros2HelmConfig(),
                  camera: Camera | None = None) -> None:
         self.clock, self.config, self.camera = clock, config, camera
+        self._camera_at: Point3 | None = None  # the camera's last true position
         self._lock = threading.RLock()
         self._duty = Duty()
         self._generation = 0  # bumps with every command: a late service answer is stale
@@ -315,8 +316,8 @@ class Ros2Helm:
             self._reports.add(Refused(self.clock.now(), kind, reason))
 
     def _look(self, task: int) -> tuple[bool, float, float]:
-        if self.camera is not None:
-            return self.camera.inspect(task)
+        if self.camera is not None:  # a find holds what lies under the camera
+            return self.camera.inspect(task, self._camera_at)
         seen = self._look_result
         if seen is not None and seen.task == task:
             self._look_result = None
@@ -365,6 +366,7 @@ class Ros2Helm:
                 return
             true = self._truth
         if self.camera is not None:  # no camera on this vehicle: nothing to see
+            self._camera_at = true  # where a look at a find looks (`_look`)
             for s in sightings(self.camera, fix, true):
                 self._reports.add(s)
 

@@ -21,7 +21,7 @@ from reef_sim.vehicle import SimVehicle
 
 def camera_figures(reef: Reef) -> Camera:
     """What the agent may know of the simulated camera: its figures, never the reef."""
-    return Camera(reef.detect_radius_m, reef.p_detect, reef.inspect_s)
+    return Camera(reef.detect_radius_m, reef.p_detect, reef.inspect_s, reef.look_radius_m)
 
 
 def sim_vehicle(scenario: Problem, index: int, *, seed: int, reef: Reef | None, t_s: float,
@@ -33,7 +33,7 @@ def sim_vehicle(scenario: Problem, index: int, *, seed: int, reef: Reef | None, 
     ``index``). A restarted agent's vehicle starts at the position the agent last knew: with
     navigation error that is its estimate, taken as the truth again with a fresh start fix
     (the world does not outlive the agent's process)."""
-    camera = None if reef is None else ReefCamera(reef, seed, index)
+    camera = None if reef is None else ReefCamera(reef, seed, index, scenario.n_tasks)
     nav = None if navigation is None else DeadReckoning(navigation, seed, index, pos, odometer_m)
     return SimVehicle(scenario, index, camera=camera, t_s=t_s, pos=pos, odometer_m=odometer_m,
                       navigation=nav)

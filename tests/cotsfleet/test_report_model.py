@@ -178,3 +178,30 @@ def test_without_the_relays_counters_the_report_says_unknown_not_zero() -> None:
     there = build_report(problem, FleetLedger(), {}, [], mode="run", seed=0, end_s=10.0,
                          extra={"security": security})
     assert there.messages.link is not None and there.security.relay == {}
+
+
+def test_a_vehicle_killed_twice_has_both_kills_detected_and_no_false_alarm() -> None:
+    """A fault fuzz (preset seed 59: auv3 killed at 950 s, restarted at 1253 s, killed again
+    at 1556 s) reported 2 false alarms: the report kept the last kill only, so the first
+    kill's detections (984 s, 986 s) counted as alarms about a live vehicle. A 'lost' before
+    any kill still is one."""
+    import numpy as np
+
+    from cotsfleet.mission.faults import Fault
+    from cotsfleet.mission.report import build_report
+    from fleet_bus.ledger import FleetLedger
+    from fleet_bus.states import EventKind
+    from fleet_bus.telemetry import Event
+    from hfc_core.formats.scenario import problem_from_dict
+    from reef_sim.scenarios.field import GeneratorParams, generate_doc
+
+    problem = problem_from_dict(generate_doc(GeneratorParams(n_tasks=5, n_vehicles=3),
+                                             np.random.default_rng(0)))
+    faults = [Fault("kill", 950.0, "auv3"), Fault("restart", 1253.0, "auv3"),
+              Fault("kill", 1556.0, "auv3"), Fault("restart", 2229.0, "auv3")]
+    ledger = FleetLedger()
+    for t, who in ((900.0, "auv1"), (984.0, "auv2"), (986.0, "auv1"), (1591.0, "auv2")):
+        ledger.add_event(Event(t, who, EventKind.LOST, peer="auv3", detail="silent"))
+    report = build_report(problem, ledger, {}, faults, mode="sim", seed=0, end_s=3000.0)
+    assert report.fleet.false_alarms == 1  # the one at 900 s, before any kill
+    assert report.fleet.detection_delay_s["auv3"] == {"auv1": None, "auv2": 35.0}

@@ -683,6 +683,50 @@ def test_a_spot_known_from_an_unsure_sighting_is_looked_at_before_it_is_injected
         assert agent.own.injecting == spot and not b.unknown(spot)
 
 
+@pytest.mark.parametrize("sigma_m, treated_m, treated_rho, seen, outcome", [
+    (1.0, 20.0, 60.0, None, "injected"),  # sure of itself and of the find: no look
+    (6.0, 80.0, 60.0, None, "injected"),  # unsure, but nothing treated near: no look
+    (6.0, 20.0, 2.6, None, "injected"),  # a treated neighbour alike: a look cannot tell
+    (6.0, 20.0, 60.0, 2.5, "injected"),  # the look shows the find's rho: injected
+    (6.0, 20.0, 60.0, 60.0, "not the find"),  # another rho: a neighbour, not injected
+    (6.0, 20.0, 60.0, 0.0, "empty"),  # nothing under the camera: cleared, as an empty spot
+])
+def test_a_find_near_a_treated_one_is_looked_at_first_when_navigation_is_unsure(
+        sigma_m, treated_m, treated_rho, seen, outcome):
+    """Hard seed 37 at 1 % drift: auv1 treated an aggregation of rho 60 as find 96; auv3,
+    sent to find 97 (rho 2.5) 23 m away on the map, stood over 96's aggregation and
+    injected it again. A vehicle whose navigation and the find's finder's together may put
+    it over a treated neighbour looks first; a look showing another rho is a neighbour: not
+    injected, the find left out of this vehicle's plans and not cleared (it is somewhere
+    near)."""
+    f = build(EXACT)
+    agent = Agent(f, 0, EXACT)
+    know, b = agent.know, agent.know.beliefs
+    pos = off_map(f, clear_m=100.0)
+    slot = b.n + EXACT.find_slots  # auv2's find
+    sigma_find = 1.0 if sigma_m < 4.0 else DRIFT_SIGMA
+    assert b.add_find(slot, pos, 2.5, 60.0, 0.0, sigma_find)
+    treated = slot + 1  # auv2's other find, treated (cleared) treated_m west of it
+    assert b.add_find(treated, (pos[0] - treated_m, pos[1], pos[2]), treated_rho, 60.0, 0.0,
+                      3.0)
+    know.clear([treated])
+    agent.step(Tick(1.0), [NavFix(1.0, agent.own.pos, sigma_m=sigma_m)])
+    agent.own.set_route([slot])
+    agent.step(Tick(10.0), [NavFix(10.0, pos, sigma_m=sigma_m), Arrived(10.0, slot)])
+    looks = sigma_m > 4.0 and treated_m < 40.0 and treated_rho > 10.0
+    assert discovery.needs_look(know, slot) is looks
+    if looks:
+        assert agent.own.inspecting == slot
+        at = None if not seen else (pos[0] + 3.0, pos[1], pos[2])
+        agent.step(Tick(30.0), [Looked(30.0, slot, bool(seen), seen or 0.0, 60.0, at)])
+    assert (agent.own.injecting == slot) is (outcome == "injected")
+    assert (slot in know.doubtful) is (outcome == "not the find")
+    assert (slot in know.cleared) is (outcome == "empty")
+    assert agent.counters.get("looks_not_the_find", 0) == int(outcome == "not the find")
+    if outcome == "not the find":
+        assert slot not in agent.own.route and slot in know.unavailable(31.0)
+
+
 @pytest.mark.parametrize("rho, left", [(48.0, True), (150.0, False)])
 def test_a_look_showing_a_find_a_peer_holds_is_left_to_it(rho, left):
     """Hard seed 40 at 1 % drift: auv3, 16 m off, named predicted spot 30's aggregation a
@@ -711,3 +755,23 @@ def test_a_look_showing_a_find_a_peer_holds_is_left_to_it(rho, left):
     assert agent.counters.get("looks_left_to_finder", 0) == int(left)
     if left:
         assert u not in agent.own.route and u in know.unavailable(41.0)
+
+
+def test_hard_seed_37_at_1_percent_drift_treats_each_aggregation_once() -> None:
+    """`benchmarks/dynamic.py`'s hard reef, seed 37, at its 1 % drift: auv3, sent to find 97
+    (rho 2.5), stood over the aggregation auv1 had treated as find 96 (rho 60) and injected
+    it again. With looks at finds (20 s each, 13 of them here) the mission goes otherwise;
+    every look shows its find's rho, and nothing is treated twice."""
+    from benchmarks.dynamic import DRIFT, SETTINGS, config_of
+    from cotsfleet.mission.inprocess import simulate
+    from reef_sim.score import world_tally
+
+    params = SETTINGS["hard"]
+    doc = generate_dynamic_doc(params, np.random.default_rng(37))
+    problem = problem_from_dict(doc)
+    reef = reef_from_doc(doc, problem)
+    result = simulate(problem, config_of(params, search=True), seed=37, reef=reef,
+                      navigation=DRIFT)
+    books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
+             if seat.driver is not None}
+    assert world_tally(reef, books)["duplicates"] == 0

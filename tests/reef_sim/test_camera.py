@@ -78,6 +78,28 @@ def test_inspection_says_what_the_truth_holds():
     assert found.present and found.priority == 42.0 and found.service_s == 66.0
 
 
+def test_a_look_at_a_find_shows_the_aggregation_nearest_under_the_camera():
+    """Tasks from ``n_predicted`` on are finds: the map names no aggregation for them, so a
+    look shows what lies under the camera (the nearest within the footprint, the one an
+    injection there treats), whatever the task; a predicted spot's look shows its own."""
+    truth = [spot(0.0, 0.0, task=1, priority=42.0), spot(20.0, 0.0, priority=60.0),
+             spot(8.0, 0.0, priority=2.5)]
+    w = ReefCamera(reef(truth), seed=0, vehicle=0, n_predicted=5)
+    assert w.is_find(5) and not w.is_find(4)
+    assert w.look(7, (17.0, 0.0, 0.0)) == (True, 60.0, 70.0)  # 3 m from rho 60, 9 from 2.5
+    assert w.seen_by_look(7, (17.0, 0.0, 0.0)) == w.treated(7, (17.0, 0.0, 0.0)) == 1
+    assert w.look(7, (11.0, 0.0, 0.0)).priority == 2.5
+    assert w.look(7, (60.0, 0.0, 0.0)).present is False  # nothing within 15 m
+    assert w.look(1, (11.0, 0.0, 0.0)) == (True, 42.0, 70.0)  # predicted: its own, 11 m off
+    assert w.look(1, (17.0, 0.0, 0.0)).present is False  # beyond the footprint
+    # A helm without the true position of its look answers a predicted spot from the
+    # truth's book; a find from where the camera is, nothing without it.
+    assert w.inspect(1) == (True, 42.0, 70.0) and w.inspect(6).present is False
+    assert w.inspect(6, (19.0, 1.0, 0.0)).priority == 60.0
+    # Without n_predicted every task is a predicted spot: unnamed ones are empty.
+    assert ReefCamera(reef(truth), seed=0, vehicle=0).look(7, (17.0, 0.0, 0.0)).present is False
+
+
 def test_segment_distance():
     pts = np.array([[5.0, 3.0, 0.0], [-4.0, 3.0, 0.0], [14.0, 0.0, 0.0]])
     d = segment_distance_m((0.0, 0.0, 0.0), (10.0, 0.0, 0.0), pts)
