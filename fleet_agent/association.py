@@ -278,6 +278,15 @@ def same_aggregation(a: Estimate, b: Estimate,
     return _inside(a, b, params, params.gate, params.feature_gate)
 
 
+def unlike_priority(a: Estimate, b: Estimate,
+                    params: AssociationParams = DEFAULT_PARAMS) -> bool:
+    """Do ``a`` and ``b`` both know rho, and differ beyond the priority's gate at
+    ``gate_p``? Then they are two aggregations wherever they lie (a look at one, standing
+    over the other, tells them apart)."""
+    f = feature2(a, b)
+    return f is not None and f > params.feature_gate
+
+
 def could_be_treated(candidate: Estimate, treated: Estimate,
                      params: AssociationParams = DEFAULT_PARAMS) -> bool:
     """Could ``candidate`` be the aggregation ``treated`` (the looser gates at

@@ -20,4 +20,4 @@ class Camera:
     detect_radius_m: float
     p_detect: float
     inspect_s: float
-    look_radius_m: float = 15.0  # the look's footprint (`reef_sim.truth.DEFAULT_LOOK_RADIUS_M`)
+    look_radius_m: float  # the look's footprint around the true position

@@ -11,11 +11,13 @@ find. On an exact map there is nothing to see and nothing here runs.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from statistics import NormalDist
 
 from fleet_agent.association import (Estimate, could_be_treated, distance2, feature2,
-                                     probably_treated, same_aggregation, sighting)
+                                     probably_treated, same_aggregation, sighting,
+                                     unlike_priority)
 from fleet_agent.beliefs import EMPTY, UNKNOWN
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Hold, Intent, Note, Owe, SeekWork, Tell
@@ -59,16 +61,15 @@ def needs_look(know: Knowledge, task: int) -> bool:
         return False
     sigma = math.hypot(f.sigma_m, know.own.sigma_m)
     if sigma <= 0.0:
-        return False
+        return False  # exact navigation: never off (and no treated spots to list)
     # Q(d / 2s) > p  <=>  d < 2 s Q^-1(p)
     reach = 2.0 * sigma * _inverse_q(b.config.look_first_p)
-    mine, gate = b.find_estimate(f), b.params.feature_gate
-    for t in treated_estimates(know, but=task):
-        if math.dist(t.xy, f.pos[:2]) < reach:
-            d = feature2(t, mine)  # a neighbour of alike rho: the look could not tell them
-            if d is None or d > gate:
-                return True
-    return False
+    mine = b.find_estimate(f)
+    # A neighbour of unknown rho counts (the look compares what it sees with the find's);
+    # one of alike rho does not (the look could not tell them apart).
+    return any(math.dist(t.xy, f.pos[:2]) < reach
+               and (t.priority is None or unlike_priority(t, mine, b.params))
+               for t in treated_estimates(know, but=task))
 
 
 def _inverse_q(p: float) -> float:
@@ -81,17 +82,13 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
     own = know.own
     if own.inspecting != r.task:
         return [Count("inspection_stale")]  # the look was abandoned meanwhile
-    seen = _seen(know, r.pos, r.priority) if r.present and r.pos is not None else None
-    skip = _not_the_find if r.present and _another_rho(know, r) else None
     counts = [Count("looks_at_finds")] if r.task in know.beliefs.finds else []
-    if seen is not None and skip is None:  # COTS that are not to be injected here
-        skip = _treated_at_look if _treated_already(know, r.task, seen) else \
-            _left_to_finder if _held_find(know, seen) is not None else None
+    skip = _not_to_inject(know, r)
     if skip is not None:  # on to the next spot
         if own.looked(r.task, None, r.t_s) is None:
             return []
         know.touch()
-        return counts + skip(know, r) + ([SeekWork()] if config.discovery else [])
+        return counts + skip() + ([SeekWork()] if config.discovery else [])
     if r.present:
         know.beliefs.learn(r.task, True, r.priority, r.service_s)  # a look is sure
         if r.pos is not None and r.task < know.beliefs.n and _landmark(know, r.pos, r.task):
@@ -103,6 +100,25 @@ def on_looked(know: Knowledge, config: AgentConfig, r: Looked) -> list[Intent]:
         return []
     know.touch()
     return counts + inspected(know, config, ev)
+
+
+def _not_to_inject(know: Knowledge, r: Looked) -> Callable[[], list[Intent]] | None:
+    """What to do instead of injecting the COTS a look shows, or None (inject them, or
+    nothing is there): at a find, COTS of another rho are a neighbour (`_another_rho`);
+    anywhere, COTS already treated are not injected again, and a find a peer holds is left
+    to it."""
+    if not r.present:
+        return None
+    if _another_rho(know, r):
+        return lambda: _leave(know, r.task, "looks_not_the_find")
+    if r.pos is None:
+        return None
+    seen = _seen(know, r.pos, r.priority)
+    if _treated_already(know, r.task, seen):
+        return lambda: _treated_at_look(know, r)
+    if _held_find(know, seen) is not None:
+        return lambda: _leave(know, r.task, "looks_left_to_finder")
+    return None
 
 
 def _seen(know: Knowledge, pos: tuple[float, ...], priority: float | None) -> Estimate:
@@ -154,37 +170,27 @@ def _held_find(know: Knowledge, est: Estimate) -> int | None:
 
 
 def _another_rho(know: Knowledge, r: Looked) -> bool:
-    """Does a look at a find show COTS of another rho than the find's (outside the feature
-    gate: `AssociationParams.feature_gate`)? Then the vehicle, unsure where it is, stands
-    over a neighbour, not the find. A vehicle looks at a find only when its navigation and
-    the finder's may together put it over a treated neighbour (`needs_look`): hard seed 37
-    at 1 % drift, auv3 sent to find 97 (rho 2.5) stood over the aggregation auv1 had
-    treated as find 96 (rho 60), 23 m away on the map, and injected it again."""
-    b = know.beliefs
-    f = b.finds.get(r.task)
-    if f is None or b.exact:
+    """Does a look at a find show COTS of another rho than the find's (`unlike_priority`)?
+    Then the vehicle, unsure where it is, stands over a neighbour, not the find. A vehicle
+    looks at a find only when its navigation and the finder's may together put it over a
+    treated neighbour (`needs_look`)."""
+    f = know.beliefs.finds.get(r.task)
+    if f is None:
         return False
-    seen = sighting(know.own.pos, know.own.sigma_m, b.params, r.priority)
-    d = feature2(seen, b.find_estimate(f))
-    return d is not None and d > b.params.feature_gate
+    mine = know.beliefs.find_estimate(f)  # the camera measured both: the same rho's error
+    return unlike_priority(replace(mine, priority=r.priority), mine, know.beliefs.params)
 
 
-def _not_the_find(know: Knowledge, r: Looked) -> list[Intent]:
-    """The look at a find shows another aggregation: not injected, and the find left out of
-    this vehicle's plans (`Knowledge.doubtful`), not cleared: it is somewhere near, where
-    another vehicle (or this one with a better fix) may find it. What the camera saw is the
-    sweep's to name, or known already."""
-    know.doubtful.add(r.task)
-    return [Count("looks_not_the_find"), Hold((r.task,), False)]
-
-
-def _left_to_finder(know: Knowledge, r: Looked) -> list[Intent]:
-    """The look shows a find a peer holds: not injected here, and the spot left out of this
-    vehicle's plans (`Knowledge.doubtful`), not cleared: the fleet learns nothing false (a
-    spot cleared here would make every peer judge the find treated, its holder included,
-    before anyone treated it). When the find is cleared, `fold_treated` judges the spot."""
-    know.doubtful.add(r.task)
-    return [Count("looks_left_to_finder"), Hold((r.task,), False)]
+def _leave(know: Knowledge, task: int, counter: str) -> list[Intent]:
+    """Not injected here, and ``task`` left out of this vehicle's plans
+    (`Knowledge.doubtful`) and released, but not cleared: the fleet learns nothing false.
+    A find whose look shows another rho is somewhere near, where another vehicle (or this
+    one with a better fix) may find it. A spot whose look shows a find a peer holds is that
+    find's: cleared here, it would make every peer judge the find treated, its holder
+    included, before anyone treated it; when the find is cleared, `fold_treated` judges the
+    spot."""
+    know.doubtful.add(task)
+    return [Count(counter), Hold((task,), False)]
 
 
 def _treated_at_look(know: Knowledge, r: Looked) -> list[Intent]:
