@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from fleet_agent.agent import Agent
+from fleet_agent.association import probably_treated, sighting
 from fleet_agent.beliefs import Beliefs
 from fleet_agent.config import AgentConfig
 from fleet_agent.fleet import Fleet
@@ -573,6 +574,25 @@ def test_a_spot_known_present_from_a_sighting_is_looked_at_after_an_injection_ne
     _inject_at_head(agent, fleet, (q[0] + injected_off_m, q[1], q[2]))
     assert (b.state[u] == "unknown") is doubted and (u in b.sighted) is not doubted
     assert b.unknown(u) is doubted  # unknown: the vehicle looks before it injects
+
+
+def test_a_spot_sighted_where_the_vehicle_then_injects_is_looked_at_whatever_the_map_says(fleet):
+    """A fault fuzz (hard reef, 1 % drift, fixes every 900 s, seed 169): auv3 took an
+    aggregation for spot 78 while its sigma was large, treated it as spot 83, and injected it
+    again at 78, whose place on the map lay beyond the treated gate of the injection. Where
+    the camera saw what it took for the spot counts too: the sighting kept its own sigma."""
+    agent = Agent(fleet, 0, CONFIG)
+    b = agent.know.beliefs
+    u = _lonely_spot(fleet, agent.own.route[0])
+    q = fleet.dynamic.scenario.tasks[u].pos
+    seen = (q[0] + 30.0, q[1], q[2])
+    agent.step(Tick(0.5), [NavFix(0.5, q, sigma_m=12.0), Sighted(0.5, seen, 50.0, 60.0)])
+    assert b.state[u] == "present" and u in b.sighted  # sure at a sigma of 12 m
+    assert not probably_treated(b.estimate(u), (sighting(seen, DRIFT_SIGMA, b.params),),
+                                b.params)  # the map's u is beyond the gate of an injection
+    _inject_at_head(agent, fleet, seen)  # at a sigma of 3 m, what the camera saw at 0.5 s
+    assert b.state[u] == "unknown" and u not in b.sighted
+    assert b.unknown(u)  # the vehicle looks before it injects
 
 
 # -- the priority beside the position -----------------------------------------------------------
