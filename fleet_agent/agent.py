@@ -113,6 +113,11 @@ class Agent:
                 self.count("journal_bad_records", snap.bad_records)
                 lost = "damaged"
             restore(snap, self.know, self.radio, fleet.base_routes[index], now, self._boot)
+            # The fleet went on while this agent was down: its peers took over its spots and
+            # may have treated some (a fault fuzz, hard reef, 49 % loss: auv3 killed at
+            # 988 s, its spot 23 taken over and treated by auv2 at 1168 s, auv3 restarted at
+            # 1316 s and treated 23 again at 1445 s). It rejoins, as after a lost journal.
+            lost = lost or "restart"
         else:
             self.own.set_route(fleet.base_routes[index])
             self._boot.record(rec.Start(now, index))
@@ -120,7 +125,10 @@ class Agent:
                 lost = "empty"
         self.rejoin = Rejoin(lost, now, slots.cycle_s)  # learn the fleet's set before acting
         self.nav.rejoining = self.rejoin.waiting
-        if lost is not None:
+        if lost == "restart":
+            self._boot.event(now, EventKind.RESTART, detail="restarted: keeping station until "
+                             "the fleet's cleared set is learned")
+        elif lost is not None:
             self.count(f"journal_{lost}")
             self._boot.event(now, EventKind.RESTART, detail=f"journal {lost}: keeping station "
                              "until the fleet's cleared set is learned")

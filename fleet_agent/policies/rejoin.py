@@ -1,8 +1,10 @@
-"""A restart that lost its memory rejoins the fleet before it acts (issue 31, item 5).
+"""A restarted agent rejoins the fleet before it acts (issue 31, item 5).
 
 An agent restarted on an empty journal (lost, or a vehicle joining late) or on a damaged one
 does not know what it cleared after the last record it can read, nor what the fleet cleared
-while it was down: flying its route at once would treat some spots twice. So it keeps
+while it was down; one restarted on its whole journal knows the first, not the second (its
+peers took over its spots meanwhile, and treated some). Flying its route at once would
+treat some spots twice. So it keeps
 station (`Navigation.rejoining`) and claims nothing until it has learned the fleet's cleared
 set: until a peer's pose carries a cleared-set digest equal to its own (the peers push their
 whole set to a vehicle whose digest lags, `policies.hearing`), or nobody is heard within

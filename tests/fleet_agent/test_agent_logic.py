@@ -237,6 +237,30 @@ def test_every_frame_an_agent_sends_decodes_within_the_limits() -> None:
     assert {"Pose", "ClearedSegment"} <= kinds
 
 
+def test_a_restart_on_its_journal_rejoins_before_it_treats_anything() -> None:
+    """The fleet went on while the agent was down: its peers took over its spots and treated
+    some (a fault fuzz, hard reef, 49 % loss: auv3 killed at 988 s, its spot 23 taken over
+    and treated by auv2 at 1168 s, auv3 back on its journal at 1316 s treated 23 again at
+    1445 s). Its journal is whole, but what it knows is as old as its death: it keeps
+    station until it has learned the fleet's cleared set, as after a lost journal."""
+    world = World((Fault("kill", 1200.0, "auv2"),))
+    world.run_until(1500.0)
+    cleared_by_fleet = set(world.agent("auv1").know.cleared)
+    world.backend._start_agent("auv2", 1500.0, world.backend.seats["auv2"].journal.reopen())
+    reborn = world.agent("auv2")
+    assert reborn.rejoin.waiting and reborn.nav.rejoining
+    assert not reborn.counters.get("journal_empty") and not reborn.counters.get("journal_damaged")
+    assert not cleared_by_fleet <= set(reborn.know.cleared)  # what its peers did meanwhile
+    world.run_until(3700.0)
+    events = [(o.payload.t_s, o.payload.kind) for o in world.outputs["auv2"]
+              if isinstance(o, Publish) and o.topic == "event"]
+    rejoined = [t for t, k in events if k == "rejoined"]
+    assert len(rejoined) == 1 and rejoined[0] - 1500.0 < 4 * 7.5 * 3  # a few cycles
+    assert not any(k == "cleared" and 1500.0 <= t < rejoined[0] for t, k in events)
+    assert set(reborn.know.cleared) >= cleared_by_fleet
+    assert world.backend.ledger.duplicates() == 0
+
+
 @pytest.mark.parametrize("restart_s", [1500.0])
 def test_a_restart_on_a_lost_journal_rejoins_before_it_treats_anything(restart_s: float
                                                                         ) -> None:
