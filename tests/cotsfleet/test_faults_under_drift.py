@@ -61,3 +61,16 @@ def test_faults_under_drift_end_the_mission_and_treat_nothing_twice(which, seed,
     report = result.report.to_dict()
     assert report["fleet"]["duplicate_treatments"] == 0
     assert len(report["vehicles"]) == problem.n_vehicles
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [136, 169])
+def test_the_fault_fuzz_missions_that_treated_spots_twice_no_longer_do(seed):
+    """`benchmarks.fault_fuzz` seeds 136 (a restart on its whole journal acted at once, at
+    49 % loss) and 169 (a sighted spot doubted only by its place on the map, at 1 % drift):
+    one and two duplicates on the code before (docs/search.md, "Faults under drift")."""
+    from benchmarks.fault_fuzz import one
+
+    row = one(seed)
+    assert row["outcome"] == "ran" and row["reef"] == "hard"
+    assert row["duplicates"] == 0 and row["priority"] > 0
