@@ -174,11 +174,10 @@ class Holdings:
                 if self._record(t, v) == BASE or self._events[t][v][1]}
         return sorted(mine | self._extra.get(v, set()), key=self._order)
 
-    def claimed_since_plan(self) -> list[int]:
-        """Spots outside the initial plan that someone claims now (its newest record of
-        them a claim), in the order first claimed."""
-        return [t for t in self._later
-                if any(is_claim for _, is_claim in self._events.get(t, {}).values())]
+    def named_since_plan(self) -> list[int]:
+        """Spots outside the initial plan that a claim, a release or a FOUND has named, in
+        the order first named: each of them exists, whatever its holder now."""
+        return list(self._later)
 
     def explicit_claims(self, v: int) -> dict[int, int]:
         """Spots ``v`` claimed after the initial plan: task -> claim time."""

@@ -223,6 +223,27 @@ def test_a_find_waits_while_a_peers_claimed_find_is_unknown_and_leaves_the_route
     assert mine not in agent.own.route and know.held_map()[mine] == 2
 
 
+def test_a_find_waits_while_a_peers_released_find_is_unknown(fleet):
+    """A release names a find as a claim does: it exists, where is unknown. A fault fuzz
+    (hard reef, 2 % drift, 50 % loss, seed 94): auv2 heard auv3 release its find 145 (a
+    claim then a release; neither its FOUND nor its claims came through), named the same
+    aggregation find 118 and treated it 80 s after auv3."""
+    agent = Agent(fleet, 1, CONFIG)
+    know, b = agent.know, agent.know.beliefs
+    pos = off_map(fleet)
+    agent.step(Tick(1.0), [NavFix(1.0, pos), Sighted(1.0, pos, 50.0, 60.0)])
+    (mine,) = b.finds
+    theirs = b.n + 2 * CONFIG.find_slots  # auv3's first find: released, its FOUND unheard
+    know.hold(2, 1, [theirs], False)
+    agent.step(Tick(2.0))
+    assert know.awaiting == {mine} and mine in know.unavailable(2.0)
+    codec = fleet.codec
+    msg = codec.decode(codec.encode(Found(2, 1, Digest(1, 0), theirs, pos, 50.0, 60.0)))
+    discovery.on_found(know, msg, 3.0)
+    agent.step(Tick(4.0))
+    assert know.awaiting == frozenset() and b.alias == {theirs: mine}
+
+
 def test_a_claim_under_an_alias_settles_a_cycle_after_the_other_name_is_learned(fleet):
     """A vehicle that holds an aggregation through its own name learns the other name late:
     claims under that name were in flight before it knew to look for them."""
