@@ -402,19 +402,18 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
 
 
 def await_gaps(know: Knowledge, now: float) -> frozenset[int]:
-    """The finds not to plan yet (docs/search.md, "Never twice"): a peer has cleared, claimed
-    or released a find this vehicle has never heard of (its FOUND frame was lost; the cleared
-    set, the claim or the release came through, and the gap is asked for: `FindsGap`), so
-    where it is is
-    unknown; any open find here that peer's heard track passed near (`plausible.been_there`'s
-    reach), or any at all when none of its track was heard, may be that aggregation under
-    the other's name, and waits until the FOUND arrives (the cleared set, the claims or the
-    finds change: judged again). Two vehicles side by side name one aggregation seconds
-    apart; the claim of the first is on the air a cycle before its FOUND (hard seed 15 at
-    30 % loss: a claim heard at 418 s, the FOUND at 628 s, the aggregation treated twice). A
-    release counts as a claim does (a fault fuzz, hard reef, 2 % drift, 50 % loss, seed 94:
-    auv2 heard auv3 release its find 145 at 2,736 s, but neither its FOUND nor its claims,
-    named the aggregation find 118 at 2,808 s and treated it 80 s after auv3)."""
+    """The finds not to plan yet (docs/search.md, "Never twice"): a peer has cleared, claimed or
+    released a find this vehicle has never heard of (its FOUND frame was lost; the cleared set,
+    the claim or the release came through, and the gap is asked for: `FindsGap`), so where it is
+    is unknown; any open find here that peer's heard track passed near (`plausible.been_there`'s
+    reach), or any at all when none of its track was heard, may be that aggregation under the
+    other's name, and waits until the FOUND arrives (the cleared set, the claims or the finds
+    change: judged again). Two vehicles side by side name one aggregation seconds apart; the
+    claim of the first is on the air a cycle before its FOUND (hard seed 15 at 30 % loss: a
+    claim heard at 418 s, the FOUND at 628 s, the aggregation treated twice). A release counts
+    as a claim does (a fault fuzz, hard reef, 2 % drift, 50 % loss, seed 94: auv2 heard auv3
+    release its find 145 at 2,736 s, but neither its FOUND nor its claims, named the aggregation
+    find 118 at 2,808 s and treated it 80 s after auv3)."""
     b = know.beliefs
     unknown = [t for t in know.holdings.named_since_plan() if b.is_find_slot(t)]
     gaps = [t for t in know.cleared if t >= b.n and t not in b.finds]
