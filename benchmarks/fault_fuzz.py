@@ -43,26 +43,32 @@ REEFS = ("green", "hard", "preset")
 FAULT_STREAM = 1000  # the faults' generator is seeded 1000 + seed, apart from the reef's
 
 
+def reef_mission(which: str, seed: int) -> tuple[dict[str, Any], AgentConfig]:
+    """The scenario document and agent configuration of reef ``which`` ("green": Green
+    Island at default settings; a `benchmarks.dynamic` setting: its reef ``seed``), as
+    `benchmarks.dynamic` runs them."""
+    if which == "green":
+        return json.loads(GREEN.read_text()), AgentConfig()
+    params = SETTINGS[which]
+    return generate_dynamic_doc(params, np.random.default_rng(seed)), config_of(params,
+                                                                             search=True)
+
+
 def draw(seed: int) -> tuple[str, dict[str, Any], AgentConfig, list[Fault],
                               NavigationParams, float]:
     """Seed ``seed``'s mission: (reef name, scenario document, agent configuration, faults,
     navigation, loss throughout)."""
     rng = np.random.default_rng(FAULT_STREAM + seed)
     which = REEFS[seed % len(REEFS)]
-    if which == "green":
-        doc, config = json.loads(GREEN.read_text()), AgentConfig()
-    else:
-        params = SETTINGS[which]
-        doc = generate_dynamic_doc(params, np.random.default_rng(seed))
-        config = config_of(params, search=True)
+    doc, config = reef_mission(which, seed)
     vids = [v["id"] for v in doc["vehicles"]]
     faults: list[Fault] = []
     for _ in range(int(rng.integers(1, 4))):
-        kind = str(rng.choice(["abort", "kill", "restart", "stall", "partition", "loss"]))
+        kind = str(rng.choice(["abort", "kill", "restart", "stall", "half-loss", "loss"]))
         t = float(rng.uniform(200, 2500))
         if kind == "loss":
             faults.append(Fault("loss", t, "", float(rng.uniform(0, 0.6))))
-        elif kind == "partition":  # the link of all, halved
+        elif kind == "half-loss":  # every link loses half its frames from then on
             faults.append(Fault("loss", t, "", 0.5))
         elif kind == "stall":
             faults.append(Fault("stall", t, str(rng.choice(vids)), float(rng.uniform(30, 400))))
@@ -100,8 +106,7 @@ def one(seed: int) -> dict[str, Any]:
     world = world_tally(reef, books)
     fleet = result.report.to_dict()["fleet"]
     return {**out, "outcome": "ran", "priority": world["priority"],
-            "duplicates": world["duplicates"], "false_alarms": fleet["false_alarms"],
-            "home": fleet["vehicles_home"]}
+            "duplicates": world["duplicates"], "false_alarms": fleet["false_alarms"]}
 
 
 def _lossy(row: dict[str, Any]) -> bool:

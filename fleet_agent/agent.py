@@ -125,13 +125,12 @@ class Agent:
                 lost = "empty"
         self.rejoin = Rejoin(lost, now, slots.cycle_s)  # learn the fleet's set before acting
         self.nav.rejoining = self.rejoin.waiting
-        if lost == "restart":
-            self._boot.event(now, EventKind.RESTART, detail="restarted: keeping station until "
+        if lost is not None:
+            if lost != "restart":
+                self.count(f"journal_{lost}")
+            what = "restarted" if lost == "restart" else f"journal {lost}"
+            self._boot.event(now, EventKind.RESTART, detail=f"{what}: keeping station until "
                              "the fleet's cleared set is learned")
-        elif lost is not None:
-            self.count(f"journal_{lost}")
-            self._boot.event(now, EventKind.RESTART, detail=f"journal {lost}: keeping station "
-                             "until the fleet's cleared set is learned")
         self.know.rebind()
 
     def _settled_s(self, task: int) -> float:

@@ -46,7 +46,7 @@ from hfc_core.model.problem import Problem, Task
 
 Point3 = tuple[float, float, float]
 UNKNOWN, PRESENT, EMPTY = "unknown", "present", "empty"
-SIGHTINGS_KEPT = 4  # a sighted spot's latest sightings kept (`Beliefs.sighted_at`)
+SIGHTINGS_KEPT = 4  # a sighted spot's latest sightings kept (`Beliefs.sighted`)
 FIND_MARGIN_M = 1000.0  # the wire's grid reaches this far beyond the map (finds off it)
 
 
@@ -129,12 +129,11 @@ class Beliefs:
         self.settle_s = config.find_settle_cycles * cycle_s
         self.state = [PRESENT if self.exact else UNKNOWN] * self.n
         self.real: dict[int, tuple[float, float]] = {}  # present predicted: (rho, t)
-        # Predicted spots known present from a sighting along the track, not a look: which
-        # aggregation a sighting is rests on the frame (`doubt`).
-        self.sighted: set[int] = set()
-        # ... and where the camera saw what it took for them (map frame; the latest few):
-        # an injection near there may have treated that very aggregation (`doubt`).
-        self.sighted_at: dict[int, tuple[Estimate, ...]] = {}
+        # Predicted spots known present from a sighting along the track, not a look, with
+        # where the camera saw what it took for them (map frame; the latest few): which
+        # aggregation a sighting is rests on the frame, and an injection near either place
+        # may have treated that very aggregation (`doubt`).
+        self.sighted: dict[int, tuple[Estimate, ...]] = {}
         # ... of which those seen with a navigation sigma above `look_first_sigma_m`: the
         # vehicle may be a look's footprint off where it thinks, and inject a neighbour or
         # bare seabed; it looks first (the look is also a landmark for its frame).
@@ -253,23 +252,18 @@ class Beliefs:
     # -- learning --------------------------------------------------------------------------
 
     def learn(self, task: int, present: bool, priority: float = 0.0,
-              service_s: float = 0.0, sighted: bool = False,
-              at: Estimate | None = None) -> bool:
+              service_s: float = 0.0, sighted: Estimate | None = None) -> bool:
         """A predicted spot seen (present, with rho and t) or inspected empty; True if news
-        (never on an exact map: nothing to learn). ``sighted``: seen along the track, not
-        looked at where the vehicle was sent, so which aggregation it was rests on the frame
-        (`doubt`); a look settles it; ``at``: the sighting's estimate. Neither is
-        journalled: a restarted agent looks again."""
+        (never on an exact map: nothing to learn). ``sighted``: the estimate of a sighting
+        along the track, not a look where the vehicle was sent, so which aggregation it was
+        rests on the frame (`doubt`); a look settles it. Neither is journalled: a restarted
+        agent looks again."""
         if self.exact or not 0 <= task < self.n:
             return False
-        if sighted and present:
-            self.sighted.add(task)
-            if at is not None:
-                self.sighted_at[task] = (*self.sighted_at.get(task, ())[-(SIGHTINGS_KEPT - 1):],
-                                         at)
+        if sighted is not None and present:
+            self.sighted[task] = (*self.sighted.get(task, ())[-(SIGHTINGS_KEPT - 1):], sighted)
         else:
-            self.sighted.discard(task)
-            self.sighted_at.pop(task, None)
+            self.sighted.pop(task, None)
             self.look_first.discard(task)
         new = PRESENT if present else EMPTY
         if self.state[task] == new and (not present
@@ -284,8 +278,7 @@ class Beliefs:
     def doubt(self, task: int) -> None:
         """A spot known present from a sighting alone may have been another aggregation:
         unknown again, so the vehicle looks before it injects there."""
-        self.sighted.discard(task)
-        self.sighted_at.pop(task, None)
+        self.sighted.pop(task, None)
         self.look_first.discard(task)
         if self.state[task] == PRESENT:
             self.state[task] = UNKNOWN

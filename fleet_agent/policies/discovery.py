@@ -252,7 +252,7 @@ def on_sighted(know: Knowledge, config: AgentConfig, codec: Codec, seen: Sighted
         if b.state[spot] == UNKNOWN and spot not in know.cleared:
             if _treated_already(know, spot, est):
                 return [Count("sightings_treated")]  # a look there will tell
-            b.learn(spot, True, seen.priority, seen.service_s, sighted=True, at=est)
+            b.learn(spot, True, seen.priority, seen.service_s, sighted=est)
             if est.sigma_m > config.look_first_sigma_m:
                 b.look_first.add(spot)
             if know.search is not None:
@@ -286,10 +286,9 @@ def remember_injection(know: Knowledge, r: Injected) -> Estimate | None:
     # where the camera saw what it took for the spot: a fault fuzz (hard reef, 1 % drift,
     # fixes every 900 s, seed 169) had auv3 treat spot 83's aggregation at 2368 s and inject
     # it again at 2462 s as spot 78, which it had sighted there, the map's 78 being farther.
-    for t in [t for t in b.sighted if t not in know.cleared
-              and (probably_treated(b.estimate(t), (est,), b.params)
-                   or any(probably_treated(at, (est,), b.params)
-                          for at in b.sighted_at.get(t, ())))]:
+    for t in [t for t, seen in b.sighted.items() if t not in know.cleared
+              and any(probably_treated(at, (est,), b.params)
+                      for at in (b.estimate(t), *seen))]:
         b.doubt(t)
     return est
 

@@ -3,15 +3,14 @@
 An agent restarted on an empty journal (lost, or a vehicle joining late) or on a damaged one
 does not know what it cleared after the last record it can read, nor what the fleet cleared
 while it was down; one restarted on its whole journal knows the first, not the second (its
-peers took over its spots meanwhile, and treated some). Flying its route at once would
-treat some spots twice. So it keeps
-station (`Navigation.rejoining`) and claims nothing until it has learned the fleet's cleared
-set: until a peer's pose carries a cleared-set digest equal to its own (the peers push their
-whole set to a vehicle whose digest lags, `policies.hearing`), or nobody is heard within
-`ALONE_CYCLES` TDMA cycles (there is no one to learn from), or `GIVE_UP_CYCLES` pass (a
-lossy link: it goes on with what it learned). What it treated before the loss is not claimed
-again: its own treatments come only from what it can read, and the fleet's set marks them
-cleared.
+peers took over its spots meanwhile, and treated some). Flying its route at once would treat
+some spots twice. So it keeps station (`Navigation.rejoining`) and claims nothing until it
+has learned the fleet's cleared set: until a peer's pose carries a cleared-set digest equal
+to its own (the peers push their whole set to a vehicle whose digest lags,
+`policies.hearing`), or nobody is heard within `ALONE_CYCLES` TDMA cycles (there is no one
+to learn from), or `GIVE_UP_CYCLES` pass (a lossy link: it goes on with what it learned).
+What it treated before the loss is not claimed again: its own treatments come only from what
+it can read, and the fleet's set marks them cleared.
 """
 
 from __future__ import annotations

@@ -6,23 +6,15 @@ positions at the nearest sea; the second mixes every kind of vehicle fault."""
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-
-import numpy as np
 import pytest
 
-from benchmarks.dynamic import SETTINGS, config_of
+from benchmarks.fault_fuzz import one, reef_mission
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import simulate
-from fleet_agent.config import AgentConfig
 from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.navigation import NavigationParams
-from reef_sim.scenarios.dynamic import generate_dynamic_doc
 from reef_sim.score import world_tally
 from reef_sim.truth import reef_from_doc
-
-GREEN = Path(__file__).resolve().parents[2] / "examples" / "green_island.json"
 
 CASES = [
     # Green Island, 1 % drift, 20 % loss: auv1 killed; a survivor's takeover replan once
@@ -36,13 +28,7 @@ CASES = [
 
 
 def _mission(which: str, seed: int):
-    if which == "green":
-        doc = json.loads(GREEN.read_text())
-        config = AgentConfig()
-    else:
-        params = SETTINGS[which]
-        doc = generate_dynamic_doc(params, np.random.default_rng(seed))
-        config = config_of(params, search=True)
+    doc, config = reef_mission(which, seed)
     problem = problem_from_dict(doc)
     return problem, reef_from_doc(doc, problem), config
 
@@ -69,8 +55,6 @@ def test_the_fault_fuzz_missions_that_treated_spots_twice_no_longer_do(seed):
     """`benchmarks.fault_fuzz` seeds 136 (a restart on its whole journal acted at once, at
     49 % loss) and 169 (a sighted spot doubted only by its place on the map, at 1 % drift):
     one and two duplicates on the code before (docs/search.md, "Faults under drift")."""
-    from benchmarks.fault_fuzz import one
-
     row = one(seed)
     assert row["outcome"] == "ran" and row["reef"] == "hard"
     assert row["duplicates"] == 0 and row["priority"] > 0
