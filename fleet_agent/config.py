@@ -122,6 +122,10 @@ class AgentConfig:
     nav_hold_s: float = 10.0
     nav_limit_s: float = 120.0
     late_after_s: float = 60.0
+    # A vehicle under way whose navigation reports a 1-sigma error per axis above this, m,
+    # climbs to the surface for a GPS fix on its way (`policies.navigation`; 0: never). 3 m
+    # puts 99 % of its error within 9 m, inside a look's footprint (docs/search.md).
+    surface_sigma_m: float = 3.0
     # The operator's live orders (`policies.orders`): one issued longer ago than this is
     # refused as stale (a recording kept back and played later, a topside far behind).
     ctl_max_age_s: float = 600.0
@@ -213,7 +217,8 @@ class AgentConfig:
                      "takeover_doubt", "map_sigma_m", "aggregation_extent_m",
                      "camera_priority_sigma", "map_priority_sigma", "look_first_sigma_m",
                      "search_per_spot", "search_ring_min_m", "search_ring_max_m",
-                     "search_spread_m", "search_empty_weight", "search_margin"):
+                     "search_spread_m", "search_empty_weight", "search_margin",
+                     "surface_sigma_m"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value >= 0):
                 raise ValueError(f"agent config: {name} must be >= 0, got {value!r}")

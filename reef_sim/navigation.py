@@ -34,7 +34,8 @@ estimate takes it as a Kalman update of an isotropic covariance (Bar-Shalom, Li 
 2001, "Estimation with Applications to Tracking and Navigation", ch. 5): gain ``K = P / (P +
 R)``, error ``(1 - K) e + K nu``, variance ``P R / (P + R)``; the biases stay (they are the
 sensors'), the drift starts again from the fix. The start is a fix too: a GPS position at the
-surface, ``start_sigma_m``.
+surface, ``start_sigma_m``; so is every return to the surface (`surface_fix`: the vehicle's
+GPS takes a position whenever it is there, the same accuracy, the draw keyed by the time).
 
 The camera measures the offset from the vehicle to what it sees; that offset has its own small
 error (``camera_sigma_m`` per axis): a sighting reported at ``estimate + offset`` is the true
@@ -59,7 +60,7 @@ from hfc_core.model.errors import Point3, ScenarioError
 
 NAV_STREAM = 0x4E41  # keeps the navigation's draws apart from every other seeded stream
 WALK_BLOCK_M = 1024  # the random walk is drawn per metre, this many metres per keyed block
-_BIASES, _WALK, _FIXES, _CAMERA, _START = range(5)  # child streams of one vehicle's seed
+_BIASES, _WALK, _FIXES, _CAMERA, _START, _SURFACE = range(6)  # child streams of one vehicle's seed
 
 
 def _number(raw: Mapping[str, Any], name: str, default: float | None) -> float | None:
@@ -89,7 +90,7 @@ class NavigationParams:
     ``drift_pct``: 1-sigma error per axis in percent of the distance run straight since the
     last fix (heading bias and speed scale error, each N(0, drift_pct / 100)).
     ``walk_m_per_sqrt_km``: the DVL noise's random walk, per axis after 1 km.
-    ``start_sigma_m``: the surface GPS fix the dive starts from.
+    ``start_sigma_m``: a GPS fix at the surface (the dive's start, and every return there).
     ``fix_period_s``: a USBL fix this often (None: none), ``fix_sigma_m`` its accuracy.
     ``camera_sigma_m``: the error of the offset the camera measures to an aggregation."""
 
@@ -248,10 +249,22 @@ class DeadReckoning:
         """A USBL fix at mission time ``t_s`` with the vehicle really at ``pos``: the Kalman
         update of the estimate, the drift starting again from here."""
         n = round(t_s / self.params.fix_period_s) if self.params.fix_period_s else self.fixes
+        self._update(pos, odometer_m, self.params.fix_sigma_m, _rng(self.root, _FIXES, int(n)))
+
+    def surface_fix(self, t_s: float, pos: Point3, odometer_m: float) -> None:
+        """A GPS fix at the surface at mission time ``t_s`` (``start_sigma_m``, as the dive's
+        start), keyed by the time to the millisecond: the same surfacing draws the same fix
+        however the vehicle is polled."""
+        self._update(pos, odometer_m, self.params.start_sigma_m,
+                     _rng(self.root, _SURFACE, int(round(t_s * 1000.0))))
+
+    def _update(self, pos: Point3, odometer_m: float, sigma_m: float,
+                rng: np.random.Generator) -> None:
+        """The Kalman update of a fix of per-axis accuracy ``sigma_m`` (module docstring)."""
         e = np.asarray(self.error(pos, odometer_m))
         prior = self.sigma_m(pos, odometer_m) ** 2
-        r = self.params.fix_sigma_m ** 2
-        nu = _rng(self.root, _FIXES, int(n)).normal(0.0, self.params.fix_sigma_m, size=2)
+        r = sigma_m ** 2
+        nu = rng.normal(0.0, sigma_m, size=2)
         gain = prior / (prior + r) if prior + r > 0 else 1.0
         self._reset(np.asarray(pos[:2], float), float(odometer_m), (1 - gain) * e + gain * nu,
                     prior * r / (prior + r) if prior + r > 0 else 0.0)

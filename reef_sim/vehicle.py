@@ -20,7 +20,10 @@ began plus the offset the camera measured), and the waypoints it is sent to are 
 that frame too: it flies until its *estimate* reads the waypoint, so it really ends off by its
 navigation error. The camera works where the vehicle really is (a look sees the predicted
 aggregation only within its footprint of the true position, `ReefCamera.look`), and the world
-keeps its own book of what each injection really treated (`treatments`).
+keeps its own book of what each injection really treated (`treatments`). A waypoint at the
+surface (depth within `SURFACE_M`) gives a GPS fix when the vehicle reaches it
+(`DeadReckoning.surface_fix`): an agent whose estimate has grown uncertain sends its vehicle up
+for one (`fleet_agent.policies.navigation`).
 
 Pure and exact: `poll` runs to any later time, settling arrivals and work ends at the moment
 they happen, so what it reports does not depend on how often it is polled (every position is
@@ -45,6 +48,7 @@ from reef_sim.navigation import DeadReckoning
 
 Point3 = tuple[float, float, float]
 _EPS = 1e-9
+SURFACE_M = 0.5  # a waypoint this close to the surface puts the GPS antenna out of the water
 
 
 class Phase(Enum):
@@ -138,7 +142,8 @@ class SimVehicle:
         if isinstance(cmd, GoTo):
             if self.phase is Phase.FLYING and self.target == cmd.target and (
                     not cmd.waypoints or not self._waypoints
-                    or as_point3(cmd.waypoints[-1]) == self._waypoints[-1]):
+                    or as_point3(cmd.waypoints[-1]) == self._waypoints[-1]) \
+                    and not self._climbs(cmd.waypoints):
                 self.ahead = cmd.ahead  # the same leg: fly on, only the route after it changed
                 return
             # the same target somewhere else (its camera saw it there): a new leg
@@ -152,6 +157,13 @@ class SimVehicle:
         elif isinstance(cmd, (ReturnHome, Abort)):
             self.ahead = ()
             self._fly_to(HOME_TARGET, cmd.waypoints)
+
+    def _climbs(self, waypoints: Sequence[Sequence[float]]) -> bool:
+        """Does a GoTo to the target under way add a climb to the surface on the way (a fix
+        its agent asked for, `fleet_agent.policies.navigation`)? Then it is a new leg."""
+        def up(ws: Sequence[Sequence[float]]) -> bool:
+            return any(w[2] >= -SURFACE_M for w in ws[:-1] if len(w) > 2)
+        return up(waypoints) and not up(self._waypoints)
 
     def poll(self, until_s: float) -> list[VehicleReport]:
         out, self._held = self._held, []
@@ -239,7 +251,10 @@ class SimVehicle:
             w = self._seg_end
             seg_m = math.dist(self._segment.origin, w)
             self.t_s = max(self.t_s, reach_s)
-            self._start_segment(w, self.t_s, self._segment.odometer0_m + seg_m)
+            odometer = self._segment.odometer0_m + seg_m
+            if self.navigation is not None and w[2] >= -SURFACE_M:
+                self.navigation.surface_fix(self.t_s, w, odometer)  # steers on from the fix
+            self._start_segment(w, self.t_s, odometer)
             seen = self._sightings(self.t_s)
         assert self.target is not None
         out.append(Arrived(self.t_s, self.target))  # then what the camera saw there
@@ -295,8 +310,12 @@ class SimVehicle:
         return t
 
     def _sum_flight_s(self) -> float:
+        """When the flight ends, or reaches a waypoint at the surface (its GPS fix steers the
+        rest anew: the end is known only from there)."""
         t = self._segment.end_s
         prev = self._seg_end if self._waypoints else self.pos
+        if self.navigation is not None and self._waypoints and prev[2] >= -SURFACE_M:
+            return t
         odometer = self._segment.odometer0_m + math.dist(self._segment.origin, prev)
         for target in self._waypoints[1:]:
             w = self._true_end(target, prev, odometer)
@@ -306,6 +325,8 @@ class SimVehicle:
                 return math.inf
             odometer += math.dist(prev, w)
             prev = w
+            if self.navigation is not None and w[2] >= -SURFACE_M:
+                return t
         return t
 
     def _heading(self, p: Point3, w: Point3) -> None:

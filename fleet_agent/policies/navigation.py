@@ -22,6 +22,17 @@ figure, else the time since the last fix the driver handed over). Two rules, aft
   its route refitted from where the vehicle really is (`Steer`, the battery fit from the last
   fix). The baseline restarts whenever the route changes (a spot done, a replan) and after
   each ``late``.
+- *Navigation grown uncertain.* A vehicle under way whose fix reports a 1-sigma error per
+  axis above ``config.surface_sigma_m`` climbs to the surface where it is for a GPS fix, and
+  goes on from there to its next spot (`OwnVehicle.detour`: the climb is flown first and
+  timed with the leg, as a search is, until the fix comes). Why: under dead reckoning the
+  error grows with the distance run (1 % of it, 10 m after a kilometre), and beyond a look's
+  footprint the vehicle looks at bare seabed and takes its finds for new aggregations
+  (docs/search.md); on a reef a few metres deep the climb costs seconds. The event
+  ``navigation`` and the counter ``surfaced``; a climb after which the error did not fall
+  back (a helm whose navigation takes no GPS) counts ``surface_no_fix``, and after
+  `SURFACE_TRIES` of them in a row the vehicle stops trying. Not again within
+  `SURFACE_GAP_M` of the last climb.
 - *A vehicle the operator paused* keeps station (`command`) until resumed, but never past its
   battery: once what is left of it, less the planner's reserve, is within
   ``config.pause_margin_s`` of the time home from where it keeps station, it gives the mission
@@ -46,6 +57,8 @@ from fleet_bus.states import EventKind
 from fleet_bus.vehicle_port import HelmCommand, StationKeep, Work
 
 MOVING = (Activity.TRANSIT, Activity.RETURNING)
+SURFACE_GAP_M = 100.0  # metres run between two climbs for a fix, at least
+SURFACE_TRIES = 3  # climbs in a row that brought no fix before the vehicle stops climbing
 HOLD = StationKeep(Work.WAIT, -1, 0.0)  # keep station where you are, until told otherwise
 
 
@@ -63,6 +76,10 @@ class Navigation:
         self._stale_since: float | None = None
         self._base_end_s: float | None = None  # projected end when the route was set
         self._base_route: tuple[int, ...] = ()
+        self.surface_sigma_m = config.surface_sigma_m
+        self._climb = False  # a climb under way, its fix not seen yet
+        self._last_climb_m = -math.inf
+        self._no_fix = 0  # climbs in a row after which the error did not fall
 
     def _holds(self, own: OwnVehicle) -> bool:
         return self.holding or ((self.paused or self.rejoining) and own.activity in MOVING
@@ -98,8 +115,45 @@ class Navigation:
         if self.paused or self.rejoining:
             self._base_end_s = None  # a pause is not lateness; measured again on resume
         elif active and not self.holding:
+            out += self._surface(know, now)
             out += self._progress(know, now)
         return out
+
+    def _surface(self, know: Knowledge, now: float) -> list[Intent]:
+        """Climb for a GPS fix when the navigation's error has grown past the threshold."""
+        own = know.own
+        out: list[Intent] = []
+        if self._climb:
+            # The fix came if the error fell back within the threshold (the reported sigma
+            # also falls without one when the vehicle runs back toward where it was reset).
+            if own.sigma_m <= self.surface_sigma_m:
+                self._climb, self._no_fix = False, 0
+                if own.detour is not None:  # the climb is flown: on to the spot from here
+                    own.detour = None
+                    know.touch()
+            elif own.detour is None:  # the leg ended (or changed) and no fix came
+                self._climb, self._no_fix = False, self._no_fix + 1
+                out.append(Count("surface_no_fix"))
+            else:
+                return out
+        if (not self.surface_sigma_m or own.sigma_m <= self.surface_sigma_m
+                or own.activity is not Activity.TRANSIT or own.detour is not None
+                or not own.route or self._no_fix >= SURFACE_TRIES
+                or own.distance_m - self._last_climb_m < SURFACE_GAP_M):
+            return out
+        x, y, z = own.pos
+        up = (x, y, 0.0)
+        goal = tuple(float(c) for c in own.problem.xyz[own.route[0]])
+        cost = own.leg_time_s(own.pos, up) + own.leg_time_s(up, goal) - \
+            own.leg_time_s(own.pos, goal)
+        if not math.isfinite(cost):
+            return out
+        own.set_detour((own.pos, up), max(0.0, cost))
+        self._climb, self._last_climb_m = True, own.distance_m
+        know.touch()
+        return out + [Count("surfaced"),
+                      Tell(now, EventKind.NAVIGATION, detail=f"error {own.sigma_m:.1f} m "
+                           f"(1 sigma): climbing {-z:.1f} m for a GPS fix")]
 
     def _stale(self, know: Knowledge, now: float, age: float, active: bool) -> list[Intent]:
         """No fix for ``age`` > hold: keep station under way; past the limit, go home."""

@@ -6,6 +6,7 @@ slower than the agent's plan assumes), deterministically on mission time."""
 from __future__ import annotations
 
 import copy
+from dataclasses import replace
 import functools
 import math
 from typing import Sequence
@@ -33,8 +34,9 @@ from fleet_bus.vehicle_port import (
 )
 from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.model.problem import Problem
+from reef_sim.navigation import DeadReckoning, NavigationParams
 from reef_sim.scenarios.field import GeneratorParams, generate_doc
-from reef_sim.vehicle import SimVehicle
+from reef_sim.vehicle import SURFACE_M, SimVehicle
 
 KEY = bytes(range(16))
 CONFIG = AgentConfig(nav_hold_s=10.0, nav_limit_s=120.0, late_after_s=60.0).with_key(KEY)
@@ -106,10 +108,11 @@ class Sink:
         pass
 
 
-def fly(vehicle, horizon_s: float = 2600.0) -> tuple[Agent, Sink, list[tuple[float, Output]]]:
+def fly(vehicle, horizon_s: float = 2600.0, config: AgentConfig = CONFIG
+        ) -> tuple[Agent, Sink, list[tuple[float, Output]]]:
     """One agent driving ``vehicle`` until it is home or ``horizon_s``; every helm command
     with the mission time it was given."""
-    agent = Agent(fleet(), 0, CONFIG, 0.0)
+    agent = Agent(fleet(), 0, config, 0.0)
     sink = Sink()
     commands: list[tuple[float, Output]] = []
     driver = AgentDriver(agent, vehicle, sink, sink, MemoryJournal(),
@@ -221,3 +224,71 @@ def test_a_vehicle_on_time_with_its_fixes_is_left_alone() -> None:
     assert agent.counters.get("nav_delay_max_ms", 0) == 0  # a simulated fix is never late
     assert not [c for _, c in commands if isinstance(c.command, StationKeep)
                 and c.command.work is Work.WAIT and c.command.task == -1]
+
+
+DRIFTING = NavigationParams(drift_pct=2.0, walk_m_per_sqrt_km=0.5, start_sigma_m=1.0)
+
+
+class Sigmas:
+    """The simulated vehicle with its navigation drifting: every fix's sigma kept. With
+    ``gps`` False its helm never leaves its depth (a climb asked for is flown level): no
+    fix at the surface ever comes."""
+
+    name = "sim"
+
+    def __init__(self, gps: bool = True) -> None:
+        start = problem().vehicles[0].start
+        self.vehicle = SimVehicle(problem(), 0, navigation=DeadReckoning(DRIFTING, 3, 0, start))
+        self.gps, self.sigmas = gps, []  # (t, sigma) of every fix
+
+    def command(self, cmd, t_s: float) -> None:
+        if not self.gps and isinstance(cmd, GoTo):
+            cmd = GoTo(cmd.target, tuple(w for w in cmd.waypoints[:-1] if w[2] < -SURFACE_M)
+                       + cmd.waypoints[-1:], cmd.ahead)
+        self.vehicle.command(cmd, t_s)
+
+    def poll(self, until_s: float) -> list[VehicleReport]:
+        out = self.vehicle.poll(until_s)
+        self.sigmas += [(r.t_s, r.sigma_m) for r in out if isinstance(r, NavFix)]
+        return out
+
+    def next_report_s(self) -> float | None:
+        return self.vehicle.next_report_s()
+
+    def close(self) -> None:
+        self.vehicle.close()
+
+
+def _climbs(commands: list[tuple[float, Output]]) -> list[GoTo]:
+    return [c.command for _, c in commands if isinstance(c.command, GoTo)
+            and any(w[2] >= -SURFACE_M for w in c.command.waypoints[:-1])]
+
+
+def test_a_drifting_vehicle_climbs_for_a_gps_fix_and_its_error_stays_bounded() -> None:
+    """Past ``surface_sigma_m`` (3 m) the vehicle climbs where it is on its way to the next
+    spot; the fix at the surface brings its error back, so it never grows far past the
+    threshold. Without the rule (0) the same vehicle's error grows with the distance run."""
+    climbing, sink, commands = fly(vehicle := Sigmas())
+    level = Sigmas()
+    fly(level, config=replace(CONFIG, surface_sigma_m=0.0))
+    climbs = _climbs(commands)
+    assert climbs and climbing.counters["surfaced"] == len(kinds(sink, "navigation")) >= 2
+    assert all(c.waypoints[0][2] == 0.0 for c in climbs)  # straight up, then on to the spot
+    assert "surface_no_fix" not in climbing.counters
+    assert climbing.own.done and not climbing.own.aborted
+    # Until its last spot, the error grows at most a step's run past the threshold between
+    # climbs (on the way home, to the surface anyway, it is left to grow).
+    last = max(e.t_s for e in kinds(sink, "cleared"))
+    assert max(sg for t, sg in vehicle.sigmas if t <= last) < 1.5 * 3.0
+    assert max(sg for t, sg in level.sigmas if t <= last) > 3 * 3.0
+    assert len(climbing.know.treated) >= len(fly(Sigmas(), config=replace(
+        CONFIG, surface_sigma_m=0.0))[0].know.treated) - 1  # the climbs cost seconds
+
+
+def test_climbs_that_bring_no_fix_stop_after_three() -> None:
+    """A helm whose navigation takes no GPS (here: one that never leaves its depth) does not
+    make the vehicle climb forever: three climbs without a fix, then it stays down."""
+    agent, sink, commands = fly(Sigmas(gps=False))
+    assert agent.counters["surfaced"] == agent.counters["surface_no_fix"] == 3
+    assert len(_climbs(commands)) == 3
+    assert agent.own.done and not agent.own.aborted

@@ -194,6 +194,41 @@ def test_a_fix_under_way_is_due_as_a_report_and_steers_the_flight_again():
     assert math.dist(after, (100.0, 0.0, -1.0)) < 3.0
 
 
+def test_a_waypoint_at_the_surface_gives_a_gps_fix_whatever_the_polling():
+    """A climb to the surface is a GPS fix (start_sigma_m): the error falls to about it, the
+    flight is steered again from there, and its time is a report time, so what the vehicle
+    reports does not depend on how often it is polled."""
+    params = NavigationParams(drift_pct=3.0, walk_m_per_sqrt_km=0.0, start_sigma_m=1.0)
+    p = field(((600.0, 0.0, -8.0),))
+    up, goal = (400.0, 0.0, 0.0), (600.0, 0.0, -8.0)
+
+    def run(step_s: float) -> tuple[SimVehicle, list, list[float]]:
+        v = SimVehicle(p, 0, navigation=DeadReckoning(params, 4, 0, (0.0, 0.0, 0.0)))
+        v.command(GoTo(0, ((400.0, 0.0, -8.0), goal)), 0.0)
+        v.poll(300.0)
+        before = v.fix().sigma_m
+        v.command(GoTo(0, (up, goal)), 300.0)  # the same target, a climb added: a new leg
+        due = [v.next_report_s()]
+        out = [r for r in reports(v, 2000.0, step_s) if not isinstance(r, NavFix)]
+        return v, out, [before, *due]
+
+    v, got, (before, due) = run(2000.0)
+    assert before > 5.0  # 3 % of 300 m per axis
+    assert v.navigation is not None and v.navigation.fixes == 1  # the climb's
+    assert due < 1000.0  # the climb's end is due before the arrival (its fix steers the rest)
+    stepped, got_step, _ = run(7.0)
+    assert [type(r) for r in got_step] == [type(r) for r in got] == [Arrived]
+    assert got_step[0].t_s == pytest.approx(got[0].t_s, abs=1e-6)
+    assert stepped.pos == pytest.approx(v.pos, abs=1e-6)
+    # without the climb the same vehicle ends farther off its goal, and knows it
+    plain = SimVehicle(p, 0, navigation=DeadReckoning(params, 4, 0, (0.0, 0.0, 0.0)))
+    plain.command(GoTo(0, ((400.0, 0.0, -8.0), goal)), 0.0)
+    reports(plain, 2000.0, 2000.0)
+    assert math.dist(v.pos, goal) < math.dist(plain.pos, goal)
+    # the GPS fix's 1 m, then 3 % of the ~200 m run from the surface; 3 % of 600 m without
+    assert v.fix().sigma_m < 0.03 * 220.0 < plain.fix().sigma_m / 2
+
+
 def test_a_sighting_is_the_truth_moved_by_the_navigation_error_where_the_pass_began():
     p = field()
     reef = Reef(25.0, 1.0, 20.0, (TruthSpot((250.0, 20.0, -6.0), 40.0, 70.0, None),))
