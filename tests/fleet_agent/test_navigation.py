@@ -227,6 +227,7 @@ def test_a_vehicle_on_time_with_its_fixes_is_left_alone() -> None:
 
 
 DRIFTING = NavigationParams(drift_pct=2.0, walk_m_per_sqrt_km=0.5, start_sigma_m=1.0)
+CLIMBING = replace(CONFIG, surface_sigma_m=3.0)
 
 
 class Sigmas:
@@ -268,7 +269,7 @@ def test_a_drifting_vehicle_climbs_for_a_gps_fix_and_its_error_stays_bounded() -
     """Past ``surface_sigma_m`` (3 m) the vehicle climbs where it is on its way to the next
     spot; the fix at the surface brings its error back, so it never grows far past the
     threshold. Without the rule (0) the same vehicle's error grows with the distance run."""
-    climbing, sink, commands = fly(vehicle := Sigmas())
+    climbing, sink, commands = fly(vehicle := Sigmas(), config=CLIMBING)
     level = Sigmas()
     fly(level, config=replace(CONFIG, surface_sigma_m=0.0))
     climbs = _climbs(commands)
@@ -288,7 +289,7 @@ def test_a_drifting_vehicle_climbs_for_a_gps_fix_and_its_error_stays_bounded() -
 def test_climbs_that_bring_no_fix_stop_after_three() -> None:
     """A helm whose navigation takes no GPS (here: one that never leaves its depth) does not
     make the vehicle climb forever: three climbs without a fix, then it stays down."""
-    agent, sink, commands = fly(Sigmas(gps=False))
+    agent, sink, commands = fly(Sigmas(gps=False), config=CLIMBING)
     assert agent.counters["surfaced"] == agent.counters["surface_no_fix"] == 3
     assert len(_climbs(commands)) == 3
     assert agent.own.done and not agent.own.aborted
