@@ -51,6 +51,11 @@ _EPS = 1e-9
 SURFACE_M = 0.5  # a waypoint this close to the surface puts the GPS antenna out of the water
 
 
+def at_surface(w: Sequence[float]) -> bool:
+    """Is waypoint ``w`` at the surface (its GPS takes a fix there)?"""
+    return len(w) > 2 and w[2] >= -SURFACE_M
+
+
 class Phase(Enum):
     HOLDING = "holding"  # keeping station, nothing under way (before orders, after arriving)
     FLYING = "flying"  # toward the target of a GoTo (or home) through waypoints
@@ -162,7 +167,7 @@ class SimVehicle:
         """Does a GoTo to the target under way add a climb to the surface on the way (a fix
         its agent asked for, `fleet_agent.policies.navigation`)? Then it is a new leg."""
         def up(ws: Sequence[Sequence[float]]) -> bool:
-            return any(w[2] >= -SURFACE_M for w in ws[:-1] if len(w) > 2)
+            return any(at_surface(w) for w in ws[:-1])
         return up(waypoints) and not up(self._waypoints)
 
     def poll(self, until_s: float) -> list[VehicleReport]:
@@ -252,7 +257,8 @@ class SimVehicle:
             seg_m = math.dist(self._segment.origin, w)
             self.t_s = max(self.t_s, reach_s)
             odometer = self._segment.odometer0_m + seg_m
-            if self.navigation is not None and w[2] >= -SURFACE_M:
+            if self._fixes_at(w):
+                assert self.navigation is not None
                 self.navigation.surface_fix(self.t_s, w, odometer)  # steers on from the fix
             self._start_segment(w, self.t_s, odometer)
             seen = self._sightings(self.t_s)
@@ -300,8 +306,8 @@ class SimVehicle:
         self.odometer_m = seg.odometer0_m + run_m
 
     def _flight_end_s(self) -> float:
-        """When the flight under way ends (from the segment's origin: independent of polling;
-        kept per segment)."""
+        """When the flight under way ends, or first reaches the surface, whose fix steers the
+        rest anew (from the segment's origin: independent of polling; kept per segment)."""
         cached = self._flight_end
         if cached is not None and cached[0] is self._segment:
             return cached[1]
@@ -310,14 +316,12 @@ class SimVehicle:
         return t
 
     def _sum_flight_s(self) -> float:
-        """When the flight ends, or reaches a waypoint at the surface (its GPS fix steers the
-        rest anew: the end is known only from there)."""
         t = self._segment.end_s
         prev = self._seg_end if self._waypoints else self.pos
-        if self.navigation is not None and self._waypoints and prev[2] >= -SURFACE_M:
-            return t
         odometer = self._segment.odometer0_m + math.dist(self._segment.origin, prev)
         for target in self._waypoints[1:]:
+            if self._fixes_at(prev):
+                return t  # the end is known only from the fix there
             w = self._true_end(target, prev, odometer)
             try:
                 t += sum(d for d, _ in segment_pieces(self.current, prev, w, self.speed_mps, t))
@@ -325,9 +329,12 @@ class SimVehicle:
                 return math.inf
             odometer += math.dist(prev, w)
             prev = w
-            if self.navigation is not None and w[2] >= -SURFACE_M:
-                return t
         return t
+
+    def _fixes_at(self, w: Point3) -> bool:
+        """Does reaching waypoint ``w`` give a navigation fix (a drifting estimate, at the
+        surface)?"""
+        return self.navigation is not None and at_surface(w)
 
     def _heading(self, p: Point3, w: Point3) -> None:
         """Yaw (eq. 5) and pitch (eq. 6) of the motion from ``p`` toward ``w``, degrees."""

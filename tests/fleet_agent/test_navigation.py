@@ -36,7 +36,7 @@ from hfc_core.formats.scenario import problem_from_dict
 from hfc_core.model.problem import Problem
 from reef_sim.navigation import DeadReckoning, NavigationParams
 from reef_sim.scenarios.field import GeneratorParams, generate_doc
-from reef_sim.vehicle import SURFACE_M, SimVehicle
+from reef_sim.vehicle import SimVehicle, at_surface
 
 KEY = bytes(range(16))
 CONFIG = AgentConfig(nav_hold_s=10.0, nav_limit_s=120.0, late_after_s=60.0).with_key(KEY)
@@ -230,39 +230,33 @@ DRIFTING = NavigationParams(drift_pct=2.0, walk_m_per_sqrt_km=0.5, start_sigma_m
 CLIMBING = replace(CONFIG, surface_sigma_m=3.0)
 
 
-class Sigmas:
-    """The simulated vehicle with its navigation drifting: every fix's sigma kept. With
-    ``gps`` False its helm never leaves its depth (a climb asked for is flown level): no
-    fix at the surface ever comes."""
-
-    name = "sim"
+class Sigmas(FixGap):
+    """The simulated vehicle with its navigation drifting: every fix's sigma kept (no gap in
+    its fixes). With ``gps`` False its helm never leaves its depth (a climb asked for is
+    flown level): no fix at the surface ever comes."""
 
     def __init__(self, gps: bool = True) -> None:
         start = problem().vehicles[0].start
-        self.vehicle = SimVehicle(problem(), 0, navigation=DeadReckoning(DRIFTING, 3, 0, start))
-        self.gps, self.sigmas = gps, []  # (t, sigma) of every fix
+        super().__init__(SimVehicle(problem(), 0, navigation=DeadReckoning(DRIFTING, 3, 0, start)),
+                         math.inf)
+        self.gps = gps
+        self.sigmas: list[tuple[float, float]] = []  # (t, sigma) of every fix
 
     def command(self, cmd, t_s: float) -> None:
         if not self.gps and isinstance(cmd, GoTo):
-            cmd = GoTo(cmd.target, tuple(w for w in cmd.waypoints[:-1] if w[2] < -SURFACE_M)
+            cmd = GoTo(cmd.target, tuple(w for w in cmd.waypoints[:-1] if not at_surface(w))
                        + cmd.waypoints[-1:], cmd.ahead)
-        self.vehicle.command(cmd, t_s)
+        super().command(cmd, t_s)
 
     def poll(self, until_s: float) -> list[VehicleReport]:
-        out = self.vehicle.poll(until_s)
+        out = super().poll(until_s)
         self.sigmas += [(r.t_s, r.sigma_m) for r in out if isinstance(r, NavFix)]
         return out
-
-    def next_report_s(self) -> float | None:
-        return self.vehicle.next_report_s()
-
-    def close(self) -> None:
-        self.vehicle.close()
 
 
 def _climbs(commands: list[tuple[float, Output]]) -> list[GoTo]:
     return [c.command for _, c in commands if isinstance(c.command, GoTo)
-            and any(w[2] >= -SURFACE_M for w in c.command.waypoints[:-1])]
+            and any(at_surface(w) for w in c.command.waypoints[:-1])]
 
 
 def test_a_drifting_vehicle_climbs_for_a_gps_fix_and_its_error_stays_bounded() -> None:
@@ -271,7 +265,7 @@ def test_a_drifting_vehicle_climbs_for_a_gps_fix_and_its_error_stays_bounded() -
     threshold. Without the rule (0) the same vehicle's error grows with the distance run."""
     climbing, sink, commands = fly(vehicle := Sigmas(), config=CLIMBING)
     level = Sigmas()
-    fly(level, config=replace(CONFIG, surface_sigma_m=0.0))
+    staying, _, _ = fly(level, config=replace(CONFIG, surface_sigma_m=0.0))
     climbs = _climbs(commands)
     assert climbs and climbing.counters["surfaced"] == len(kinds(sink, "navigation")) >= 2
     assert all(c.waypoints[0][2] == 0.0 for c in climbs)  # straight up, then on to the spot
@@ -282,8 +276,7 @@ def test_a_drifting_vehicle_climbs_for_a_gps_fix_and_its_error_stays_bounded() -
     last = max(e.t_s for e in kinds(sink, "cleared"))
     assert max(sg for t, sg in vehicle.sigmas if t <= last) < 1.5 * 3.0
     assert max(sg for t, sg in level.sigmas if t <= last) > 3 * 3.0
-    assert len(climbing.know.treated) >= len(fly(Sigmas(), config=replace(
-        CONFIG, surface_sigma_m=0.0))[0].know.treated) - 1  # the climbs cost seconds
+    assert len(climbing.know.treated) >= len(staying.know.treated) - 1  # climbs cost seconds
 
 
 def test_climbs_that_bring_no_fix_stop_after_three() -> None:
