@@ -186,7 +186,9 @@ def test_web_viewer_keeps_up_with_a_live_warp_60_mission(tmp_path):
                 # served once every agent is ready
                 clock = stack.enter_context(
                     mission_clock(bus, run_dir / "credentials" / STATION_ID))
-                assert clock.warp in (WARP, HOLD_WARP)  # held while an agent plans
+                # held while an agent plans, slowed while a host is behind (`pacing`: a
+                # loaded machine, make test's -n 2, read 21.3), never faster than asked
+                assert HOLD_WARP <= clock.warp <= WARP
                 next_shot = time.monotonic() + 6.0
                 while "mission over" not in out.read_text(errors="replace"):
                     assert mission.poll() is None, "cotsfleet run ended before the mission did"
