@@ -69,7 +69,7 @@ CLAIRVOYANT_S = 10.0
 LOSS = 0.3
 DRIFT = NavigationParams(drift_pct=1.0)
 # Drifting vehicles climb for a GPS fix past this sigma (`AgentConfig.surface_sigma_m`, off by
-# default until the fault fuzz's duplicates with it on are traced: docs/search.md).
+# default until the loss rules its fault-fuzz duplicates met are fixed: docs/search.md).
 CLIMB_SIGMA_M = 3.0
 GREEN = Path(__file__).resolve().parents[1] / "examples" / "green_island.json"
 SETTINGS: dict[str, DynamicParams] = {

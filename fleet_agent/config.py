@@ -125,8 +125,8 @@ class AgentConfig:
     # A vehicle under way whose navigation reports a 1-sigma error per axis above this, m,
     # climbs to the surface for a GPS fix on its way (`policies.navigation`; 0: never). 3 m
     # puts 99 % of its error within 9 m, inside a look's footprint, and is what the dynamic
-    # benchmark measures; off by default until the fault fuzz's duplicates with it on are
-    # traced (4 of 112 missions under heavy loss, docs/search.md).
+    # benchmark measures; off by default until the loss rules that its fault-fuzz duplicates
+    # met are fixed (4 of 112 missions, traced in docs/search.md).
     surface_sigma_m: float = 0.0
     # The operator's live orders (`policies.orders`): one issued longer ago than this is
     # refused as stale (a recording kept back and played later, a topside far behind).
