@@ -322,7 +322,7 @@ class Agent:
     def _on_command(self, name: OperatorCommand, now: float, out: Outputs) -> None:
         if name == OperatorCommand.ABORT and self.active:
             self.own.abort()
-            self._apply([Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
+            self._apply([Owe(Owed.OWN_ABORT), Note(rec.Aborted(now)),
                          Tell(now, EventKind.ABORT)], now, out)
 
     # -- the modem out ---------------------------------------------------------------------

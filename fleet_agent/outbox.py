@@ -19,6 +19,10 @@ The ladder, most urgent first (a working vehicle):
 2. news of another vehicle's abort, passed on once;
 3. a pose when the last one is ``pose_every_cycles`` slots old (the heartbeat);
 4. a new find's first FOUND;
+4b. the first push of the cleared set owed after our own treatment: ahead of the
+   repeats below, which churn can keep coming (a vehicle sent a claim, a release or a FOUND
+   in every slot its pose left free, its pushes waited minutes, it aborted, and the spot it
+   had treated was taken over and treated again: fault fuzz seed 22);
 5. the finds' anti-entropy when it has waited two refresh periods (claims cannot starve it);
 6. a segment of the cleared set a claimant showed it lacks (it is on its way to a spot we
    know is cleared);
@@ -37,8 +41,10 @@ The ladder, most urgent first (a working vehicle):
 11. standing claims again every ``claim_refresh_cycles`` (late joiners, loss);
 12. else the key the last frame (a pose) could not disclose (`fleet_bus.tesla`), else a pose.
 
-An aborting vehicle sends its ABORT ``abort_repeats`` times, then what it owes of the cleared
-set; a vehicle home sends ``home_repeats`` poses. Either then keeps watch: a pose every
+An aborting vehicle sends its ABORT, a push of its cleared set, the ABORT's repeats
+(``abort_repeats`` in all), then a second push (a peer takes its spots over on hearing the
+ABORT); a vehicle home sends
+``home_repeats`` poses. Either then keeps watch: a pose every
 ``watch_every_cycles`` slots (its heard codes confirm silences), or silence.
 """
 
@@ -62,7 +68,7 @@ class Owed(Enum):
     CLAIM = "claim"  # item: `Holding`, a new claim or release
     ANSWER = "answer"  # item: `Holding`, our earlier claim a peer contested (re-sent first)
     ABORT = "abort"  # item: `AbortNews`, another vehicle's abort, passed on once
-    OWN_ABORT = "own_abort"  # item: None, our own abort (``abort_repeats`` times)
+    OWN_ABORT = "own_abort"  # item: None, our own abort (``abort_repeats`` times, two pushes)
     HOME = "home"  # item: None, our arrival home (``home_repeats`` poses)
     SEGMENT = "segment"  # item: segment index a claimant lacks
     CLEARED = "cleared"  # item: how many pushes of the cleared set are owed (it sets them)
@@ -166,6 +172,7 @@ class Outbox:
         self._own_abort_left = 0
         self._home_left = 0
         self._cleared_pushes = 0
+        self._cleared_fresh = False  # the first of the owed pushes has not gone out yet
         self._lacking: set[int] = set()  # peers that may lack part of our cleared set
         self.segments: deque[int] = deque()  # segments a claimant showed it lacks
         self._segment_turn = 0  # rotation over the cleared set's segments, one per push
@@ -194,14 +201,19 @@ class Outbox:
             assert isinstance(item, AbortNews)
             self._aborts.append(item)
         elif kind is Owed.OWN_ABORT:
+            # Its last words: the ABORT, and its cleared set before and after it (`ABORTED`).
             self._own_abort_left = self.spec["own_abort"].repeats
+            self.owe(Owed.CLEARED, 2)
         elif kind is Owed.HOME:
             self._home_left = self.spec["home"].repeats
         elif kind is Owed.SEGMENT:
             if item not in self.segments:
                 self.segments.append(_whole(kind, item))
         elif kind is Owed.CLEARED:
-            self._cleared_pushes = _whole(kind, item)
+            # Never fewer than already owed: an abort owing one push once took back the two
+            # owed for the treatment just before it.
+            self._cleared_pushes = max(self._cleared_pushes, _whole(kind, item))
+            self._cleared_fresh = True
         elif kind is Owed.LACKS:
             self._lacking.add(_whole(kind, item))
         elif kind is Owed.FIND:
@@ -292,6 +304,11 @@ class Outbox:
         news = self._aborts.popleft()
         return Abort(s.me, s.seq(), news.t_s, s.heard, news.subject)
 
+    def own_abort_first(self, s: Slot) -> Message | None:
+        """An aborting vehicle's first ABORT, before anything it owes (`ABORTED`)."""
+        return self.own_abort(s) if self._own_abort_left == self.spec["own_abort"].repeats \
+            else None
+
     def own_abort(self, s: Slot) -> Message | None:
         if self._own_abort_left <= 0:
             return None
@@ -348,14 +365,26 @@ class Outbox:
         self._last_cleared_slot = s.number
         return self._cleared(s) if len(s.know.cleared) else None
 
+    def cleared_first(self, s: Slot) -> Message | None:
+        """The first of the pushes owed (after a treatment, an abort): before the repeats of
+        claims and releases. Why: a vehicle whose route churned sent a claim, a release or a
+        FOUND in every slot a pose left free, and its pushes waited behind them for minutes;
+        it treated a spot, aborted 92 s later, and the peer that took its spots over treated
+        that one again (fault fuzz seed 22 with climbs for a fix)."""
+        if not self._cleared_fresh:
+            return None
+        self._cleared_fresh = False
+        return self.cleared_pushed(s)
+
     def cleared_pushed(self, s: Slot) -> Message | None:
         """What this vehicle owes of its cleared set: after its own treatment (before the
         finds' anti-entropy and repeats: on a reef of many finds their digests rarely agree,
         and a treatment heard late is a spot treated twice, issue 30), or aborting."""
         if self._cleared_pushes <= 0:
             return None
+        msg = self._cleared(s)  # while still owed: the segment of our latest treatment
         self._cleared_pushes -= 1
-        return self._cleared(s)
+        return msg
 
     def _cleared(self, s: Slot, seg: int | None = None) -> ClearedSegment:
         # Rotate over segments; the one holding our latest clear goes first. The rotation
@@ -442,11 +471,15 @@ class Outbox:
 # The ladders (module docstring), as tables of rules.
 LADDER: tuple[Rule, ...] = (
     Outbox.count_slot, Outbox.claim_first, Outbox.abort_news, Outbox.pose_due, Outbox.find_first,
-    Outbox.finds_starved, Outbox.segment_owed, Outbox.claim_repeat, Outbox.cleared_pushed,
-    Outbox.find_repeat, Outbox.finds_due, Outbox.cleared_due, Outbox.claims_due,
-    Outbox.key_or_pose,
+    Outbox.cleared_first, Outbox.finds_starved, Outbox.segment_owed, Outbox.claim_repeat,
+    Outbox.cleared_pushed, Outbox.find_repeat, Outbox.finds_due, Outbox.cleared_due,
+    Outbox.claims_due, Outbox.key_or_pose,
 )
 # The further frames of a transmission that carries several: what is owed, no heartbeat.
 MORE: tuple[Rule, ...] = LADDER[1:-1]
-ABORTED: tuple[Rule, ...] = (Outbox.own_abort, Outbox.cleared_pushed, Outbox.watch)
+# An aborting vehicle's first push goes right after its first ABORT, not after all of them:
+# a peer takes its spots over on hearing the ABORT, and one it treated last, its clear unheard,
+# would be treated again; the taker is still on its way when the push comes a slot later.
+ABORTED: tuple[Rule, ...] = (Outbox.own_abort_first, Outbox.cleared_first, Outbox.own_abort,
+                             Outbox.cleared_pushed, Outbox.watch)
 HOME: tuple[Rule, ...] = (Outbox.home, Outbox.watch)

@@ -172,7 +172,7 @@ class Navigation:
                          "from the last fix")]
             if active:  # an abort, as the operator's (`Agent._on_command`), said why
                 own.abort()
-                out += [Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
+                out += [Owe(Owed.OWN_ABORT), Note(rec.Aborted(now)),
                         Tell(now, EventKind.ABORT, detail=f"no navigation for {age:.0f} s")]
             return out
         self.holding = own.activity in MOVING
@@ -187,7 +187,7 @@ class Navigation:
             return []
         self.paused = False
         own.abort()
-        return [Count("pause_battery_home"), Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1),
+        return [Count("pause_battery_home"), Owe(Owed.OWN_ABORT),
                 Note(rec.Aborted(now)),
                 Tell(now, EventKind.ABORT, detail=f"paused with {max(0.0, left_s):.0f} s of "
                      f"battery left, {home_s:.0f} s from home: heading home")]

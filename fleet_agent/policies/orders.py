@@ -165,7 +165,7 @@ class Orders:
                 return []
             own.abort()
             nav.paused = self.paused = False
-            return [Owe(Owed.OWN_ABORT), Owe(Owed.CLEARED, 1), Note(rec.Aborted(now)),
+            return [Owe(Owed.OWN_ABORT), Note(rec.Aborted(now)),
                     Tell(now, EventKind(order.verb), detail="the operator's order")]
         if order.verb == "pause":
             nav.paused = self.paused = True

@@ -144,10 +144,12 @@ def test_abort_announces_then_keeps_watch_and_goes_home() -> None:
     world.run_until(4000.0)
     sent = [fleet().codec.decode(f) for f in world.sent("auv3")[n_before:]]
     kinds = [type(m).__name__ for m in sent]
-    assert kinds[:CONFIG.abort_repeats] == ["Abort"] * CONFIG.abort_repeats
+    # its ABORTs, its cleared set right after the first and after the last (`outbox.ABORTED`)
+    said = ["Abort", "ClearedSegment"] + ["Abort"] * (CONFIG.abort_repeats - 1)
+    assert kinds[:CONFIG.abort_repeats + 2] == said + ["ClearedSegment"]
     # then only poses saying "aborted", one every `watch_every_cycles` slots: keeping watch,
     # and after each the key it could not disclose (`fleet_bus.tesla`)
-    watch = sent[CONFIG.abort_repeats + 1:]
+    watch = sent[CONFIG.abort_repeats + 2:]
     assert watch and all((type(m).__name__ == "Pose" and m.state in ("aborted", "home"))
                          or type(m).__name__ == "Key" for m in watch)
     slots = (4000.0 - 600.0) / (3 * CONFIG.slot_s)
@@ -164,7 +166,7 @@ def test_a_vehicle_off_watch_falls_silent_after_its_announcements() -> None:
     n_before = len(world.sent("auv3"))
     world.run_until(4000.0)
     kinds = [type(fleet().codec.decode(f)).__name__ for f in world.sent("auv3")[n_before:]]
-    assert kinds[:CONFIG.abort_repeats] == ["Abort"] * CONFIG.abort_repeats
+    assert kinds.count("Abort") == CONFIG.abort_repeats and kinds[0] == "Abort"
     assert "Pose" not in kinds
 
 
