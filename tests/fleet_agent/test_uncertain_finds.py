@@ -801,9 +801,11 @@ def test_a_look_showing_a_find_a_peer_holds_is_left_to_it(rho, left):
 def test_hard_seed_37_at_1_percent_drift_treats_each_aggregation_once() -> None:
     """`benchmarks/dynamic.py`'s hard reef, seed 37, at its 1 % drift: auv3, sent to find 97
     (rho 2.5), stood over the aggregation auv1 had treated as find 96 (rho 60) and injected
-    it again. It now looks first (3 looks here): one shows another rho, and the find is
-    left; nothing is treated twice. The vehicles do not climb for GPS fixes here
-    (``surface_sigma_m`` 0): the case is matching under the drift itself."""
+    it again. It now looks first at a find before treating it; nothing is treated twice.
+    (Until the outbox pushed the cleared set ahead of claim repeats, one of 3 looks showed
+    another rho and the find was left; the clear now reaches auv3 sooner and 1 look is
+    taken.) The vehicles do not climb for GPS fixes here (``surface_sigma_m`` 0): the case
+    is matching under the drift itself."""
     from benchmarks.dynamic import DRIFT, SETTINGS, config_of
     from cotsfleet.mission.inprocess import simulate
     from reef_sim.score import world_tally
@@ -818,4 +820,4 @@ def test_hard_seed_37_at_1_percent_drift_treats_each_aggregation_once() -> None:
     books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
              if seat.driver is not None}
     assert world_tally(reef, books)["duplicates"] == 0
-    assert sum(v.counters.get("looks_not_the_find", 0) for v in result.report.vehicles) == 1
+    assert sum(v.counters.get("looks_at_finds", 0) for v in result.report.vehicles) >= 1
