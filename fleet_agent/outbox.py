@@ -19,32 +19,31 @@ The ladder, most urgent first (a working vehicle):
 2. news of another vehicle's abort, passed on once;
 3. a pose when the last one is ``pose_every_cycles`` slots old (the heartbeat);
 4. a new find's first FOUND;
-4b. the first push of the cleared set owed after our own treatment: ahead of the
-   repeats below, which churn can keep coming (a vehicle sent a claim, a release or a FOUND
+5. the first push of the cleared set owed after our own treatment: ahead of the repeats
+   below, which churn can keep coming (a vehicle sent a claim, a release or a FOUND
    in every slot its pose left free, its pushes waited minutes, it aborted, and the spot it
-   had treated was taken over and treated again: fault fuzz seed 22);
-5. the finds' anti-entropy when it has waited two refresh periods (claims cannot starve it);
-6. a segment of the cleared set a claimant showed it lacks (it is on its way to a spot we
+   had treated was taken over and treated again: fault fuzz seeds 22 and 202);
+6. the finds' anti-entropy when it has waited two refresh periods (claims cannot starve it);
+7. a segment of the cleared set a claimant showed it lacks (it is on its way to a spot we
    know is cleared);
-7. pending claims and releases, oldest first, each ``claim_repeats`` times (spots cleared
-   meanwhile left out); then the pushes of the cleared set owed after our own treatment (on
+8. pending claims and releases, oldest first, each ``claim_repeats`` times (spots cleared
+   meanwhile left out); then the rest of the pushes owed after our own treatment (on
    the hard reefs of issue 30, with finds made all the time, the finds' anti-entropy below
    took nearly every slot: one vehicle sent 5 segments in a mission, a peer missed 12 of its
    treatments, and a find both held was treated twice);
-8. the repeats of new finds' FOUND (``find_repeats`` in all), after the claims: two finds in
+9. the repeats of new finds' FOUND (``find_repeats`` in all), after the claims: two finds in
    a row once held a claim back for 90 s, time enough for a peer to claim the same find;
-9. the finds' anti-entropy: every known find once for a peer whose digest is unlike ours and
-   whose count is not above ours, one soon for a peer with more (so it pushes to us), else one
-   known find every ``find_refresh_cycles``;
-10. the cleared set, one segment: when a peer may lack part of it, or every
+10. the finds' anti-entropy: every known find once for a peer whose digest is unlike ours and
+    whose count is not above ours, one soon for a peer with more (so it pushes to us), else
+    one known find every ``find_refresh_cycles``;
+11. the cleared set, one segment: when a peer may lack part of it, or every
     ``cleared_refresh_cycles``;
-11. standing claims again every ``claim_refresh_cycles`` (late joiners, loss);
-12. else the key the last frame (a pose) could not disclose (`fleet_bus.tesla`), else a pose.
+12. standing claims again every ``claim_refresh_cycles`` (late joiners, loss);
+13. else the key the last frame (a pose) could not disclose (`fleet_bus.tesla`), else a pose.
 
 An aborting vehicle sends its ABORT, a push of its cleared set, the ABORT's repeats
 (``abort_repeats`` in all), then a second push (a peer takes its spots over on hearing the
-ABORT); a vehicle home sends
-``home_repeats`` poses. Either then keeps watch: a pose every
+ABORT); a vehicle home sends ``home_repeats`` poses. Either then keeps watch: a pose every
 ``watch_every_cycles`` slots (its heard codes confirm silences), or silence.
 """
 
