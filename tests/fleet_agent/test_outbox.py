@@ -43,16 +43,23 @@ def test_a_packet_of_three_frames_carries_what_is_owed_in_the_ladders_order() ->
     assert Release in [type(m) for p in later for m in p]  # the release got through
 
 
+def _owing_two_pushes() -> Agent:
+    """An agent that treated spot 7 and owes the two pushes of its cleared set a treatment
+    owes, nothing else pending."""
+    a = agent()
+    a.radio.outbox.holdings.clear()
+    a.know.cleared.add(7)
+    a.radio.outbox.owe(Owed.CLEARED, 2)
+    return a
+
+
 def test_a_push_owed_after_a_treatment_is_not_starved_by_claims_and_releases() -> None:
     # Fault fuzz seed 22 (climbs for a fix on): a vehicle whose route churned sent a claim,
     # a release or a FOUND in every slot its pose left free; the two pushes owed after its
     # treatment waited for minutes, it aborted, and the peer that took its spots over
     # treated that one again.
-    a = agent()
+    a = _owing_two_pushes()
     box = a.radio.outbox
-    box.holdings.clear()
-    a.know.cleared.add(7)
-    box.owe(Owed.CLEARED, 2)
     sent = []
     for k in range(4):
         box.owe(Owed.CLAIM, Holding(False, 10 + k, (20 + k,)))  # churn: a release a slot
@@ -61,12 +68,8 @@ def test_a_push_owed_after_a_treatment_is_not_starved_by_claims_and_releases() -
 
 
 def test_an_abort_keeps_the_pushes_owed_and_pushes_right_after_its_first_abort() -> None:
-    a = agent()
-    box = a.radio.outbox
-    box.holdings.clear()
-    a.know.cleared.add(7)
-    box.owe(Owed.CLEARED, 2)
-    box.owe(Owed.OWN_ABORT)
+    a = _owing_two_pushes()
+    a.radio.outbox.owe(Owed.OWN_ABORT)
     a.know.own.aborted = True
     sent = [type(m) for k in range(8) for m in a.radio.messages(5.0 + 7.5 * k, a.know, 1)]
     assert sent[:3] == [Abort, ClearedSegment, Abort]  # a slot after the first ABORT
