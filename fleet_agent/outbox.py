@@ -369,7 +369,7 @@ class Outbox:
         claims and releases. Why: a vehicle whose route churned sent a claim, a release or a
         FOUND in every slot a pose left free, and its pushes waited behind them for minutes;
         it treated a spot, aborted 92 s later, and the peer that took its spots over treated
-        that one again (fault fuzz seed 22 with climbs for a fix)."""
+        that one again (fault fuzz seed 22 with climbs for a fix; seed 202 without)."""
         if not self._cleared_fresh:
             return None
         self._cleared_fresh = False
