@@ -386,6 +386,9 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     for s, f in [*b.finds.items(), *b.added.items()]:
         if s in know.cleared or s in b.alias:
             continue
+        holder = know.holder(s)
+        if holder is not None and holder != know.index:
+            continue  # its holder measured it and judges it (experiment)
         if probably_treated(b.estimate(s), all_treated, params):
             new.append(s)
     if finds_treated:
