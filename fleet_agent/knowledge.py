@@ -95,7 +95,7 @@ class Knowledge:
         # held against later sightings, so a drifted vehicle that injected a neighbour of its
         # spot never injects that neighbour again (bounded: the oldest go first).
         self.injections: deque[Estimate] = deque(maxlen=MAX_INJECTIONS)
-        self.fold_key: tuple[int, int, int] = (-1, -1, -1)
+        self.fold_key: tuple[int, ...] = ()
         self.await_key: tuple[int, int, int] = (-1, -1, -1)  # what `awaiting` was judged on
         # Where missed aggregations are likely (`fleet_agent.search`; None: no search), the
         # spots this vehicle has weighed an orbit around, and its track since its last arrival.

@@ -361,8 +361,11 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     """Never treat a spot twice (docs/search.md, "Never twice"): a spot nobody has cleared
     whose estimate could be an aggregation already treated is cleared too (a find held
     against every treated spot, a predicted spot against treated finds: the map says its
-    spots are distinct; an operator's added spot is held as a find is). Run when the cleared
-    set, the finds or the added spots change."""
+    spots are distinct; an operator's added spot is held as a find is). A find a live peer
+    holds is left to it: it measured the find and its own fold judges it, while a peer's
+    judgement, pushed in a cleared set, stops its injection (Green Island seed 1: two peers
+    matched auv2's fresh find against a spot auv2 had just found empty, and nobody treated
+    the aggregation). Run when the cleared set, the finds, the merges or the holders change."""
     b = know.beliefs
     if b.exact:
         return []
@@ -373,7 +376,7 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
         if awaiting != know.awaiting:
             know.awaiting = awaiting
             know.touch()
-    key = (len(know.cleared), len(b.finds) + len(b.added), len(b.alias))
+    key = _fold_key(know)
     if key == know.fold_key:
         return []
     know.fold_key = key
@@ -388,7 +391,7 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
             continue
         holder = know.holder(s)
         if holder is not None and holder != know.index:
-            continue  # its holder measured it and judges it (experiment)
+            continue  # a live peer holds it: it measured it, its own fold judges it
         if probably_treated(b.estimate(s), all_treated, params):
             new.append(s)
     if finds_treated:
@@ -399,8 +402,16 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     if not new:
         return []
     judged = _judge_treated(know, tuple(new), now, owe=False)
-    know.fold_key = (len(know.cleared), len(b.finds) + len(b.added), len(b.alias))
+    know.fold_key = _fold_key(know)
     return [Count("spots_judged_treated", len(new)), *judged]
+
+
+def _fold_key(know: Knowledge) -> tuple[int, ...]:
+    """What `fold_treated`'s judgement depends on: the cleared set, the finds, the merges,
+    and who holds the finds (a holder's release or loss hands its find to the fold)."""
+    b = know.beliefs
+    return (len(know.cleared), len(b.finds) + len(b.added), len(b.alias),
+            know.holdings.version, know.members.alive_version)
 
 
 def await_gaps(know: Knowledge, now: float) -> frozenset[int]:

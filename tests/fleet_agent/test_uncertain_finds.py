@@ -116,7 +116,8 @@ def test_merging_is_order_free_and_transitive(fleet):
 
 def test_a_treated_aggregation_seen_again_is_not_injected(fleet):
     """auv2 treats its find; seen again 6 m off by a drifted camera it is no news, and a
-    peer's find of it (heard) is judged treated: cleared, never in the route."""
+    peer's find of it (heard) is judged treated once nobody alive holds it: cleared, never
+    in the route. While its finder lives, the find is the finder's to judge."""
     agent = Agent(fleet, 1, CONFIG)
     pos = off_map(fleet)
     agent.step(Tick(1.0), [NavFix(1.0, pos, sigma_m=DRIFT_SIGMA),
@@ -145,6 +146,9 @@ def test_a_treated_aggregation_seen_again_is_not_injected(fleet):
     other = peer + 1
     heard(other, (pos[0], pos[1] + 18.0, pos[2]), 6)
     assert other not in b.alias
+    assert know.holder(other) == 2 and other not in know.cleared  # auv3 judges its own
+    assert know.members.mark(2, "lost", 7.0)
+    agent.step(Tick(8.0))
     assert other in know.cleared and other in know.folded
     assert agent.counters["spots_judged_treated"] == 1
     assert peer not in agent.own.route and other not in agent.own.route
