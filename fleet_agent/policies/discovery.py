@@ -162,11 +162,15 @@ def _held_find(know: Knowledge, est: Estimate) -> int | None:
     for slot, f in b.finds.items():
         if slot in know.cleared or slot in b.alias:
             continue
-        holder = know.holder(slot)
-        if holder is not None and holder != know.index and \
-                same_aggregation(est, b.find_estimate(f), b.params):
+        if _peer_holds(know, slot) and same_aggregation(est, b.find_estimate(f), b.params):
             return slot
     return None
+
+
+def _peer_holds(know: Knowledge, task: int) -> bool:
+    """Does another vehicle alive hold ``task`` (its finder from its FOUND on, or a claim)?"""
+    holder = know.holder(task)
+    return holder is not None and holder != know.index
 
 
 def _another_rho(know: Knowledge, r: Looked) -> bool:
@@ -389,9 +393,8 @@ def fold_treated(know: Knowledge, now: float) -> list[Intent]:
     for s, f in [*b.finds.items(), *b.added.items()]:
         if s in know.cleared or s in b.alias:
             continue
-        holder = know.holder(s)
-        if holder is not None and holder != know.index:
-            continue  # a live peer holds it: it measured it, its own fold judges it
+        if _peer_holds(know, s):
+            continue  # it measured it, and its own fold judges it
         if probably_treated(b.estimate(s), all_treated, params):
             new.append(s)
     if finds_treated:
