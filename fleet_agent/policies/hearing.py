@@ -181,8 +181,7 @@ def _holding(know: Knowledge, msg: Claim | Release, now: float) -> list[Intent]:
         out += _suspect(know, msg.sender, "claim", len(msg.tasks) - len(tasks))
     if changed:
         out.append(Note(Hold(msg.sender, msg.t_s, tuple(changed), is_claim)))
-        lost_spots = [t for t in changed if t in mine_before and know.holder(t) != know.index
-                      and t != own.injecting]
+        lost_spots = [t for t in changed if t in mine_before and know.holder(t) != know.index]
         if lost_spots:
             out += [Tell(now, EventKind.CLAIM_LOST, tuple(lost_spots), peer=know.vid(msg.sender)),
                     SeekWork()]

@@ -1,7 +1,7 @@
 """The route kept true to what the vehicle knows, and what a replan may change of it.
 
 - `sync`: only spots this vehicle holds, nobody cleared and no unknown find may be (the spot
-  being injected stays),
+  being injected stays, unless a live peer holds it),
   held spots missing from it folded in where they cost least; the agent fits it to the
   battery and releases what it will not treat (`intents.Steer`);
 - `keeping_own`: a replanner's route that never costs the vehicle one of its own spots.
@@ -26,9 +26,13 @@ def sync(know: Knowledge) -> list[Intent]:
     # A find awaiting a peer's unknown cleared find (`discovery.await_gaps`) leaves the route
     # too, not only the replans: a vehicle already on its way to it would treat it.
     waiting = know.awaiting
+    # The spot being injected stays unless a live peer holds it: the loser of a claim race
+    # that learns it mid-injection stops (the holder never stops for a later claim, so one
+    # of the two finishes; fault fuzz seed 74: the earlier claim heard 55 s into the loser's
+    # injection, the spot treated twice).
     route = [t for t in own.route if t not in know.cleared
-             and (t == injecting or (know.holder(t) == know.index and t not in alias
-                                     and t not in waiting))]
+             and ((t == injecting and know.holder(t) in (None, know.index))
+                  or (know.holder(t) == know.index and t not in alias and t not in waiting))]
     orphans = [t for t in know.held_by(know.index) if t not in route and t not in know.cleared
                and t not in waiting]
     for t in orphans:

@@ -109,3 +109,25 @@ def test_a_late_claim_settles_two_cycles_and_a_slot_after_it_and_the_initial_pla
         t for t in range(know.holdings.n_tasks) if know.holder(t) == know.index)
     assert know.settled_s(own) == 0.0
     assert agent.own.conduct.not_before(spot) == know.settled_s(spot)  # the vehicle obeys it
+
+
+def test_the_loser_of_a_claim_race_learning_it_mid_injection_stops() -> None:
+    """Fault fuzz seed 74: auv3 claimed a spot 13 s before auv1; auv1 heard it only 55 s into
+    its own injection and finished anyway, and the spot was treated twice. The earlier claim
+    holds the spot: the loser stops, and the holder (which never stops for a later claim)
+    treats it."""
+    world = World()
+    world.run_until(415.0)
+    agent = world.agent("auv1")
+    spot = agent.own.injecting
+    assert spot is not None
+    know = agent.know
+    know.holdings.apply(know.index, 300, [spot], True)  # held by our claim at 300
+    assert know.holder(spot) == know.index
+    msg = Claim(1, 416, 280, (spot,))  # auv2 claimed it at 280: we missed it
+    intents = hearing.content(know, agent.config, msg, 416.0, agent.active)
+    agent._apply(intents, 416.0, Outputs(agent.id, know.tids))
+    assert know.holder(spot) == 1
+    world.run_until(600.0)
+    assert spot not in agent.own.route and agent.own.injecting != spot
+    assert spot not in know.cleared  # not treated by us; auv2 will
