@@ -80,6 +80,14 @@ def _lonely_spot(fleet: Fleet, but: int | None = None) -> int:
     return int(np.argmax(d.min(axis=1)))
 
 
+def _send_to(agent: Agent, spot: int) -> None:
+    """Route the agent to ``spot`` as its holder (a claim at 0 by the lowest index wins, as
+    the initial plan's): a vehicle never injects a spot a live peer holds."""
+    agent.know.hold(agent.index, 0, [spot], True)
+    assert agent.know.holder(spot) == agent.index
+    agent.own.set_route([spot])
+
+
 # -- merging ------------------------------------------------------------------------------------
 
 
@@ -573,7 +581,7 @@ def test_a_look_showing_what_this_vehicle_injected_is_not_injected_again(fleet, 
     u = _lonely_spot(fleet, agent.own.route[0])
     q = fleet.dynamic.scenario.tasks[u].pos
     _inject_at_head(agent, fleet, (q[0] + 13.0, q[1], q[2]))
-    agent.own.set_route([u])
+    _send_to(agent, u)
     agent.step(Tick(80.0), [NavFix(80.0, q, sigma_m=DRIFT_SIGMA), Arrived(80.0, u)])
     assert agent.own.inspecting == u
     seen = (q[0] + seen_off_m + 0.5, q[1], q[2])
@@ -719,7 +727,7 @@ def test_a_spot_known_from_an_unsure_sighting_is_looked_at_before_it_is_injected
                            Sighted(1.0, (p[0] + 1.0, p[1], p[2]), 50.0, 60.0)])
     b = agent.know.beliefs
     assert b.state[spot] == "present" and b.unknown(spot) is looks
-    agent.own.set_route([spot])
+    _send_to(agent, spot)
     agent.step(Tick(2.0), [NavFix(2.0, p, sigma_m=sigma_m), Arrived(2.0, spot)])
     assert (agent.own.inspecting == spot) is looks
     assert (agent.own.injecting == spot) is not looks
@@ -790,7 +798,7 @@ def test_a_look_showing_a_find_a_peer_holds_is_left_to_it(rho, left):
     know.holdings.found(slot, 1)
     assert know.holder(slot) == 1
     agent.step(Tick(1.0), [NavFix(1.0, agent.own.pos, sigma_m=6.0)])
-    agent.own.set_route([u])
+    _send_to(agent, u)
     agent.step(Tick(10.0), [NavFix(10.0, q, sigma_m=6.0), Arrived(10.0, u)])
     assert agent.own.inspecting == u
     agent.step(Tick(40.0), [Looked(40.0, u, True, rho, 60.0, (q[0] + 4.0, q[1], q[2]))])
