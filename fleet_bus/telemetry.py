@@ -41,6 +41,26 @@ def detail_position(detail: str) -> tuple[float, float, float] | None:
     return (x, y, z) if all(c == c and abs(c) != float("inf") for c in (x, y, z)) else None
 
 
+STOPPED_PREFIX = "stopped injecting after "
+
+
+def stopped_detail(injected_s: float) -> str:
+    """A claim-lost event's detail when the vehicle stopped an injection for it (the
+    timeline counts those seconds as injecting: `cotsfleet.reporting.timeline`)."""
+    return f"{STOPPED_PREFIX}{max(0.0, injected_s):.1f} s"
+
+
+def detail_stopped_s(detail: str) -> float | None:
+    """The seconds `stopped_detail` put in ``detail`` (None: it stopped no injection)."""
+    if not detail.startswith(STOPPED_PREFIX):
+        return None
+    try:
+        s = float(detail[len(STOPPED_PREFIX):].split()[0])
+    except (ValueError, IndexError):
+        return None
+    return s if 0.0 <= s < float("inf") else None
+
+
 @dataclass(frozen=True)
 class Truth:
     """Where a vehicle really is at simulation time ``t_s`` (eq. 3-6 state, NED metres/deg)."""

@@ -2,11 +2,12 @@
 
 Events are `fleet_bus.telemetry.Event` records (``events.jsonl`` holds one per line). A
 ``cleared`` event is stamped when an injection ends, so the injection began ``service_s``
-earlier; a ``replan`` event with detail ``home`` marks the arrival at the rendezvous; kills and
-restarts come from the report's ``faults``. Spot priorities and injection times come from the
-scenario when it is given; without it, injections are assumed to last `DEFAULT_SERVICE_S`.
-What the fleet collected over time is `fleet_bus.ledger.cumulative`: the figures of the
-report, step by step.
+earlier (a ``claim_lost`` event whose detail says the vehicle stopped injecting, for a spot a
+peer held by an earlier claim, says for how long); a ``replan`` event with detail ``home``
+marks the arrival at the rendezvous; kills and restarts come from the report's ``faults``.
+Spot priorities and injection times come from the scenario when it is given; without it,
+injections are assumed to last `DEFAULT_SERVICE_S`. What the fleet collected over time is
+`fleet_bus.ledger.cumulative`: the figures of the report, step by step.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from typing import Any, Mapping, Sequence
 from cotsfleet.mission.report_model import FaultRow, MissionReport, VehicleRow
 from fleet_bus.ledger import FleetLedger, SpotValues, cumulative
 from fleet_bus.states import EventKind, FaultKind
-from fleet_bus.telemetry import Event
+from fleet_bus.telemetry import Event, detail_stopped_s
 
 ACTIVITIES = ("transit", "inspect", "inject", "idle", "down")
 DEFAULT_SERVICE_S = 75.0  # the middle of the paper's U(60, 90) s (eq. 2)
@@ -113,6 +114,10 @@ def vehicle_segments(report: MissionReport, events: Sequence[Event],
             for task in e.tasks:
                 service = spots.service_s.get(task, DEFAULT_SERVICE_S)
                 busy.append(Segment(max(0.0, e.t_s - service), e.t_s, "inject"))
+        for e in _events_of(events, vid, EventKind.CLAIM_LOST):
+            stopped_s = detail_stopped_s(e.detail)  # an injection left to an earlier claim
+            if stopped_s is not None:
+                busy.append(Segment(max(0.0, e.t_s - stopped_s), e.t_s, "inject"))
         for e in (x for x in events if x.id == vid
                   and (x.kind.startswith("inspect") or x.kind == EventKind.EMPTY)):
             busy.append(Segment(max(0.0, e.t_s - spots.inspect_s), e.t_s, "inspect"))

@@ -182,9 +182,13 @@ def _holding(know: Knowledge, msg: Claim | Release, now: float) -> list[Intent]:
     if changed:
         out.append(Note(Hold(msg.sender, msg.t_s, tuple(changed), is_claim)))
         lost_spots = [t for t in changed if t in mine_before and know.holder(t) != know.index]
+        # The spot being injected is told when the route leaves it (`route.sync`: with how
+        # long it was injected, the timeline's figure).
+        told = tuple(t for t in lost_spots if t != own.injecting)
+        if told:
+            out.append(Tell(now, EventKind.CLAIM_LOST, told, peer=know.vid(msg.sender)))
         if lost_spots:
-            out += [Tell(now, EventKind.CLAIM_LOST, tuple(lost_spots), peer=know.vid(msg.sender)),
-                    SeekWork()]
+            out.append(SeekWork())
     return out
 
 

@@ -11,11 +11,13 @@ from __future__ import annotations
 
 from typing import Collection
 
-from fleet_agent.intents import Intent, Steer
+from fleet_agent.intents import Intent, Steer, Tell
 from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import OwnVehicle
 from fleet_agent.policies.replans import after_own
 from fleet_agent.routing import cheapest_insertion, fit_route
+from fleet_bus.states import EventKind
+from fleet_bus.telemetry import stopped_detail
 
 
 def sync(know: Knowledge) -> list[Intent]:
@@ -37,7 +39,20 @@ def sync(know: Knowledge) -> list[Intent]:
                and t not in waiting]
     for t in orphans:
         route = cheapest_insertion(own, route, t)
-    return [Steer(tuple(route), "sync")]
+    return _stopped(know, route) + [Steer(tuple(route), "sync")]
+
+
+def _stopped(know: Knowledge, route: list[int]) -> list[Intent]:
+    """The log's word that the spot being injected is left to the live peer that holds it
+    (a claim-lost event saying how long this vehicle injected: the timeline's injecting
+    time, `fleet_bus.telemetry.stopped_detail`)."""
+    own, t = know.own, know.own.injecting
+    holder = None if t is None or t in route or t in know.cleared else know.holder(t)
+    if t is None or holder is None or holder == know.index or own.busy_until_s is None:
+        return []
+    started_s = own.busy_until_s - float(own.problem.service_s[t])
+    return [Tell(own.t_s, EventKind.CLAIM_LOST, (t,), peer=know.vid(holder),
+                 detail=stopped_detail(own.t_s - started_s))]
 
 
 def keeping_own(own: OwnVehicle, reserve_s: float, planned: list[int], held: list[int],

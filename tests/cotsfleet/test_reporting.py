@@ -24,7 +24,7 @@ from cotsfleet.reporting.timeline import (
     vehicle_segments,
 )
 from fleet_agent.config import AgentConfig
-from fleet_bus.telemetry import Event
+from fleet_bus.telemetry import Event, detail_stopped_s
 from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.scenarios.field import GeneratorParams, generate_doc
 
@@ -91,9 +91,10 @@ def test_priority_over_time_ends_at_the_reported_figures(mission):
 
 def test_timeline_agrees_with_each_vehicles_figures(mission):
     """Transit time x speed is the distance the vehicle reports; injection time is the sum
-    of its spots' injection times; the segments tile the mission exactly. (A killed vehicle
-    is left out of the distance check: an injection cut short by the kill leaves no event,
-    and the restarted agent resumes from its last checkpoint.)"""
+    of its spots' injection times and of the injections it stopped (left to an earlier
+    claim: the claim-lost event says how long); the segments tile the mission exactly. (A
+    killed vehicle is left out of the distance check: an injection cut short by the kill
+    leaves no event, and the restarted agent resumes from its last checkpoint.)"""
     report, events, doc = mission
     spots = Spots.of_scenario(doc)
     segments = vehicle_segments(report, events, spots)
@@ -104,7 +105,10 @@ def test_timeline_agrees_with_each_vehicles_figures(mission):
         assert all(a.end_s == b.start_s for a, b in zip(segs, segs[1:]))
         spent = time_shares(segs)
         mine = {t for e in events if e.id == v.id and e.kind == "cleared" for t in e.tasks}
-        assert spent["inject"] == pytest.approx(sum(spots.service_s[t] for t in mine))
+        stopped = [detail_stopped_s(e.detail) for e in events
+                   if e.id == v.id and e.kind == "claim_lost"]
+        assert spent["inject"] == pytest.approx(sum(spots.service_s[t] for t in mine)
+                                                + sum(s for s in stopped if s is not None))
         if v.home and not v.killed:
             assert spent["transit"] * speed == pytest.approx(v.distance_m, abs=1.0)
     assert time_shares(segments["auv2"])["down"] == pytest.approx(300.0)

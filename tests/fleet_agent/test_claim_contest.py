@@ -10,6 +10,7 @@ from fleet_agent.io_types import Outputs
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import hearing
 from fleet_agent.wire import Claim, ClearedSegment
+from fleet_bus.telemetry import detail_stopped_s
 from test_agent_logic import World
 
 
@@ -131,3 +132,9 @@ def test_the_loser_of_a_claim_race_learning_it_mid_injection_stops() -> None:
     world.run_until(600.0)
     assert spot not in agent.own.route and agent.own.injecting != spot
     assert spot not in know.cleared  # not treated by us; auv2 will
+    # The log says so once, with how long it injected (the timeline's injecting time).
+    told = [e for e in world.backend.ledger.events if e.id == "auv1" and e.kind == "claim_lost"
+            and know.tids([spot])[0] in e.tasks]
+    assert len(told) == 1 and told[0].peer == "auv2"
+    injected_s = detail_stopped_s(told[0].detail)
+    assert injected_s is not None and 0.0 < injected_s <= 416.0 - 300.0

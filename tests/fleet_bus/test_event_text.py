@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from fleet_bus.event_text import EVENT_WORDS, level, sentence, spot_list
-from fleet_bus.telemetry import EVENT_KINDS, Event, position_detail
+from fleet_bus.telemetry import (EVENT_KINDS, Event, detail_stopped_s, position_detail,
+                                  stopped_detail)
 
 
 def test_a_find_reads_as_a_sentence_not_a_record() -> None:
@@ -60,3 +61,12 @@ def test_long_lists_are_counted_and_levels_follow_the_kind() -> None:
     assert spot_list([]) == "no spot"
     assert level(Event(1, "a", "lost", peer="b")) == "WARN"
     assert level(Event(1, "a", "cleared", [1])) == "INFO"
+
+
+def test_a_stopped_injection_detail_round_trips_and_nothing_else_reads_as_one() -> None:
+    """A claim-lost event's "stopped injecting after N s" (the timeline's injecting time)."""
+    assert detail_stopped_s(stopped_detail(42.34)) == 42.3
+    assert detail_stopped_s(stopped_detail(-1.0)) == 0.0
+    for other in ("", "stopped injecting after", "stopped injecting after nan s",
+                  "stopped injecting after inf s", "stopped injecting after x s", "12.0 s"):
+        assert detail_stopped_s(other) is None
