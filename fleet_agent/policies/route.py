@@ -32,27 +32,30 @@ def sync(know: Knowledge) -> list[Intent]:
     # that learns it mid-injection stops (the holder never stops for a later claim, so one
     # of the two finishes; fault fuzz seed 74: the earlier claim heard 55 s into the loser's
     # injection, the spot treated twice).
+    to = None if injecting is None or injecting in know.cleared else know.holder(injecting)
+    keep = to in (None, know.index)
     route = [t for t in own.route if t not in know.cleared
-             and ((t == injecting and know.holder(t) in (None, know.index))
+             and ((t == injecting and keep)
                   or (know.holder(t) == know.index and t not in alias and t not in waiting))]
     orphans = [t for t in know.held_by(know.index) if t not in route and t not in know.cleared
                and t not in waiting]
     for t in orphans:
         route = cheapest_insertion(own, route, t)
-    return _stopped(know, route) + [Steer(tuple(route), "sync")]
+    if keep or injecting is None or to is None:
+        return [Steer(tuple(route), "sync")]
+    return [_stopped(know, injecting, to), Steer(tuple(route), "sync")]
 
 
-def _stopped(know: Knowledge, route: list[int]) -> list[Intent]:
-    """The log's word that the spot being injected is left to the live peer that holds it
-    (a claim-lost event saying how long this vehicle injected: the timeline's injecting
-    time, `fleet_bus.telemetry.stopped_detail`)."""
-    own, t = know.own, know.own.injecting
-    holder = None if t is None or t in route or t in know.cleared else know.holder(t)
-    if t is None or holder is None or holder == know.index or own.busy_until_s is None:
-        return []
-    started_s = own.busy_until_s - float(own.problem.service_s[t])
-    return [Tell(own.t_s, EventKind.CLAIM_LOST, (t,), peer=know.vid(holder),
-                 detail=stopped_detail(own.t_s - started_s))]
+def _stopped(know: Knowledge, task: int, holder: int) -> Tell:
+    """The log's word that the spot being injected is left to ``holder``, a live peer: a
+    claim-lost event saying how long this vehicle injected (the timeline's injecting time,
+    `fleet_bus.telemetry.stopped_detail`; the injection began its spot's injection time,
+    in the working problem, before it was due to end)."""
+    own = know.own
+    assert own.busy_until_s is not None  # set whenever the vehicle injects
+    started_s = own.busy_until_s - float(own.problem.service_s[task])
+    return Tell(own.t_s, EventKind.CLAIM_LOST, (task,), peer=know.vid(holder),
+                detail=stopped_detail(own.t_s - started_s))
 
 
 def keeping_own(own: OwnVehicle, reserve_s: float, planned: list[int], held: list[int],
