@@ -816,7 +816,9 @@ def test_hard_seed_37_at_1_percent_drift_treats_each_aggregation_once() -> None:
     it again. It now looks first at a find before treating it; nothing is treated twice.
     (Until the outbox pushed the cleared set ahead of claim repeats, one of 3 looks showed
     another rho and the find was left; the clear now reaches auv3 sooner and 1 look is
-    taken.) The vehicles do not climb for GPS fixes here (``surface_sigma_m`` 0): the case
+    taken; since a look asks the spot looked at to be `discovery.LOOK_ODDS` times likelier
+    than a treated aggregation, auv1 takes one look at a spot for treated and none at a
+    find.) The vehicles do not climb for GPS fixes here (``surface_sigma_m`` 0): the case
     is matching under the drift itself."""
     from benchmarks.dynamic import DRIFT, SETTINGS, config_of
     from cotsfleet.mission.inprocess import simulate
@@ -832,4 +834,58 @@ def test_hard_seed_37_at_1_percent_drift_treats_each_aggregation_once() -> None:
     books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
              if seat.driver is not None}
     assert world_tally(reef, books)["duplicates"] == 0
-    assert sum(v.counters.get("looks_at_finds", 0) for v in result.report.vehicles) >= 1
+    assert sum(v.counters.get("looks_at_finds", 0) + v.counters.get("looks_treated", 0)
+               for v in result.report.vehicles) >= 1
+
+
+@pytest.mark.parametrize("seen_off_m, injected", [((-0.9, 4.1), False), ((0.0, 0.0), True)])
+def test_a_look_nearer_a_find_than_a_treated_spot_by_too_little_is_not_injected(seen_off_m,
+                                                                              injected):
+    """Fault fuzz seed 151 (hard reef, 0.5 % drift): auv3 treated predicted spot 27; auv1,
+    at a sigma of 3.8 m, sent to find 144 (another aggregation, 11 m from the spot), stood
+    nearer the spot's aggregation, saw COTS 4 m from the find and 6 m from the spot (1.8
+    times likelier the find: `discovery.LOOK_ODDS` asks 4) and injected spot 27's again.
+    COTS on the find itself are the find's, injected."""
+    f = build(EXACT)
+    agent = Agent(f, 0, EXACT)
+    know, b = agent.know, agent.know.beliefs
+    u = _lonely_spot(f)
+    q = f.dynamic.scenario.tasks[u].pos
+    slot = b.n + 2 * EXACT.find_slots  # auv3's find, 10 m south of the spot, released
+    find = (q[0], q[1] - 10.0, q[2])
+    assert b.add_find(slot, find, 55.8, 60.0, 5.0, 1.5)
+    know.holdings.found(slot, 2)
+    know.hold(2, 5, [slot], False)
+    assert know.clear([u])  # auv3 treated spot u: heard in its cleared set
+    agent.step(Tick(6.0), [NavFix(6.0, agent.own.pos, sigma_m=3.8)])
+    _send_to(agent, slot)
+    agent.step(Tick(10.0), [NavFix(10.0, find, sigma_m=3.8), Arrived(10.0, slot)])
+    assert agent.own.inspecting == slot
+    seen = (find[0] + seen_off_m[0], find[1] + seen_off_m[1], find[2])
+    agent.step(Tick(40.0), [Looked(40.0, slot, True, 66.5, 60.0, seen)])
+    assert (agent.own.injecting == slot) is injected
+    assert (slot in know.cleared) is not injected
+    assert agent.counters.get("looks_treated", 0) == int(not injected)
+
+
+@pytest.mark.parametrize("map_sigma_m, treated", [(0.5, True), (4.0, False)])
+def test_the_look_odds_apply_only_where_navigation_is_less_sure_than_the_map(map_sigma_m,
+                                                                            treated):
+    """Seed 151's look (COTS 4 m from the find, 6 m from the treated spot, navigation sigma
+    3.8 m) is taken for the treated aggregation where the map is surer than the vehicle
+    (`discovery.LOOK_ODDS`); where the map is vaguer (4 m), "nearer" decides, as on make
+    demo's missions (exact navigation), where the odds skipped real aggregations a few
+    metres off their spots."""
+    config = dataclasses.replace(EXACT, map_sigma_m=map_sigma_m)
+    f = build(config)
+    agent = Agent(f, 0, config)
+    know, b = agent.know, agent.know.beliefs
+    u = _lonely_spot(f)
+    q = f.dynamic.scenario.tasks[u].pos
+    slot = b.n + 2 * config.find_slots
+    find = (q[0], q[1] - 10.0, q[2])
+    assert b.add_find(slot, find, 55.8, 60.0, 5.0, 1.5)
+    assert know.clear([u])
+    agent.step(Tick(6.0), [NavFix(6.0, agent.own.pos, sigma_m=3.8)])
+    seen = discovery._seen(know, (find[0] - 0.9, find[1] + 4.1, find[2]), 66.5)
+    assert discovery._treated_already(know, slot, seen) is treated
