@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Callable, Sequence
 
-from fleet_bus.telemetry import Event, detail_position
+from fleet_bus.telemetry import Event, detail_position, detail_stopped_s
 
 LIST_AT_MOST = 6  # spot ids named in a sentence; the rest are counted
 # How loud each kind is in a log (the dashboard's TextLog levels); unknown kinds are INFO.
@@ -97,6 +97,15 @@ def _detail(e: Event) -> str:
     return f" ({e.detail})" if e.detail else ""
 
 
+def _judged_treated(e: Event) -> str:
+    stopped_s = detail_stopped_s(e.detail)
+    if stopped_s is not None:  # left mid-injection: a peer's clear of the spot heard
+        return (f"{e.id} stopped injecting {spot_list(e.tasks)} after {stopped_s:.0f} s: "
+                "another vehicle treated it")
+    return (f"{e.id} skips {spot_list(e.tasks)}: someone already treated what is probably "
+            "the same aggregation")
+
+
 # One wording per kind of `fleet_bus.telemetry.EVENT_KINDS` (a test holds them equal).
 _WORDS: dict[str, Callable[[Event], str]] = {
     "found": _found,
@@ -105,8 +114,7 @@ _WORDS: dict[str, Callable[[Event], str]] = {
     "inspected": lambda e: f"{e.id} saw COTS at {spot_list(e.tasks)}"
                            + (", too far for its battery to treat" if "beyond" in e.detail
                               else ""),
-    "judged_treated": lambda e: f"{e.id} skips {spot_list(e.tasks)}: someone already "
-                                "treated what is probably the same aggregation",
+    "judged_treated": _judged_treated,
     "search": lambda e: f"{e.id} searches around {spot_list(e.tasks)}",
     "claim": lambda e: f"{e.id} claimed {spot_list(e.tasks)}",
     "claim_lost": lambda e: f"{e.id} gave up {spot_list(e.tasks)} to "

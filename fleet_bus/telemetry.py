@@ -45,8 +45,10 @@ STOPPED_PREFIX = "stopped injecting after "
 
 
 def stopped_detail(injected_s: float) -> str:
-    """A claim-lost event's detail when the vehicle stopped an injection for it (the
-    timeline counts those seconds as injecting: `cotsfleet.reporting.timeline`)."""
+    """The detail of a claim-lost event (an injection left to a live peer's earlier claim)
+    or a judged-treated one (left because a peer's clear of the spot was heard) when the
+    vehicle stopped injecting: the timeline counts those seconds as injecting
+    (`cotsfleet.reporting.timeline`)."""
     return f"{STOPPED_PREFIX}{max(0.0, injected_s):.1f} s"
 
 

@@ -2,8 +2,9 @@
 
 Events are `fleet_bus.telemetry.Event` records (``events.jsonl`` holds one per line). A
 ``cleared`` event is stamped when an injection ends, so the injection began ``service_s``
-earlier (a ``claim_lost`` event whose detail says the vehicle stopped injecting, for a spot a
-peer held by an earlier claim, says for how long); a ``replan`` event with detail ``home``
+earlier (a ``claim_lost`` or ``judged_treated`` event whose detail says the vehicle stopped
+injecting, for a spot a peer held by an earlier claim or was heard to have treated, says for
+how long); a ``replan`` event with detail ``home``
 marks the arrival at the rendezvous; kills and restarts come from the report's ``faults``.
 Spot priorities and injection times come from the scenario when it is given; without it,
 injections are assumed to last `DEFAULT_SERVICE_S`. What the fleet collected over time is
@@ -114,8 +115,10 @@ def vehicle_segments(report: MissionReport, events: Sequence[Event],
             for task in e.tasks:
                 service = spots.service_s.get(task, DEFAULT_SERVICE_S)
                 busy.append(Segment(max(0.0, e.t_s - service), e.t_s, "inject"))
-        for e in _events_of(events, vid, EventKind.CLAIM_LOST):
-            stopped_s = detail_stopped_s(e.detail)  # an injection left to an earlier claim
+        for e in (x for x in events if x.id == vid
+                  and x.kind in (EventKind.CLAIM_LOST, EventKind.JUDGED_TREATED)):
+            # an injection left to an earlier claim, or to a peer's clear of the spot
+            stopped_s = detail_stopped_s(e.detail)
             if stopped_s is not None:
                 busy.append(Segment(max(0.0, e.t_s - stopped_s), e.t_s, "inject"))
         for e in (x for x in events if x.id == vid

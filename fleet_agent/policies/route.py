@@ -41,20 +41,27 @@ def sync(know: Knowledge) -> list[Intent]:
                and t not in waiting]
     for t in orphans:
         route = cheapest_insertion(own, route, t)
-    if keep or injecting is None or to is None:
-        return [Steer(tuple(route), "sync")]
-    return [_stopped(know, injecting, to), Steer(tuple(route), "sync")]
+    steer = Steer(tuple(route), "sync")
+    if injecting is None or injecting in route:
+        return [steer]
+    # Left: to a live peer's earlier claim, or because a peer's clear marks it treated (this
+    # vehicle's own clear comes after its injection has ended, never during it).
+    if injecting in know.cleared:
+        return [_stopped(know, injecting, EventKind.JUDGED_TREATED, None), steer]
+    assert to is not None  # kept unless cleared or held by a live peer
+    return [_stopped(know, injecting, EventKind.CLAIM_LOST, to), steer]
 
 
-def _stopped(know: Knowledge, task: int, holder: int) -> Tell:
-    """The log's word that the spot being injected is left to ``holder``, a live peer: a
-    claim-lost event saying how long this vehicle injected (the timeline's injecting time,
-    `fleet_bus.telemetry.stopped_detail`; the injection began its spot's injection time,
-    in the working problem, before it was due to end)."""
+def _stopped(know: Knowledge, task: int, kind: EventKind, holder: int | None) -> Tell:
+    """The log's word that the spot being injected is left: to ``holder``, a live peer
+    (claim lost), or as treated by another (judged treated); the event says how long this
+    vehicle injected (the timeline's injecting time, `fleet_bus.telemetry.stopped_detail`;
+    the injection began its spot's injection time, in the working problem, before it was
+    due to end)."""
     own = know.own
     assert own.busy_until_s is not None  # set whenever the vehicle injects
     started_s = own.busy_until_s - float(own.problem.service_s[task])
-    return Tell(own.t_s, EventKind.CLAIM_LOST, (task,), peer=know.vid(holder),
+    return Tell(own.t_s, kind, (task,), peer="" if holder is None else know.vid(holder),
                 detail=stopped_detail(own.t_s - started_s))
 
 

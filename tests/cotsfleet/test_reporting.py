@@ -92,7 +92,8 @@ def test_priority_over_time_ends_at_the_reported_figures(mission):
 def test_timeline_agrees_with_each_vehicles_figures(mission):
     """Transit time x speed is the distance the vehicle reports; injection time is the sum
     of its spots' injection times and of the injections it stopped (left to an earlier
-    claim: the claim-lost event says how long); the segments tile the mission exactly. (A
+    claim or to a peer's clear: the claim-lost or judged-treated event says how long); the
+    segments tile the mission exactly. (A
     killed vehicle is left out of the distance check: an injection cut short by the kill
     leaves no event, and the restarted agent resumes from its last checkpoint.)"""
     report, events, doc = mission
@@ -106,7 +107,7 @@ def test_timeline_agrees_with_each_vehicles_figures(mission):
         spent = time_shares(segs)
         mine = {t for e in events if e.id == v.id and e.kind == "cleared" for t in e.tasks}
         stopped = [detail_stopped_s(e.detail) for e in events
-                   if e.id == v.id and e.kind == "claim_lost"]
+                   if e.id == v.id and e.kind in ("claim_lost", "judged_treated")]
         assert spent["inject"] == pytest.approx(sum(spots.service_s[t] for t in mine)
                                                 + sum(s for s in stopped if s is not None))
         if v.home and not v.killed:
@@ -359,3 +360,17 @@ def test_the_run_progress_line_counts_what_the_report_counts(tmp_path):
     assert f"1 of {len(truth)} real spots treated, priority {real['priority']:.0f} of " \
            f"{total:.0f}" in lines[-1]
     assert not (tmp_path / "run").exists()  # nothing was started
+
+
+def test_an_injection_left_to_a_peers_clear_counts_as_injecting(mission):
+    """A judged-treated event that says the vehicle stopped injecting after N s (it heard a
+    peer's clear of the spot mid-injection) is N s of injecting before it, as a claim-lost
+    one is; a judged-treated event without that detail (a spot skipped) is none."""
+    report, _, doc = mission
+    spots = Spots.of_scenario(doc)
+    vid = report.vehicles[0].id
+    extra = [Event(900.0, vid, "judged_treated", (0,), detail="stopped injecting after 30.0 s"),
+             Event(1200.0, vid, "judged_treated", (1, 2))]
+    segs = vehicle_segments(report, extra, spots)[vid]
+    inject = [(s.start_s, s.end_s) for s in segs if s.activity == "inject"]
+    assert inject == [(870.0, 900.0)]

@@ -138,3 +138,28 @@ def test_the_loser_of_a_claim_race_learning_it_mid_injection_stops() -> None:
     assert len(told) == 1 and told[0].peer == "auv2"
     injected_s = detail_stopped_s(told[0].detail)
     assert injected_s is not None and 0.0 < injected_s <= 416.0 - 300.0
+
+
+def test_a_peers_clear_heard_mid_injection_stops_it_and_the_log_says_how_long() -> None:
+    """A peer's cleared set marks the spot being injected as treated: the vehicle stops (the
+    spot is done for everyone), and the log says so once, with how long it injected, so the
+    timeline counts that time as injecting, not as transit."""
+    world = World()
+    world.run_until(415.0)
+    agent = world.agent("auv1")
+    spot = agent.own.injecting
+    assert spot is not None
+    know = agent.know
+    busy_until = agent.own.busy_until_s
+    assert busy_until is not None and busy_until > 430.0
+    assert know.clear([spot])  # heard in a peer's cleared set
+    world.run_until(600.0)
+    assert spot not in agent.own.route and agent.own.injecting != spot
+    told = [e for e in world.backend.ledger.events if e.id == "auv1"
+            and e.kind == "judged_treated" and know.tids([spot])[0] in e.tasks]
+    assert len(told) == 1 and not told[0].peer
+    injected_s = detail_stopped_s(told[0].detail)
+    assert injected_s is not None and 0.0 < injected_s <= told[0].t_s - (
+        busy_until - float(agent.own.problem.service_s[spot])) + 1e-6
+    assert not [e for e in world.backend.ledger.events if e.id == "auv1"
+                and e.kind == "cleared" and know.tids([spot])[0] in e.tasks]

@@ -26,6 +26,10 @@ def test_a_find_reads_as_a_sentence_not_a_record() -> None:
     (Event(1, "auv1", "claim", [4, 5, 9]), "auv1 claimed spots 4, 5 and 9"),
     (Event(1, "auv1", "claim_lost", [4], peer="auv2"),
      "auv1 gave up spot 4 to auv2's earlier claim"),
+    (Event(1, "auv1", "judged_treated", [4, 5]),
+     "auv1 skips spots 4 and 5: someone already treated what is probably the same aggregation"),
+    (Event(1, "auv1", "judged_treated", [4], detail="stopped injecting after 41.6 s"),
+     "auv1 stopped injecting spot 4 after 42 s: another vehicle treated it"),
     (Event(1, "auv2", "abort"), "auv2 aborted its mission"),
     (Event(1, "auv2", "abort", detail="no navigation for 130 s"),
      "auv2 aborted its mission (no navigation for 130 s)"),
@@ -64,7 +68,8 @@ def test_long_lists_are_counted_and_levels_follow_the_kind() -> None:
 
 
 def test_a_stopped_injection_detail_round_trips_and_nothing_else_reads_as_one() -> None:
-    """A claim-lost event's "stopped injecting after N s" (the timeline's injecting time)."""
+    """A claim-lost or judged-treated event's "stopped injecting after N s" (the timeline's
+    injecting time)."""
     assert detail_stopped_s(stopped_detail(42.34)) == 42.3
     assert detail_stopped_s(stopped_detail(-1.0)) == 0.0
     for other in ("", "stopped injecting after", "stopped injecting after nan s",
