@@ -36,8 +36,8 @@ from fleet_bus.vehicle_port import Injected, Looked, Sighted
 # the fleet has promised never to do; skipping costs one aggregation's priority. Only where the
 # vehicle's navigation is less sure than the map (`_treated_already`): where it is surer, the
 # look's position tells neighbouring aggregations apart and "nearer" has never treated twice,
-# while the odds skipped real aggregations a few metres off their spots (make demo's mission,
-# exact navigation: 2,813 against 3,001 in process, docs/search.md).
+# while the odds skipped real aggregations a few metres off their spots (the dynamic
+# benchmark's exact-navigation missions: preset 68,680 against 68,869; docs/search.md).
 LOOK_ODDS = 4.0
 LOOK_ODDS_COST = 2.0 * math.log(LOOK_ODDS)  # the same in -2 ln likelihood
 

@@ -873,9 +873,9 @@ def test_the_look_odds_apply_only_where_navigation_is_less_sure_than_the_map(map
                                                                             treated):
     """Seed 151's look (COTS 4 m from the find, 6 m from the treated spot, navigation sigma
     3.8 m) is taken for the treated aggregation where the map is surer than the vehicle
-    (`discovery.LOOK_ODDS`); where the map is vaguer (4 m), "nearer" decides, as on make
-    demo's missions (exact navigation), where the odds skipped real aggregations a few
-    metres off their spots."""
+    (`discovery.LOOK_ODDS`); where the map is vaguer (4 m), "nearer" decides, as it does
+    with exact navigation, where the odds skipped real aggregations a few metres off their
+    spots."""
     config = dataclasses.replace(EXACT, map_sigma_m=map_sigma_m)
     f = build(config)
     agent = Agent(f, 0, config)
