@@ -889,3 +889,27 @@ def test_the_look_odds_apply_only_where_navigation_is_less_sure_than_the_map(map
     agent.step(Tick(6.0), [NavFix(6.0, agent.own.pos, sigma_m=3.8)])
     seen = discovery._seen(know, (find[0] - 0.9, find[1] + 4.1, find[2]), 66.5)
     assert discovery._treated_already(know, slot, seen) is treated
+
+
+def test_a_look_at_a_predicted_spot_keeps_nearer_under_drift() -> None:
+    """make demo's mission (1 % drift): auv3, at a sigma of 4 m, looked at predicted spot 1
+    and saw COTS 1 m from it, 3.5 m from where a treated aggregation was: 1.1 times likelier
+    its own, so `discovery.LOOK_ODDS` would have skipped it (82 of priority lost). A
+    predicted spot is distinct from its treated neighbour by the map's word: the look is
+    the spot's, by which is nearer; the odds are for finds (seed 151)."""
+    from fleet_agent.association import predicted
+
+    config = dataclasses.replace(EXACT, map_sigma_m=3.0)
+    f = build(config)
+    agent = Agent(f, 0, config)
+    know, b = agent.know, agent.know.beliefs
+    u = _lonely_spot(f)
+    q = f.dynamic.scenario.tasks[u].pos
+    treated = predicted((q[0] - 3.5, q[1], q[2]), b.params)
+    know.injections.append(treated)
+    agent.step(Tick(6.0), [NavFix(6.0, agent.own.pos, sigma_m=4.0)])
+    seen = discovery._seen(know, (q[0] - 0.7, q[1] + 0.7, q[2]), 37.6)
+    odds_cost = discovery._likelihood_cost(seen, b.estimate(u), b.params) + \
+        discovery.LOOK_ODDS_COST
+    assert discovery._likelihood_cost(seen, treated, b.params) < odds_cost  # the odds: skip
+    assert not discovery._treated_already(know, u, seen)
