@@ -816,9 +816,7 @@ def test_hard_seed_37_at_1_percent_drift_treats_each_aggregation_once() -> None:
     it again. It now looks first at a find before treating it; nothing is treated twice.
     (Until the outbox pushed the cleared set ahead of claim repeats, one of 3 looks showed
     another rho and the find was left; the clear now reaches auv3 sooner and 1 look is
-    taken; since a look asks the spot looked at to be `discovery.LOOK_ODDS` times likelier
-    than a treated aggregation, auv1 takes one look at a spot for treated and none at a
-    find.) The vehicles do not climb for GPS fixes here (``surface_sigma_m`` 0): the case
+    taken.) The vehicles do not climb for GPS fixes here (``surface_sigma_m`` 0): the case
     is matching under the drift itself."""
     from benchmarks.dynamic import DRIFT, SETTINGS, config_of
     from cotsfleet.mission.inprocess import simulate
