@@ -72,8 +72,8 @@ class Segment:
         return self.end_s - self.start_s
 
 
-def _events_of(events: Sequence[Event], vid: str, kind: str) -> list[Event]:
-    return sorted((e for e in events if e.id == vid and e.kind == kind), key=lambda e: e.t_s)
+def _events_of(events: Sequence[Event], vid: str, *kinds: str) -> list[Event]:
+    return sorted((e for e in events if e.id == vid and e.kind in kinds), key=lambda e: e.t_s)
 
 
 def down_intervals(faults: Sequence[FaultRow], vid: str, end_s: float
@@ -115,8 +115,7 @@ def vehicle_segments(report: MissionReport, events: Sequence[Event],
             for task in e.tasks:
                 service = spots.service_s.get(task, DEFAULT_SERVICE_S)
                 busy.append(Segment(max(0.0, e.t_s - service), e.t_s, "inject"))
-        for e in (x for x in events if x.id == vid
-                  and x.kind in (EventKind.CLAIM_LOST, EventKind.JUDGED_TREATED)):
+        for e in _events_of(events, vid, EventKind.CLAIM_LOST, EventKind.JUDGED_TREATED):
             # an injection left to an earlier claim, or to a peer's clear of the spot
             stopped_s = detail_stopped_s(e.detail)
             if stopped_s is not None:

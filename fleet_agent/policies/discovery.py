@@ -153,22 +153,20 @@ def _treated_already(know: Knowledge, task: int, est: Estimate) -> bool:
     auv3 injected at spot 47 what auv2 had treated as spot 80. Two real aggregations on
     neighbouring spots stay two: each is seen nearer its own spot. At a find, where the
     vehicle's navigation sigma exceeds the map's, nearer by a clear margin (`LOOK_ODDS`): two
-    aggregations 11 m apart are then hard to tell (fault fuzz seed
-    151, hard reef, 0.5 % drift: auv1, sigma 3.8 m, sent to find 144, stood 3.7 m from the
-    aggregation auv3 had treated as spot 27 and 7.7 m from the find's, saw COTS 4 m from the
-    find and 6 m from the spot, 1.8 times as likely the find, and injected spot 27's again)."""
+    aggregations 11 m apart are then hard to tell (fault fuzz seed 151, hard reef, 0.5 %
+    drift: auv1, sigma 3.8 m, sent to find 144, stood 3.7 m from the aggregation auv3 had
+    treated as spot 27 and 7.7 m from the find's, saw COTS 4 m from the find and 6 m from
+    the spot, 1.8 times as likely the find, and injected spot 27's again)."""
     if know.beliefs.exact:
         return False
     b = know.beliefs
     treated = treated_estimates(know, but=task)
     if not treated:
         return False
-    if know.own.sigma_m <= b.params.map_sigma_m or task < b.n:
-        own = distance2(est, b.estimate(task), b.params)
-        return any(distance2(est, t, b.params) < own and could_be_treated(est, t, b.params)
-                   for t in treated)
-    own = _likelihood_cost(est, b.estimate(task), b.params) + LOOK_ODDS_COST
-    return any(could_be_treated(est, t, b.params) and _likelihood_cost(est, t, b.params) < own
+    odds = know.own.sigma_m > b.params.map_sigma_m and task >= b.n
+    cost = _likelihood_cost if odds else distance2
+    own = cost(est, b.estimate(task), b.params) + (LOOK_ODDS_COST if odds else 0.0)
+    return any(cost(est, t, b.params) < own and could_be_treated(est, t, b.params)
                for t in treated)
 
 

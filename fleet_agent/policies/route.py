@@ -32,7 +32,8 @@ def sync(know: Knowledge) -> list[Intent]:
     # that learns it mid-injection stops (the holder never stops for a later claim, so one
     # of the two finishes; fault fuzz seed 74: the earlier claim heard 55 s into the loser's
     # injection, the spot treated twice).
-    to = None if injecting is None or injecting in know.cleared else know.holder(injecting)
+    gone = injecting is not None and injecting in know.cleared  # a peer's clear heard
+    to = None if injecting is None or gone else know.holder(injecting)
     keep = to in (None, know.index)
     route = [t for t in own.route if t not in know.cleared
              and ((t == injecting and keep)
@@ -46,7 +47,7 @@ def sync(know: Knowledge) -> list[Intent]:
         return [steer]
     # Left: to a live peer's earlier claim, or because a peer's clear marks it treated (this
     # vehicle's own clear comes after its injection has ended, never during it).
-    if injecting in know.cleared:
+    if gone:
         return [_stopped(know, injecting, EventKind.JUDGED_TREATED, None), steer]
     assert to is not None  # kept unless cleared or held by a live peer
     return [_stopped(know, injecting, EventKind.CLAIM_LOST, to), steer]

@@ -34,6 +34,23 @@ def claimed_by_auv1() -> tuple[World, Agent, int]:
     return world, agent, spot
 
 
+def injecting_auv1() -> tuple[World, Agent, int]:
+    """auv1 at 415 s, mid-injection, and the spot it injects."""
+    world = World()
+    world.run_until(415.0)
+    agent = world.agent("auv1")
+    spot = agent.own.injecting
+    assert spot is not None
+    return world, agent, spot
+
+
+def logged(world: World, kind: str, agent: Agent, spot: int) -> list:
+    """``agent``'s events of ``kind`` naming ``spot``."""
+    tid = agent.know.tids([spot])[0]
+    return [e for e in world.backend.ledger.events
+            if e.id == agent.id and e.kind == kind and tid in e.tasks]
+
+
 def hear(agent: Agent, msg: Claim) -> None:
     intents = hearing.content(agent.know, agent.config, msg, 300.0, agent.active)
     agent._apply(intents, 300.0, Outputs(agent.id, agent.know.tids))
@@ -117,11 +134,7 @@ def test_the_loser_of_a_claim_race_learning_it_mid_injection_stops() -> None:
     its own injection and finished anyway, and the spot was treated twice. The earlier claim
     holds the spot: the loser stops, and the holder (which never stops for a later claim)
     treats it."""
-    world = World()
-    world.run_until(415.0)
-    agent = world.agent("auv1")
-    spot = agent.own.injecting
-    assert spot is not None
+    world, agent, spot = injecting_auv1()
     know = agent.know
     know.holdings.apply(know.index, 300, [spot], True)  # held by our claim at 300
     assert know.holder(spot) == know.index
@@ -133,8 +146,7 @@ def test_the_loser_of_a_claim_race_learning_it_mid_injection_stops() -> None:
     assert spot not in agent.own.route and agent.own.injecting != spot
     assert spot not in know.cleared  # not treated by us; auv2 will
     # The log says so once, with how long it injected (the timeline's injecting time).
-    told = [e for e in world.backend.ledger.events if e.id == "auv1" and e.kind == "claim_lost"
-            and know.tids([spot])[0] in e.tasks]
+    told = logged(world, "claim_lost", agent, spot)
     assert len(told) == 1 and told[0].peer == "auv2"
     injected_s = detail_stopped_s(told[0].detail)
     assert injected_s is not None and 0.0 < injected_s <= 416.0 - 300.0
@@ -144,22 +156,16 @@ def test_a_peers_clear_heard_mid_injection_stops_it_and_the_log_says_how_long() 
     """A peer's cleared set marks the spot being injected as treated: the vehicle stops (the
     spot is done for everyone), and the log says so once, with how long it injected, so the
     timeline counts that time as injecting, not as transit."""
-    world = World()
-    world.run_until(415.0)
-    agent = world.agent("auv1")
-    spot = agent.own.injecting
-    assert spot is not None
+    world, agent, spot = injecting_auv1()
     know = agent.know
     busy_until = agent.own.busy_until_s
     assert busy_until is not None and busy_until > 430.0
     assert know.clear([spot])  # heard in a peer's cleared set
     world.run_until(600.0)
     assert spot not in agent.own.route and agent.own.injecting != spot
-    told = [e for e in world.backend.ledger.events if e.id == "auv1"
-            and e.kind == "judged_treated" and know.tids([spot])[0] in e.tasks]
+    told = logged(world, "judged_treated", agent, spot)
     assert len(told) == 1 and not told[0].peer
     injected_s = detail_stopped_s(told[0].detail)
     assert injected_s is not None and 0.0 < injected_s <= told[0].t_s - (
         busy_until - float(agent.own.problem.service_s[spot])) + 1e-6
-    assert not [e for e in world.backend.ledger.events if e.id == "auv1"
-                and e.kind == "cleared" and know.tids([spot])[0] in e.tasks]
+    assert not logged(world, "cleared", agent, spot)

@@ -832,8 +832,22 @@ def test_hard_seed_37_at_1_percent_drift_treats_each_aggregation_once() -> None:
     books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
              if seat.driver is not None}
     assert world_tally(reef, books)["duplicates"] == 0
-    assert sum(v.counters.get("looks_at_finds", 0) + v.counters.get("looks_treated", 0)
-               for v in result.report.vehicles) >= 1
+    assert sum(v.counters.get("looks_at_finds", 0) for v in result.report.vehicles) >= 1
+
+
+def _find_beside_a_treated_spot(config: AgentConfig) -> tuple[Agent, int, tuple]:
+    """Seed 151's geometry: a peer's find 10 m south of a predicted spot the fleet heard
+    treated; the agent (auv1), the find's slot and its position."""
+    f = build(config)
+    agent = Agent(f, 0, config)
+    know, b = agent.know, agent.know.beliefs
+    u = _lonely_spot(f)
+    q = f.dynamic.scenario.tasks[u].pos
+    slot = b.n + 2 * config.find_slots  # auv3's find
+    find = (q[0], q[1] - 10.0, q[2])
+    assert b.add_find(slot, find, 55.8, 60.0, 5.0, 1.5)
+    assert know.clear([u])  # auv3 treated spot u: heard in its cleared set
+    return agent, slot, find
 
 
 @pytest.mark.parametrize("seen_off_m, injected", [((-0.9, 4.1), False), ((0.0, 0.0), True)])
@@ -844,17 +858,10 @@ def test_a_look_nearer_a_find_than_a_treated_spot_by_too_little_is_not_injected(
     nearer the spot's aggregation, saw COTS 4 m from the find and 6 m from the spot (1.8
     times likelier the find: `discovery.LOOK_ODDS` asks 4) and injected spot 27's again.
     COTS on the find itself are the find's, injected."""
-    f = build(EXACT)
-    agent = Agent(f, 0, EXACT)
-    know, b = agent.know, agent.know.beliefs
-    u = _lonely_spot(f)
-    q = f.dynamic.scenario.tasks[u].pos
-    slot = b.n + 2 * EXACT.find_slots  # auv3's find, 10 m south of the spot, released
-    find = (q[0], q[1] - 10.0, q[2])
-    assert b.add_find(slot, find, 55.8, 60.0, 5.0, 1.5)
+    agent, slot, find = _find_beside_a_treated_spot(EXACT)
+    know = agent.know
     know.holdings.found(slot, 2)
-    know.hold(2, 5, [slot], False)
-    assert know.clear([u])  # auv3 treated spot u: heard in its cleared set
+    know.hold(2, 5, [slot], False)  # released by auv3
     agent.step(Tick(6.0), [NavFix(6.0, agent.own.pos, sigma_m=3.8)])
     _send_to(agent, slot)
     agent.step(Tick(10.0), [NavFix(10.0, find, sigma_m=3.8), Arrived(10.0, slot)])
@@ -874,16 +881,9 @@ def test_the_look_odds_apply_only_where_navigation_is_less_sure_than_the_map(map
     (`discovery.LOOK_ODDS`); where the map is vaguer (4 m), "nearer" decides, as it does
     with exact navigation, where the odds skipped real aggregations a few metres off their
     spots."""
-    config = dataclasses.replace(EXACT, map_sigma_m=map_sigma_m)
-    f = build(config)
-    agent = Agent(f, 0, config)
-    know, b = agent.know, agent.know.beliefs
-    u = _lonely_spot(f)
-    q = f.dynamic.scenario.tasks[u].pos
-    slot = b.n + 2 * config.find_slots
-    find = (q[0], q[1] - 10.0, q[2])
-    assert b.add_find(slot, find, 55.8, 60.0, 5.0, 1.5)
-    assert know.clear([u])
+    agent, slot, find = _find_beside_a_treated_spot(
+        dataclasses.replace(EXACT, map_sigma_m=map_sigma_m))
+    know = agent.know
     agent.step(Tick(6.0), [NavFix(6.0, agent.own.pos, sigma_m=3.8)])
     seen = discovery._seen(know, (find[0] - 0.9, find[1] + 4.1, find[2]), 66.5)
     assert discovery._treated_already(know, slot, seen) is treated
