@@ -35,7 +35,7 @@ from fleet_agent.intents import (Count, Hold, Intent, LastWords, Note, Owe, Seek
                                  Tell)
 from fleet_agent.io_types import (Command, Frame, Helm, Input, Output, Outputs, Publish,
                                   Record, Send, Tick)
-from fleet_agent.knowledge import Knowledge
+from fleet_agent.knowledge import Knowledge, settled_by_s
 from fleet_agent.motion import Activity, Conduct, OwnVehicle
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import discovery, hearing, searching, unproven
@@ -80,7 +80,7 @@ class Agent:
         self.own = OwnVehicle(p, index, fleet.paths, Conduct(
             self._settled_s, lambda task: discovery.needs_look(self.know, task),
             0.0 if dyn is None else dyn.camera.inspect_s,
-            config.battery_reserve_s, self._held_back), now)
+            config.battery_reserve_s, self._held_back, lambda: settled_by_s(self.know)), now)
         self.own.frame.enabled = dyn is not None and config.map_relative_nav
         self.know = Knowledge(fleet, index, config, slots.cycle_s, beliefs, self.own)
         self.know.search = searching.belief_of(self.know, config)

@@ -69,6 +69,8 @@ class Conduct:
     # At the spot, past ``not_before``: until when to wait longer (0: not at all), given the
     # task and ``not_before``'s time; an earlier claim of it may be in a frame not yet proven.
     held_back: Callable[[int, float], float] | None = None
+    # A time no ``not_before`` is later than (None: not known; every spot is asked).
+    settled_by: Callable[[], float] | None = None
 
 
 @dataclass(frozen=True)
@@ -337,8 +339,8 @@ class OwnVehicle:
         if self.done:
             return 0.0
         route = self.route if route is None else list(route)
-        p, nb = self.problem, self.conduct.not_before
-        t, rest = self.t_s, route
+        p, nb, by = self.problem, self.conduct.not_before, self.conduct.settled_by
+        t, rest, horizon = self.t_s, route, math.inf if by is None else by()
         busy = self._busy_until_s(route)
         if self.detour is not None and busy is None:
             t += self.detour[1]  # the search flown first
@@ -353,7 +355,7 @@ class OwnVehicle:
         for task in [*rest, HOME_TARGET]:
             t += self._leg_s(prev, task, t)
             if task != HOME_TARGET:
-                t = max(t, nb(task)) + float(p.service_s[task])
+                t = (max(t, nb(task)) if t < horizon else t) + float(p.service_s[task])
             prev = task
         return t - self.t_s
 

@@ -70,6 +70,8 @@ class Holdings:
         self._touched: set[int] = set()
         # find -> its finder, who holds it from its FOUND on (`found`)
         self._found: dict[int, int] = {}
+        # vehicle -> the latest time it ever claimed a spot (`latest_claim_s`)
+        self._latest: dict[int, int] = {}
 
     def _record(self, task: int, v: int) -> Record | None:
         rec = self._events.get(task, {}).get(v)
@@ -109,6 +111,7 @@ class Holdings:
                 mine = self._explicit.setdefault(v, {})
                 if claim and new[0] > 0:
                     mine[task] = new[0]
+                    self._latest[v] = max(self._latest.get(v, 0), new[0])
                 else:
                     mine.pop(task, None)
                 if v not in self.base.owners.get(task, ()):
@@ -146,6 +149,11 @@ class Holdings:
             if is_claim and alive(v) and (best is None or (t, v) < best):
                 best = (t, v)
         return best
+
+    def latest_claim_s(self, v: int) -> int:
+        """No claim time of ``v`` is later than this (0: none since the initial plan); a
+        release leaves it where it was, so it only bounds."""
+        return self._latest.get(v, 0)
 
     def claim_time(self, task: int, v: int) -> int | None:
         rec = self._record(task, v)

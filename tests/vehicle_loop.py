@@ -25,8 +25,9 @@ Event = Cleared | Inspected | ReachedHome
 def conduct(not_before: Callable[[int], float] = lambda task: 0.0,
             needs_look: Callable[[int], bool] = lambda task: False,
             inspect_s: float = 0.0, reserve_s: float = 0.0,
-            held_back: Callable[[int, float], float] | None = None) -> Conduct:
-    return Conduct(not_before, needs_look, inspect_s, reserve_s, held_back)
+            held_back: Callable[[int, float], float] | None = None,
+            settled_by: Callable[[], float] | None = None) -> Conduct:
+    return Conduct(not_before, needs_look, inspect_s, reserve_s, held_back, settled_by)
 
 
 class Loop:

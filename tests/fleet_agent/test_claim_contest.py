@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from fleet_agent.agent import Agent
 from fleet_agent.io_types import Outputs
+from fleet_agent.knowledge import settled_by_s
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import hearing
 from fleet_agent.wire import Claim, ClearedSegment
@@ -127,6 +128,8 @@ def test_a_late_claim_settles_two_cycles_and_a_slot_after_it_and_the_initial_pla
         t for t in range(know.holdings.n_tasks) if know.holder(t) == know.index)
     assert know.settled_s(own) == 0.0
     assert agent.own.conduct.not_before(spot) == know.settled_s(spot)  # the vehicle obeys it
+    # the bound its projection trusts (`Conduct.settled_by`): no spot settles later
+    assert settled_by_s(know) == max(know.settled_s(t) for t in range(know.holdings.n_tasks))
 
 
 def test_the_loser_of_a_claim_race_learning_it_mid_injection_stops() -> None:

@@ -46,6 +46,35 @@ def test_route_takes_exactly_the_planned_mission_time(step_s: float) -> None:
     assert loop.own.distance_m == pytest.approx(sum(legs), abs=1e-6)  # eq. 7 summed
 
 
+@pytest.mark.parametrize("settle_s", [0.0, 150.0, 400.0, 1000.0])
+def test_the_settle_bound_leaves_the_projection_as_it_was(settle_s: float) -> None:
+    """`Conduct.settled_by` (no ``not_before`` is later) lets the projection stop asking once
+    past it: a wait on the route's second spot counts as before (400 s and 1000 s make one),
+    and a bound that is the latest settle changes nothing."""
+    p = small_problem()
+    late = {0: settle_s}
+    asked: list[int] = []
+
+    def not_before(task: int) -> float:
+        asked.append(task)
+        return late.get(task, 0.0)
+
+    plain, bounded = (Loop(p, rules=conduct(not_before=not_before, settled_by=by))
+                      for by in (None, lambda: settle_s))
+    for loop in (plain, bounded):
+        loop.set_route([1, 0, 2])
+    asked.clear()
+    expected = plain.own.time_to_finish_s()
+    assert sorted(asked) == [0, 1, 2]  # every spot is asked without a bound
+    asked.clear()
+    assert bounded.own.time_to_finish_s() == pytest.approx(expected)
+    # Past the first spot, a spot is asked only while the bound is ahead of the arrival:
+    # spot 0 (reached at 331 s) under the bounds of 400 s and 1000 s; spot 2 never (it is
+    # reached past any wait at spot 0).
+    reach_0 = p.route_time_s(0, [1, 0]) - float(p.service_s[0]) - p.travel_s[0][0, p.end_node(0)]
+    assert sorted(asked) == sorted([1, *([0] if reach_0 < settle_s else [])])
+
+
 @pytest.mark.parametrize("step_s", [0.37, 7.0, 10_000.0])
 def test_a_spot_not_yet_settled_is_waited_for_then_worked(step_s: float) -> None:
     """Spot 0 (100.5 s away, 60 s of injection) may not be worked before t = 130 s (a claim
