@@ -125,6 +125,7 @@ class OwnVehicle:
         self.aborted = False
         self.home_at_s: float | None = None
         self.busy_until_s: float | None = None  # when the work at the spot ends
+        self.injecting_since_s = 0.0  # when the injection under way began (while INJECTING)
         self._waited_s = 0.0  # when a wait at the spot was last judged still on
         # A search flown on the way to the next spot (`policies.searching`): its waypoints,
         # from and back to where the vehicle is, and how long they take.
@@ -282,6 +283,7 @@ class OwnVehicle:
         if treating:
             assert service_s is not None
             self.activity, self.busy_until_s = Activity.INJECTING, self.t_s + float(service_s)
+            self.injecting_since_s = self.t_s
         else:  # nothing there, or more than the battery allows: on to the next spot
             self.route.pop(0)
             self._moving()
@@ -433,7 +435,7 @@ class OwnVehicle:
         if self.conduct.needs_look(task):
             self.activity, self.busy_until_s = Activity.LOOKING, t_s + self.conduct.inspect_s
         else:
-            self.activity = Activity.INJECTING
+            self.activity, self.injecting_since_s = Activity.INJECTING, t_s
             self.busy_until_s = t_s + float(self.problem.service_s[task])
 
     def _moving(self) -> None:

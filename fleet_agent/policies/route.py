@@ -56,14 +56,10 @@ def sync(know: Knowledge) -> list[Intent]:
 def _stopped(know: Knowledge, task: int, kind: EventKind, holder: int | None) -> Tell:
     """The log's word that the spot being injected is left: to ``holder``, a live peer
     (claim lost), or as treated by another (judged treated); the event says how long this
-    vehicle injected (the timeline's injecting time, `fleet_bus.telemetry.stopped_detail`;
-    the injection began its spot's injection time, in the working problem, before it was
-    due to end)."""
+    vehicle injected (the timeline's injecting time, `fleet_bus.telemetry.stopped_detail`)."""
     own = know.own
-    assert own.busy_until_s is not None  # set whenever the vehicle injects
-    started_s = own.busy_until_s - float(own.problem.service_s[task])
     return Tell(own.t_s, kind, (task,), peer="" if holder is None else know.vid(holder),
-                detail=stopped_detail(own.t_s - started_s))
+                detail=stopped_detail(own.t_s - own.injecting_since_s))
 
 
 def keeping_own(own: OwnVehicle, reserve_s: float, planned: list[int], held: list[int],

@@ -136,7 +136,11 @@ def test_a_present_spot_is_injected_for_its_real_time():
     loop.set_route([0])
     loop.run_until(100.0)
     assert math.isclose(loop.own.time_to_finish_s(), 20.0 + (80.0 - 20.0) + 100.0)
-    assert loop.run_until(160.0) == [Inspected(0, 120.0, True, True), Cleared(0, 153.0)]
+    assert loop.run_until(140.0) == [Inspected(0, 120.0, True, True)]
+    # the injection began when the look ended, whatever the map said it would take (a stop
+    # mid-injection logs the time from here: `policies.route`)
+    assert loop.own.injecting_since_s == 120.0
+    assert loop.run_until(160.0) == [Cleared(0, 153.0)]
 
 
 def test_cots_beyond_the_battery_are_left_for_others():
