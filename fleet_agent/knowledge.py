@@ -390,8 +390,8 @@ class Knowledge:
 
 def settled_by_s(know: Knowledge) -> float:
     """No spot's `Knowledge.settled_s` is later than this: the latest claim this vehicle
-    made, plus the settle. What lets a route's projection skip asking past it (it was asked
-    for every spot of the route at every step: a tenth of a 100-vehicle mission's time)."""
+    made, plus the settle. What lets a route's projection skip asking past it (it asked for
+    every spot of the route at every step: 5 million lookups in a 100-vehicle mission)."""
     c = know.holdings.latest_claim_s(know.index)
     return c + know.claim_settle_s if c else 0.0
 
