@@ -75,10 +75,11 @@ class Conduct:
 
 @dataclass(frozen=True)
 class Cleared:
-    """The vehicle finished injecting ``task`` at ``t_s``."""
+    """The vehicle finished injecting ``task`` at ``t_s``, after ``injected_s`` of it."""
 
     task: int
     t_s: float
+    injected_s: float
 
 
 @dataclass(frozen=True)
@@ -294,9 +295,10 @@ class OwnVehicle:
         self.at_time(t_s)
         if self.injecting != task:
             return None
+        since = self.injecting_since_s
         self.route.pop(0)
         self._moving()
-        return Cleared(task, self.t_s)
+        return Cleared(task, self.t_s, self.t_s - since)
 
     # -- what the agent decides ------------------------------------------------------------
 

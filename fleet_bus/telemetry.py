@@ -52,6 +52,30 @@ def stopped_detail(injected_s: float) -> str:
     return f"{STOPPED_PREFIX}{max(0.0, injected_s):.1f} s"
 
 
+INJECTED_WORD = "injected"
+
+
+def cleared_detail(injected_s: float, pos: tuple[float, ...] | None = None) -> str:
+    """The detail of a cleared event: the find's position first when it is one (the world's
+    bookkeeping reads it: `detail_position`), then how long the injection lasted, which after
+    a look is what the camera measured, not the map's time (the timeline reads it)."""
+    told = f"{INJECTED_WORD} {max(0.0, injected_s):.1f} s"
+    return told if pos is None else f"{position_detail(pos)} {told}"
+
+
+def detail_injected_s(detail: str) -> float | None:
+    """The seconds `cleared_detail` put in ``detail`` (None: a log from before it did)."""
+    words = detail.split()
+    for a, b, c in zip(words, words[1:], words[2:]):
+        if a == INJECTED_WORD and c == "s":
+            try:
+                s = float(b)
+            except ValueError:
+                return None
+            return s if 0.0 <= s < float("inf") else None
+    return None
+
+
 def detail_stopped_s(detail: str) -> float | None:
     """The seconds `stopped_detail` put in ``detail`` (None: it stopped no injection)."""
     if not detail.startswith(STOPPED_PREFIX):

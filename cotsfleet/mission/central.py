@@ -41,7 +41,7 @@ from fleet_agent.helms.sim import sim_vehicle
 from fleet_agent.search import BeliefParams, SearchBelief, evaluate, orbit, ring_middle
 from fleet_bus.ledger import FleetLedger
 from fleet_bus.states import EventKind
-from fleet_bus.telemetry import Event, Status, position_detail
+from fleet_bus.telemetry import Event, Status, cleared_detail, position_detail
 from fleet_bus.vehicle_port import (HOME_TARGET, Arrived, GoTo, Injected, Looked, NavFix,
                                     ReturnHome, Sighted, StationKeep, Work)
 from hfc_core.model.feasibility import fits
@@ -134,6 +134,7 @@ class Seat:
     treated: list[int] = field(default_factory=list)  # task ids
     collected: float = 0.0
     home_at_s: float | None = None
+    injecting_since_s: float = 0.0  # when the injection under way was commanded
     track: list[tuple[float, float]] = field(default_factory=list)  # since the last leg end
 
 
@@ -336,7 +337,8 @@ class Central:
                                          r.priority), it.kind == "find"))
         seat.treated.append(it.task_id)
         seat.collected += it.priority
-        detail = position_detail(it.pos) if it.kind == "find" else ""
+        detail = cleared_detail(r.t_s - seat.injecting_since_s,
+                                it.pos if it.kind == "find" else None)
         self.ledger.add_event(Event(r.t_s, seat.vid, EventKind.CLEARED, [it.task_id],
                                     detail=detail))
         self._next(seat)
@@ -392,6 +394,7 @@ class Central:
         elif act is Activity.LOOKING:
             seat.port.command(StationKeep(Work.LOOK, head, self.inspect_s), t)
         elif act is Activity.INJECTING:
+            seat.injecting_since_s = t
             seat.port.command(StationKeep(Work.INJECT, head, it.service_s), t)
 
     # -- planning -----------------------------------------------------------------------------

@@ -1,14 +1,16 @@
 """What the event log says happened when: pure functions over a report and its events.
 
 Events are `fleet_bus.telemetry.Event` records (``events.jsonl`` holds one per line). A
-``cleared`` event is stamped when an injection ends, so the injection began ``service_s``
-earlier (a ``claim_lost`` or ``judged_treated`` event whose detail says the vehicle stopped
-injecting, for a spot a peer held by an earlier claim or was heard to have treated, says for
-how long); a ``replan`` event with detail ``home``
-marks the arrival at the rendezvous; kills and restarts come from the report's ``faults``.
-Spot priorities and injection times come from the scenario when it is given; without it,
-injections are assumed to last `DEFAULT_SERVICE_S`. What the fleet collected over time is
-`fleet_bus.ledger.cumulative`: the figures of the report, step by step.
+``cleared`` event is stamped when an injection ends and its detail says how long it lasted
+(`fleet_bus.telemetry.cleared_detail`: after a look, what the camera measured; a log from
+before it said so is read with the scenario's ``service_s``). A ``claim_lost`` or
+``judged_treated`` event whose detail says the vehicle stopped injecting, for a spot a peer
+held by an earlier claim or was heard to have treated, says for how long; a ``replan`` event
+with detail ``home`` marks the arrival at the rendezvous; kills and restarts come from the
+report's ``faults``. Spot priorities come from the scenario when it is given; without it,
+injections with no time in their detail are assumed to last `DEFAULT_SERVICE_S`. What the
+fleet collected over time is `fleet_bus.ledger.cumulative`: the figures of the report, step by
+step.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from typing import Any, Mapping, Sequence
 from cotsfleet.mission.report_model import FaultRow, MissionReport, VehicleRow
 from fleet_bus.ledger import FleetLedger, SpotValues, cumulative
 from fleet_bus.states import EventKind, FaultKind
-from fleet_bus.telemetry import Event, detail_stopped_s
+from fleet_bus.telemetry import Event, detail_injected_s, detail_stopped_s
 
 ACTIVITIES = ("transit", "inspect", "inject", "idle", "down")
 DEFAULT_SERVICE_S = 75.0  # the middle of the paper's U(60, 90) s (eq. 2)
@@ -113,7 +115,9 @@ def vehicle_segments(report: MissionReport, events: Sequence[Event],
                                for a, b in down_intervals(report.faults, vid, end_s)]
         for e in _events_of(events, vid, EventKind.CLEARED):
             for task in e.tasks:
-                service = spots.service_s.get(task, DEFAULT_SERVICE_S)
+                service = detail_injected_s(e.detail)
+                if service is None:
+                    service = spots.service_s.get(task, DEFAULT_SERVICE_S)
                 busy.append(Segment(max(0.0, e.t_s - service), e.t_s, "inject"))
         for e in _events_of(events, vid, EventKind.CLAIM_LOST, EventKind.JUDGED_TREATED):
             # an injection left to an earlier claim, or to a peer's clear of the spot

@@ -28,7 +28,7 @@ from fleet_agent.policies.plausible import been_there
 from fleet_agent.records import Clear, FoundSpot
 from fleet_agent.wire import MAX_TENTHS, SIGMA_UNIT_M, Codec, Found, sigma_code
 from fleet_bus.states import EventKind
-from fleet_bus.telemetry import position_detail
+from fleet_bus.telemetry import cleared_detail, position_detail
 from fleet_bus.vehicle_port import Injected, Looked, Sighted
 
 # A look shows the spot looked at, not an aggregation already treated, only when the spot is
@@ -46,12 +46,12 @@ LOOK_ODDS = 4.0
 LOOK_ODDS_COST = 2.0 * math.log(LOOK_ODDS)  # the same in -2 ln likelihood
 
 
-def where(know: Knowledge, task: int) -> str:
-    """A find's position for the log ("x,y,z" m): the world's bookkeeping names the
-    aggregation treated by where it is; predicted spots need nothing (their task says)."""
-    if task < know.beliefs.n:
-        return ""
-    return position_detail(tuple(know.problem.xyz[task]))
+def treated_detail(know: Knowledge, task: int, injected_s: float) -> str:
+    """A cleared event's detail (`fleet_bus.telemetry.cleared_detail`): a find's position
+    ("x,y,z" m: the world's bookkeeping names the aggregation treated by where it is;
+    predicted spots need none, their task says), then how long the injection lasted."""
+    pos = None if task < know.beliefs.n else tuple(know.problem.xyz[task])
+    return cleared_detail(injected_s, pos)
 
 
 def needs_look(know: Knowledge, task: int) -> bool:
@@ -491,10 +491,11 @@ def _name(know: Knowledge, codec: Codec, seen: Sighted, est: Estimate, now: floa
     sigma = sigma_code(est.sigma_m) * SIGMA_UNIT_M
     if not know.add_find(slot, pos, rho, service, now, sigma):
         return None, [Count("finds_refused")]  # on land once on the wire's grid: nobody goes
+    at = position_detail(tuple(know.problem.xyz[slot]))
     return slot, [Count("finds"), Note(FoundSpot(now, slot, pos, rho, service, durable=True,
                                                  sigma_m=sigma)),
                   Owe(Owed.FIND, slot), Tell(now, EventKind.FOUND, (slot,),
-                                            detail=f"{where(know, slot)} rho {rho:g}")]
+                                            detail=f"{at} rho {rho:g}")]
 
 
 def on_found(know: Knowledge, msg: Found, now: float) -> list[Intent]:

@@ -50,7 +50,7 @@ def take(know: Knowledge, config: AgentConfig, codec: Codec, r: VehicleReport,
         at = None if seen is None else (*seen.xy, seen.sigma_m)
         return [Owe(Owed.CLEARED, 2), Note(rec.Clear(done.t_s, (done.task,), own=True, at=at)),
                 Tell(done.t_s, EventKind.CLEARED, (done.task,),
-                     detail=discovery.where(know, done.task)),
+                     detail=discovery.treated_detail(know, done.task, done.injected_s)),
                 *searching.after_injection(know, config, done.task),
                 *discovery.treated_elsewhere(know, codec, r, seen)]
     elif isinstance(r, Looked):

@@ -24,7 +24,8 @@ from cotsfleet.reporting.timeline import (
     vehicle_segments,
 )
 from fleet_agent.config import AgentConfig
-from fleet_bus.telemetry import Event, detail_stopped_s
+from fleet_bus.telemetry import (Event, cleared_detail, detail_injected_s, detail_position,
+                                  detail_stopped_s)
 from hfc_core.formats.scenario import problem_from_dict
 from reef_sim.scenarios.field import GeneratorParams, generate_doc
 
@@ -105,11 +106,15 @@ def test_timeline_agrees_with_each_vehicles_figures(mission):
         assert segs[0].start_s == 0.0 and segs[-1].end_s == report.end_s
         assert all(a.end_s == b.start_s for a, b in zip(segs, segs[1:]))
         spent = time_shares(segs)
-        mine = {t for e in events if e.id == v.id and e.kind == "cleared" for t in e.tasks}
+        cleared = [e for e in events if e.id == v.id and e.kind == "cleared"]
+        # each cleared event says how long its injection lasted: here (no camera) the map's
+        # time of its spot
+        told = [detail_injected_s(e.detail) for e in cleared]
+        assert told == pytest.approx([spots.service_s[e.tasks[0]] for e in cleared], abs=0.051)
         stopped = [detail_stopped_s(e.detail) for e in events
                    if e.id == v.id and e.kind in ("claim_lost", "judged_treated")]
-        assert spent["inject"] == pytest.approx(sum(spots.service_s[t] for t in mine)
-                                                + sum(s for s in stopped if s is not None))
+        assert spent["inject"] == pytest.approx(sum(told) + sum(s for s in stopped
+                                                                if s is not None))
         if v.home and not v.killed:
             assert spent["transit"] * speed == pytest.approx(v.distance_m, abs=1.0)
     assert time_shares(segments["auv2"])["down"] == pytest.approx(300.0)
@@ -360,6 +365,31 @@ def test_the_run_progress_line_counts_what_the_report_counts(tmp_path):
     assert f"1 of {len(truth)} real spots treated, priority {real['priority']:.0f} of " \
            f"{total:.0f}" in lines[-1]
     assert not (tmp_path / "run").exists()  # nothing was started
+
+
+def test_an_injection_lasts_what_its_cleared_event_says(mission):
+    """After a look the injection takes what the camera measured, not the map's time: the
+    cleared event's detail says so and the timeline reads it; a log from before it said so
+    (no time in the detail) is read with the scenario's injection time."""
+    report, _, doc = mission
+    spots = Spots.of_scenario(doc)
+    vid = report.vehicles[0].id
+    find = cleared_detail(33.0, (120.0, 40.0, -8.0))
+    assert detail_position(find) == (120.0, 40.0, -8.0) and detail_injected_s(find) == 33.0
+    extra = [Event(600.0, vid, "cleared", (0,), detail=cleared_detail(33.0)),
+             Event(900.0, vid, "cleared", (1,), detail=find),
+             Event(1200.0, vid, "cleared", (2,))]
+    segs = vehicle_segments(report, extra, spots)[vid]
+    inject = [x for s in segs if s.activity == "inject" for x in (s.start_s, s.end_s)]
+    assert inject == pytest.approx([567.0, 600.0, 867.0, 900.0,
+                                    1200.0 - spots.service_s[2], 1200.0])
+
+
+@pytest.mark.parametrize("detail", ["injected", "injected s", "injected -3 s", "injected nan s",
+                                    "injected inf s", "1,2,3 injected x s", "stopped injecting"
+                                    " after 30.0 s"])
+def test_a_cleared_detail_without_a_sane_time_gives_none(detail):
+    assert detail_injected_s(detail) is None
 
 
 def test_an_injection_left_to_a_peers_clear_counts_as_injecting(mission):

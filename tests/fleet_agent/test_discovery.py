@@ -25,6 +25,7 @@ from reef_sim.scenarios.dynamic import DynamicParams, generate_dynamic_doc
 from reef_sim.scenarios.field import GeneratorParams
 from reef_sim.truth import reef_from_doc
 from fleet_bus.modem_port import WATER_SPEC
+from fleet_bus.telemetry import detail_injected_s
 from fleet_bus.vehicle_port import GoTo, Sighted
 from reef_sim.vehicle import SimVehicle
 
@@ -216,6 +217,11 @@ def test_three_vehicles_seeing_one_aggregation_at_once_treat_it_once():
                 and e.detail.startswith(f"{start[0] + 10.0:.1f},")}
     assert found_by == {"auv1", "auv2", "auv3"}  # three finds of one aggregation
     assert [d.spot for d in r.report.dynamic.treated].count(new) == 1
+    # its cleared event says where, and how long the injection lasted: the aggregation's
+    # own 30 s, which no map said (the timeline's injecting time)
+    told = [e.detail for e in r.events if e.kind == "cleared"
+            and e.detail.startswith(f"{start[0] + 10.0:.1f},")]
+    assert [detail_injected_s(d) for d in told] == [30.0], told
     assert r.report.fleet.duplicate_treatments == 0
 
 

@@ -140,7 +140,7 @@ def test_a_present_spot_is_injected_for_its_real_time():
     # the injection began when the look ended, whatever the map said it would take (a stop
     # mid-injection logs the time from here: `policies.route`)
     assert loop.own.injecting_since_s == 120.0
-    assert loop.run_until(160.0) == [Cleared(0, 153.0)]
+    assert loop.run_until(160.0) == [Cleared(0, 153.0, 33.0)]
 
 
 def test_cots_beyond_the_battery_are_left_for_others():
@@ -153,4 +153,4 @@ def test_cots_beyond_the_battery_are_left_for_others():
 def test_a_known_spot_is_injected_at_once_as_before():
     loop = Loop(line_problem())
     loop.set_route([0])
-    assert loop.run_until(200.0) == [Cleared(0, 180.0)]
+    assert loop.run_until(200.0) == [Cleared(0, 180.0, 80.0)]
