@@ -151,6 +151,11 @@ class OwnVehicle:
     def inspecting(self) -> int | None:
         return self.route[0] if self.activity is Activity.LOOKING and self.route else None
 
+    @property
+    def at_spot(self) -> int | None:
+        """The spot the vehicle is at, waiting, looking or injecting (None: under way)."""
+        return self.route[0] if self.activity in AT_SPOT and self.route else None
+
     def state(self) -> VehicleState:
         """The telemetry state: busy at a spot is injecting."""
         if self.aborted and not self.done:
@@ -295,10 +300,10 @@ class OwnVehicle:
         self.at_time(t_s)
         if self.injecting != task:
             return None
-        since = self.injecting_since_s
+        done = Cleared(task, self.t_s, self.t_s - self.injecting_since_s)
         self.route.pop(0)
         self._moving()
-        return Cleared(task, self.t_s, self.t_s - since)
+        return done
 
     # -- what the agent decides ------------------------------------------------------------
 

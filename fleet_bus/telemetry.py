@@ -42,6 +42,23 @@ def detail_position(detail: str) -> tuple[float, float, float] | None:
 
 
 STOPPED_PREFIX = "stopped injecting after "
+INJECTED_WORD = "injected"
+
+
+def _seconds(s: float) -> str:
+    """How an event's detail tells a duration ("33.0 s"; the timeline reads it back)."""
+    return f"{max(0.0, s):.1f} s"
+
+
+def _read_seconds(number: str, unit: str) -> float | None:
+    """The duration `_seconds` wrote as ``number`` ``unit`` (None: not a sane one)."""
+    if unit != "s":
+        return None
+    try:
+        s = float(number)
+    except ValueError:
+        return None
+    return s if 0.0 <= s < float("inf") else None
 
 
 def stopped_detail(injected_s: float) -> str:
@@ -49,17 +66,14 @@ def stopped_detail(injected_s: float) -> str:
     or a judged-treated one (left because a peer's clear of the spot was heard) when the
     vehicle stopped injecting: the timeline counts those seconds as injecting
     (`cotsfleet.reporting.timeline`)."""
-    return f"{STOPPED_PREFIX}{max(0.0, injected_s):.1f} s"
-
-
-INJECTED_WORD = "injected"
+    return f"{STOPPED_PREFIX}{_seconds(injected_s)}"
 
 
 def cleared_detail(injected_s: float, pos: tuple[float, ...] | None = None) -> str:
     """The detail of a cleared event: the find's position first when it is one (the world's
     bookkeeping reads it: `detail_position`), then how long the injection lasted, which after
     a look is what the camera measured, not the map's time (the timeline reads it)."""
-    told = f"{INJECTED_WORD} {max(0.0, injected_s):.1f} s"
+    told = f"{INJECTED_WORD} {_seconds(injected_s)}"
     return told if pos is None else f"{position_detail(pos)} {told}"
 
 
@@ -68,23 +82,16 @@ def detail_injected_s(detail: str) -> float | None:
     words = detail.split()
     for a, b, c in zip(words, words[1:], words[2:]):
         if a == INJECTED_WORD and c == "s":
-            try:
-                s = float(b)
-            except ValueError:
-                return None
-            return s if 0.0 <= s < float("inf") else None
+            return _read_seconds(b, c)
     return None
 
 
 def detail_stopped_s(detail: str) -> float | None:
     """The seconds `stopped_detail` put in ``detail`` (None: it stopped no injection)."""
-    if not detail.startswith(STOPPED_PREFIX):
+    words = detail[len(STOPPED_PREFIX):].split()
+    if not detail.startswith(STOPPED_PREFIX) or not words:
         return None
-    try:
-        s = float(detail[len(STOPPED_PREFIX):].split()[0])
-    except (ValueError, IndexError):
-        return None
-    return s if 0.0 <= s < float("inf") else None
+    return _read_seconds(words[0], "s")  # the unit was never checked here: old logs read
 
 
 @dataclass(frozen=True)

@@ -114,10 +114,10 @@ def vehicle_segments(report: MissionReport, events: Sequence[Event],
         busy: list[Segment] = [Segment(a, b, "down")
                                for a, b in down_intervals(report.faults, vid, end_s)]
         for e in _events_of(events, vid, EventKind.CLEARED):
+            told = detail_injected_s(e.detail)
             for task in e.tasks:
-                service = detail_injected_s(e.detail)
-                if service is None:
-                    service = spots.service_s.get(task, DEFAULT_SERVICE_S)
+                service = told if told is not None else \
+                    spots.service_s.get(task, DEFAULT_SERVICE_S)
                 busy.append(Segment(max(0.0, e.t_s - service), e.t_s, "inject"))
         for e in _events_of(events, vid, EventKind.CLAIM_LOST, EventKind.JUDGED_TREATED):
             # an injection left to an earlier claim, or to a peer's clear of the spot

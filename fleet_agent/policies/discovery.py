@@ -124,14 +124,14 @@ def _not_to_inject(know: Knowledge, r: Looked) -> Callable[[], list[Intent]] | N
     if not r.present:
         return None
     if _another_rho(know, r):
-        return lambda: _leave(know, r.task, "looks_not_the_find")
+        return lambda: leave(know, (r.task,), "looks_not_the_find")
     if r.pos is None:
         return None
     seen = _seen(know, r.pos, r.priority)
     if _treated_already(know, r.task, seen):
         return lambda: _treated_at_look(know, r)
     if _held_find(know, seen) is not None:
-        return lambda: _leave(know, r.task, "looks_left_to_finder")
+        return lambda: leave(know, (r.task,), "looks_left_to_finder")
     return None
 
 
@@ -213,16 +213,17 @@ def _another_rho(know: Knowledge, r: Looked) -> bool:
     return unlike_priority(replace(mine, priority=r.priority), mine, know.beliefs.params)
 
 
-def _leave(know: Knowledge, task: int, counter: str) -> list[Intent]:
-    """Not injected here, and ``task`` left out of this vehicle's plans
+def leave(know: Knowledge, tasks: tuple[int, ...], counter: str) -> list[Intent]:
+    """Not injected here, and ``tasks`` left out of this vehicle's plans
     (`Knowledge.doubtful`) and released, but not cleared: the fleet learns nothing false.
+    Also a spot a peer was seen at work at (`hearing._seen_at_work`).
     A find whose look shows another rho is somewhere near, where another vehicle (or this
     one with a better fix) may find it. A spot whose look shows a find a peer holds is that
     find's: cleared here, it would make every peer judge the find treated, its holder
     included, before anyone treated it; when the find is cleared, `fold_treated` judges the
     spot."""
-    know.doubtful.add(task)
-    return [Count(counter), Hold((task,), False)]
+    know.doubtful.update(tasks)
+    return [Count(counter, len(tasks)), Hold(tasks, False)]
 
 
 def _treated_at_look(know: Knowledge, r: Looked) -> list[Intent]:

@@ -16,12 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from fleet_agent import intents, witness
 from fleet_agent import membership as mb
+from fleet_agent import witness
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Intent, LastWords, Note, Owe, SeekWork, Tell
 from fleet_agent.knowledge import Knowledge, PeerPose
-from fleet_agent.motion import AT_SPOT
 from fleet_agent.outbox import AbortNews, Holding, Owed
 from fleet_agent.policies import discovery, plausible
 from fleet_agent.policies.takeover import takeover
@@ -192,7 +191,7 @@ def _seen_at_work(know: Knowledge, v: int, pos: tuple[float, float, float],
     itself: two vehicles at one spot are the claim contest's to settle, and each would yield
     to the other here."""
     own = know.own
-    here = own.route[0] if own.route and own.activity in AT_SPOT else None
+    here = own.at_spot
     mine = [t for t in own.route if t != here and t not in know.cleared
             and t not in know.doubtful]
     if not mine:
@@ -208,9 +207,7 @@ def _seen_at_work(know: Knowledge, v: int, pos: tuple[float, float, float],
     if any(know.holder(int(t)) == v for t in np.flatnonzero(d <= AT_WORK_M)
            if int(t) not in know.cleared):
         return []
-    know.doubtful.update(near)
-    know.touch()
-    return [Count("spots_left_to_worker", len(near)), intents.Hold(near, False),
+    return [*discovery.leave(know, near, "spots_left_to_worker"),
             Tell(now, EventKind.REPLAN, near, peer=know.vid(v),
                  detail="left out: the peer was seen at work there")]
 

@@ -6,11 +6,12 @@ older claims and releases for two minutes while a peer, which had missed it, fle
 from __future__ import annotations
 
 from fleet_agent.agent import Agent
+from fleet_agent.intents import Intent
 from fleet_agent.io_types import Outputs
 from fleet_agent.knowledge import settled_by_s
 from fleet_agent.outbox import Holding, Owed
 from fleet_agent.policies import hearing
-from fleet_agent.wire import Claim, ClearedSegment
+from fleet_agent.wire import Claim, ClearedSegment, Message
 from fleet_bus.telemetry import detail_stopped_s
 from test_agent_logic import World
 
@@ -52,9 +53,11 @@ def logged(world: World, kind: str, agent: Agent, spot: int) -> list:
             if e.id == agent.id and e.kind == kind and tid in e.tasks]
 
 
-def hear(agent: Agent, msg: Claim) -> None:
-    intents = hearing.content(agent.know, agent.config, msg, 300.0, agent.active)
-    agent._apply(intents, 300.0, Outputs(agent.id, agent.know.tids))
+def hear(agent: Agent, msg: Message, now: float = 300.0) -> list[Intent]:
+    """``agent`` takes ``msg`` (proven) at ``now``; what it decided."""
+    intents = hearing.content(agent.know, agent.config, msg, now, agent.active)
+    agent._apply(intents, now, Outputs(agent.id, agent.know.tids))
+    return intents
 
 
 def kinds(agent: Agent) -> list[bool]:

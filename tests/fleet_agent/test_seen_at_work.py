@@ -6,12 +6,12 @@ left to the peer (`policies.hearing`): released, out of this vehicle's plans, no
 from __future__ import annotations
 
 from fleet_agent.agent import Agent
-from fleet_agent.intents import Intent, Tell
-from fleet_agent.io_types import Outputs
+from fleet_agent.intents import Tell
 from fleet_agent.policies import hearing
 from fleet_agent.wire import Pose
 from fleet_bus.states import VehicleState
 from test_agent_logic import World
+from test_claim_contest import hear, injecting_auv1
 
 PEER = 1  # auv2
 
@@ -21,19 +21,12 @@ def pose_at(agent: Agent, spot: int, state: str, off_m: float = 1.0) -> Pose:
     return Pose(PEER, 290, (x + off_m, y, z), 0, state, agent.know.cleared.digest())
 
 
-def hear(agent: Agent, msg: Pose, now: float) -> list[Intent]:
-    intents = hearing.content(agent.know, agent.config, msg, now, agent.active)
-    agent._apply(intents, now, Outputs(agent.id, agent.know.tids))
-    return intents
-
-
 def in_transit() -> tuple[World, Agent, int]:
     """auv1 at 300 s on its way, and the next spot of its route."""
     world = World()
     world.run_until(300.0)
     agent = world.agent("auv1")
-    here = agent.own.injecting if agent.own.injecting is not None else agent.own.inspecting
-    spot = next(t for t in agent.own.route if t != here)
+    spot = next(t for t in agent.own.route if t != agent.own.at_spot)
     return world, agent, spot
 
 
@@ -65,11 +58,7 @@ def test_a_peer_in_transit_or_working_elsewhere_changes_nothing() -> None:
 def test_the_spot_a_vehicle_is_at_is_the_claim_contests_not_the_poses() -> None:
     """Two vehicles at one spot would each yield to the other's pose: nobody would treat it.
     Who keeps it is the earlier claim's (`test_claim_contest`)."""
-    world = World()
-    world.run_until(415.0)
-    agent = world.agent("auv1")
-    spot = agent.own.injecting
-    assert spot is not None
+    world, agent, spot = injecting_auv1()
     hear(agent, pose_at(agent, spot, VehicleState.INJECTING), 415.0)
     assert agent.own.injecting == spot and spot not in agent.know.doubtful
     world.run_until(420.0)
