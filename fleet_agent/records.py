@@ -174,8 +174,23 @@ class SpotAdded:
                 "r": self.priority, "d": self.service_s}
 
 
+@dataclass(frozen=True)
+class Doubt:
+    """Spots this vehicle left out of its plans at ``t_s`` without clearing them
+    (`Knowledge.doubtful`: a peer was seen at work there, a look showed another's find, a lost
+    peer probably treated them). Durable: forgotten in a restart, the spot would be planned
+    again while the peer that works it may be the one whose clear is lost."""
+
+    t_s: float
+    tasks: tuple[int, ...]
+    durable: bool = True
+
+    def doc(self) -> dict[str, Any]:
+        return {"k": "doubt", "t": self.t_s, "ids": list(self.tasks)}
+
+
 JournalRecord = Union[Start, Clear, Hold, PeerState, Aborted, Home, Restarted, Checkpoint,
-                      FoundSpot, OrderTaken, SpotAdded]
+                      FoundSpot, OrderTaken, SpotAdded, Doubt]
 
 
 def _ints(value: Any) -> tuple[int, ...]:
@@ -198,6 +213,8 @@ def parse(doc: Mapping[str, Any]) -> JournalRecord | None:
             at = doc.get("at")
             return Clear(t, _ints(doc["ids"]), bool(doc.get("own")),
                          None if at is None else _at(at))
+        if k == "doubt":
+            return Doubt(t, _ints(doc["ids"]))
         if k == "hold":
             return Hold(int(doc["v"]), int(doc["t"]), _ints(doc["ids"]), bool(doc["c"]))
         if k == "peer":

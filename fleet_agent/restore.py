@@ -1,6 +1,7 @@
 """How an agent comes back from its journal after a restart: a pure fold into a `Snapshot`.
 
-What comes back: the cleared set, its own treatments, the finds it knew, the spots the
+What comes back: the cleared set, its own treatments, the spots it left out as doubtful,
+the finds it knew, the spots the
 operator added (`records.SpotAdded`: the order itself is taken once), every claim and
 release it heard, peers' final states (aborted, home), whether it had aborted or got home,
 and its last checkpoint (position, distance, route, sequence number, replay high-water
@@ -24,7 +25,7 @@ from fleet_agent.radio import Radio
 from fleet_bus.states import EventKind
 
 KNOWN_KINDS = ("start", "clr", "hold", "peer", "abort", "home", "restart", "ckpt", "find",
-               "add")
+               "add", "doubt")
 
 
 @dataclass
@@ -34,6 +35,7 @@ class Snapshot:
     cleared: list[int] = field(default_factory=list)
     treated: list[tuple[int, float]] = field(default_factory=list)  # own, in order
     injections: list[tuple[float, float, float]] = field(default_factory=list)  # Clear.at
+    doubtful: set[int] = field(default_factory=set)  # `rec.Doubt`: out of plans, not cleared
     finds: list[rec.FoundSpot] = field(default_factory=list)
     added: list[rec.SpotAdded] = field(default_factory=list)  # the operator's spots
     holds: list[rec.Hold] = field(default_factory=list)
@@ -64,6 +66,8 @@ def fold(journal: Sequence[Mapping[str, Any]], n_tasks: int) -> Snapshot:
                         snap.cleared.append(t)
                     if r.own and all(t != x for x, _ in snap.treated):
                         snap.treated.append((t, r.t_s))
+        elif isinstance(r, rec.Doubt):
+            snap.doubtful.update(t for t in r.tasks if 0 <= t < n_tasks)
         elif isinstance(r, rec.FoundSpot):
             snap.finds.append(r)
         elif isinstance(r, rec.SpotAdded):
@@ -89,6 +93,7 @@ def restore(snap: Snapshot, know: Knowledge, radio: Radio, base_route: Sequence[
     own = know.own
     know.cleared.update(snap.cleared)
     know.treated = list(snap.treated)
+    know.doubtful.update(snap.doubtful)
     know.injections.extend(Estimate((x, y), s) for x, y, s in snap.injections)
     for f in snap.finds:
         know.add_find(f.slot, f.pos, f.priority, f.service_s, f.t_s, f.sigma_m)

@@ -25,7 +25,7 @@ from fleet_agent.knowledge import Knowledge
 from fleet_agent.motion import Inspected
 from fleet_agent.outbox import FindsGap, Owed
 from fleet_agent.policies.plausible import been_there
-from fleet_agent.records import Clear, FoundSpot
+from fleet_agent.records import Clear, Doubt, FoundSpot
 from fleet_agent.wire import MAX_TENTHS, SIGMA_UNIT_M, Codec, Found, sigma_code
 from fleet_bus.states import EventKind
 from fleet_bus.telemetry import cleared_detail, position_detail
@@ -124,14 +124,14 @@ def _not_to_inject(know: Knowledge, r: Looked) -> Callable[[], list[Intent]] | N
     if not r.present:
         return None
     if _another_rho(know, r):
-        return lambda: leave(know, (r.task,), "looks_not_the_find")
+        return lambda: leave(know, (r.task,), "looks_not_the_find", r.t_s)
     if r.pos is None:
         return None
     seen = _seen(know, r.pos, r.priority)
     if _treated_already(know, r.task, seen):
         return lambda: _treated_at_look(know, r)
     if _held_find(know, seen) is not None:
-        return lambda: leave(know, (r.task,), "looks_left_to_finder")
+        return lambda: leave(know, (r.task,), "looks_left_to_finder", r.t_s)
     return None
 
 
@@ -213,7 +213,15 @@ def _another_rho(know: Knowledge, r: Looked) -> bool:
     return unlike_priority(replace(mine, priority=r.priority), mine, know.beliefs.params)
 
 
-def leave(know: Knowledge, tasks: tuple[int, ...], counter: str) -> list[Intent]:
+def leave_out(know: Knowledge, tasks: tuple[int, ...], t_s: float) -> list[Intent]:
+    """Leave ``tasks`` out of this vehicle's plans (`Knowledge.doubtful`) from ``t_s`` on, and
+    journal it: a restart must not plan them again."""
+    know.doubtful.update(tasks)
+    return [Note(Doubt(t_s, tuple(tasks)))]
+
+
+def leave(know: Knowledge, tasks: tuple[int, ...], counter: str,
+          t_s: float) -> list[Intent]:
     """Not injected here, and ``tasks`` left out of this vehicle's plans
     (`Knowledge.doubtful`) and released, but not cleared: the fleet learns nothing false.
     Also a spot a peer was seen at work at (`hearing._seen_at_work`).
@@ -222,8 +230,7 @@ def leave(know: Knowledge, tasks: tuple[int, ...], counter: str) -> list[Intent]
     find's: cleared here, it would make every peer judge the find treated, its holder
     included, before anyone treated it; when the find is cleared, `fold_treated` judges the
     spot."""
-    know.doubtful.update(tasks)
-    return [Count(counter, len(tasks)), Hold(tasks, False)]
+    return [*leave_out(know, tasks, t_s), Count(counter, len(tasks)), Hold(tasks, False)]
 
 
 def _treated_at_look(know: Knowledge, r: Looked) -> list[Intent]:

@@ -207,7 +207,7 @@ def _seen_at_work(know: Knowledge, v: int, pos: tuple[float, float, float],
     if any(know.holder(int(t)) == v for t in np.flatnonzero(d <= AT_WORK_M)
            if int(t) not in know.cleared):
         return []
-    return [*discovery.leave(know, near, "spots_left_to_worker"),
+    return [*discovery.leave(know, near, "spots_left_to_worker", now),
             Tell(now, EventKind.REPLAN, near, peer=know.vid(v),
                  detail="left out: the peer was seen at work there")]
 

@@ -21,6 +21,7 @@ from fleet_agent import membership as mb
 from fleet_agent.config import AgentConfig
 from fleet_agent.intents import Count, Hold, Intent, Steer, Tell
 from fleet_agent.knowledge import Knowledge
+from fleet_agent.policies.discovery import leave_out
 from fleet_agent.policies.replans import (after_own, live_peer, live_self, nearest,
                                           peer_etas, takeover_share)
 from fleet_agent.policies.route import keeping_own
@@ -42,8 +43,8 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
     if know.members.status(gone) == mb.LOST:
         doubtful = likely_treated(know, gone) - know.doubtful
         if doubtful:
-            know.doubtful |= doubtful
-            out += [Count("doubtful_spots", len(doubtful)),
+            out += [*leave_out(know, tuple(sorted(doubtful)), now),
+                    Count("doubtful_spots", len(doubtful)),
                     Tell(now, EventKind.REPLAN, tuple(sorted(doubtful)), peer=know.vid(gone),
                          detail="left out: probably treated by the lost vehicle")]
     free = know.free_spots(now)

@@ -6,11 +6,13 @@ left to the peer (`policies.hearing`): released, out of this vehicle's plans, no
 from __future__ import annotations
 
 from fleet_agent.agent import Agent
-from fleet_agent.intents import Tell
+from fleet_agent.intents import Note, Tell
 from fleet_agent.policies import hearing
+from fleet_agent.records import Doubt
+from fleet_agent.restore import fold
 from fleet_agent.wire import Pose
 from fleet_bus.states import VehicleState
-from test_agent_logic import World
+from test_agent_logic import CONFIG, World, fleet
 from test_claim_contest import hear, injecting_auv1
 
 PEER = 1  # auv2
@@ -82,3 +84,19 @@ def test_a_peer_at_a_spot_of_its_own_beside_ours_keeps_ours() -> None:
     know.hold(PEER, 280, [theirs], False)
     hear(agent, pose_at(agent, theirs, VehicleState.INJECTING, off_m=0.0), 300.0)
     assert ours in know.doubtful
+
+
+def test_a_restart_still_leaves_the_spot_to_the_peer() -> None:
+    """The doubt is journalled (durable): a vehicle restarted on its journal does not plan the
+    spot again while the peer working it may be the one whose clear is lost."""
+    world, agent, spot = in_transit()
+    said = hear(agent, pose_at(agent, spot, VehicleState.INJECTING), 300.0)
+    notes = [i.record for i in said if isinstance(i, Note)]
+    assert notes == [Doubt(300.0, (spot,))] and notes[0].durable
+    journal = world.backend.seats["auv1"].journal.reopen().records + [notes[0].doc()]
+    assert fold(journal, agent.know.problem.n_tasks).doubtful == {spot}
+    reborn = Agent(fleet(), 0, CONFIG, 310.0, journal)
+    assert spot in reborn.know.doubtful and spot not in reborn.know.cleared
+    assert spot in reborn.know.unavailable(310.0) and spot not in reborn.know.free_spots(310.0)
+    damaged = journal[:-1] + [{"k": "doubt", "t": 300.0, "ids": "x"}]  # counted, not fatal
+    assert fold(damaged, agent.know.problem.n_tasks).bad_records == 1
