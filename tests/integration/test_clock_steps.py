@@ -25,7 +25,11 @@ from reef_sim.scenarios.field import paper_preset_doc
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 WARP, SEED = 60.0, 7
-STEPS = "15:+2,35:-2"  # +2 s 15 wall seconds after the process starts, -2 s 20 s later
+# +2 s 30 wall seconds after the process starts, -2 s 20 s later: both after the agent is
+# watching its clock even on a slow host under the whole suite's load (at 15 s one host
+# was still starting, and the agent saw only the step back), both before the mission's end
+# (about 62 s of wall time at warp 60, after the start).
+STEPS = "30:+2,50:-2"
 
 HOOK = '''
 import os, time
