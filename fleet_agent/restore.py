@@ -1,13 +1,13 @@
 """How an agent comes back from its journal after a restart: a pure fold into a `Snapshot`.
 
-What comes back: the cleared set, its own treatments, the spots it left out as doubtful,
-the finds it knew, the spots the
-operator added (`records.SpotAdded`: the order itself is taken once), every claim and
-release it heard, peers' final states (aborted, home), whether it had aborted or got home,
-and its last checkpoint (position, distance, route, sequence number, replay high-water
-marks). `fold` reads records only; `restore` applies it to the agent. Time
-lost while down is lost battery too; an injection cut short is redone (it never completed).
-A damaged or foreign record costs that record, never the journal: it is counted.
+What comes back: the cleared set, its own treatments, the spots it left out as doubtful
+(`records.Doubt`), the finds it knew, the spots the operator added (`records.SpotAdded`: the
+order itself is taken once), every claim and release it heard, peers' final states
+(aborted, home), whether it had aborted or got home, and its last checkpoint (position,
+distance, route, sequence number, replay high-water marks). `fold` reads records only;
+`restore` applies it to the agent. Time lost while down is lost battery too; an injection
+cut short is redone (it never completed). A damaged or foreign record costs that record,
+never the journal: it is counted.
 """
 
 from __future__ import annotations

@@ -41,11 +41,11 @@ def takeover(know: Knowledge, config: AgentConfig, gone: int, now: float,
     exactly as a dead one does, and its next spots are where a duplicate would happen."""
     out: list[Intent] = []
     if know.members.status(gone) == mb.LOST:
-        doubtful = likely_treated(know, gone) - know.doubtful
+        doubtful = tuple(sorted(likely_treated(know, gone) - know.doubtful))
         if doubtful:
-            out += [*leave_out(know, tuple(sorted(doubtful)), now),
+            out += [*leave_out(know, doubtful, now),
                     Count("doubtful_spots", len(doubtful)),
-                    Tell(now, EventKind.REPLAN, tuple(sorted(doubtful)), peer=know.vid(gone),
+                    Tell(now, EventKind.REPLAN, doubtful, peer=know.vid(gone),
                          detail="left out: probably treated by the lost vehicle")]
     free = know.free_spots(now)
     if not free:
