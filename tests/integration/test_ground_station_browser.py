@@ -50,7 +50,7 @@ WARP = 60.0
 # so the latency targets are the dashboard benchmark's, on an idle host. Caught up means
 # within LATENCY_LIMIT_S.
 LATENCY_LIMIT_S = 5.0
-LATE_PAGE_LIMIT_S = 60.0  # a page opened after the mission is given twice this to show it all
+LATE_PAGE_WAIT_S = 120.0  # how long a page opened after the mission has to show all of it
 # About 70 s at warp 60; a browser's stall on a busy machine may make the operator slow the
 # clock (docs/fleet_agent.md, "The clock never outruns the fleet"): the rest then runs slower.
 MISSION_LIMIT_S = 420.0
@@ -226,7 +226,7 @@ def test_web_viewer_follows_a_live_warp_60_mission(tmp_path):
                 page.close()
                 late_opened = time.monotonic()
                 late.goto(url)
-                while time.monotonic() - late_opened < 2 * LATE_PAGE_LIMIT_S:
+                while time.monotonic() - late_opened < LATE_PAGE_WAIT_S:
                     time.sleep(1.0)
                     shown = cursor_s(late.evaluate(READ_STATE_JS))
                     if shown is not None and shown >= last_logged - 1.0:
@@ -253,6 +253,6 @@ def test_web_viewer_follows_a_live_warp_60_mission(tmp_path):
     assert any(shows_the_fleet(h) for h in history), history
     shown = [x["viewer_s"] for x in samples if x["viewer_s"] is not None]
     assert len(shown) >= 3 and shown[-1] > shown[0], samples  # live: the picture moved on
-    # a page opened after the mission showed all of it (within 2 x LATE_PAGE_LIMIT_S: 32 to
+    # a page opened after the mission showed all of it (within LATE_PAGE_WAIT_S: 32 to
     # 51 s on the slow host of stop 55)
     assert "late_page_s" in figures, figures
