@@ -107,12 +107,22 @@ def config_of(params: DynamicParams, search: bool = False) -> AgentConfig:
                    search_empty_weight=b.empty_weight)
 
 
+def sim_vehicles(result: Any) -> dict[str, Any]:
+    """The simulated vehicles of an in-process mission, by id (their world's books)."""
+    return {vid: seat.driver.vehicle for vid, seat in result.backend.seats.items()
+            if seat.driver is not None}
+
+
+def clairvoyant_priority(problem, reef, seed: int, time_s: float) -> float:
+    """The priority of `best`, ``time_s``, on the truth as if every spot were known at t = 0."""
+    result = solve(truth_problem(problem, reef), "best", time_limit_s=time_s, seed=seed)
+    return float(sum(reef.spots[t].priority for r in result.plan.routes for t in r))
+
+
 def _fleet(problem, reef, seed: int, config: AgentConfig, loss: float = 0.0,
            navigation: NavigationParams | None = None) -> dict[str, Any]:
     result = simulate(problem, config, seed=seed, loss=loss, reef=reef, navigation=navigation)
-    books = {vid: seat.driver.vehicle.treatments for vid, seat in result.backend.seats.items()
-             if seat.driver is not None}
-    world = world_tally(reef, books)
+    world = world_tally(reef, {vid: v.treatments for vid, v in sim_vehicles(result).items()})
     r = result.report.to_dict()
     return {"priority": world["priority"], "dups": world["duplicates"],
             "missed": world["missed"], "report_priority": r["fleet"]["priority"],
@@ -150,9 +160,7 @@ def one(setting: str, seed: int, clairvoyant_s: float, search: bool = False) -> 
                       "found": central.report["dynamic"]["spots_discovered"],
                       "searches": central.report["central"]["searches_flown"],
                       "wall_s": round(central.wall_s, 1)}
-    result = solve(truth_problem(problem, reef), "best", time_limit_s=clairvoyant_s, seed=seed)
-    out["clairvoyant"] = float(sum(reef.spots[t].priority for r in result.plan.routes
-                                   for t in r))
+    out["clairvoyant"] = clairvoyant_priority(problem, reef, seed, clairvoyant_s)
     return out
 
 

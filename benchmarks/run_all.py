@@ -36,6 +36,7 @@ BENCHMARKS: list[tuple[str, list[str]]] = [
     ("benchmarks.modem_mission", []),
     ("benchmarks.helms", []),
     ("benchmarks.dynamic", ["--jobs", "2"]),
+    ("benchmarks.search_value", ["--jobs", "2"]),
     ("benchmarks.fault_fuzz", ["--jobs", "2"]),
     ("benchmarks.sweep_bench", []),
     ("benchmarks.dashboard_bench", []),

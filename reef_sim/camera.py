@@ -118,6 +118,11 @@ class ReefCamera:
     def reach_m(self) -> float:
         return self.reef.detect_radius_m + self.REACH_EPS_M
 
+    def passes(self) -> np.ndarray:
+        """Per truth spot, how many passes within reach this camera made (each drew once
+        against ``p_detect``): the world's book, for scoring what search would have found."""
+        return self._passes.copy()
+
     def sweep(self, pos: Point3) -> list[SeenSpot]:
         """The track went (in a straight line) from the last position swept to ``pos``: the
         spots seen on the way, each pass drawing once."""

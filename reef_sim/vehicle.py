@@ -20,7 +20,8 @@ began plus the offset the camera measured), and the waypoints it is sent to are 
 that frame too: it flies until its *estimate* reads the waypoint, so it really ends off by its
 navigation error. The camera works where the vehicle really is (a look sees the predicted
 aggregation only within its footprint of the true position, `ReefCamera.look`), and the world
-keeps its own book of what each injection really treated (`treatments`). A waypoint at the
+keeps its own book of what each injection really treated (`treatments`) and of when its
+camera first saw each aggregation (`sighted`). A waypoint at the
 surface (depth within `SURFACE_M`) gives a GPS fix when the vehicle reaches it
 (`DeadReckoning.surface_fix`): an agent whose estimate has grown uncertain sends its vehicle up
 for one (`fleet_agent.policies.navigation`).
@@ -135,6 +136,7 @@ class SimVehicle:
         self._fixed_s = self.t_s  # the last time navigation fixes were taken up to
         self._swept: tuple[Point3, float] = (self.pos, self.odometer_m)  # the camera's last
         self.treatments: list[Treatment] = []
+        self.sighted: dict[int, float] = {}  # truth spot -> when the camera first saw it
 
     # -- the port ----------------------------------------------------------------------------
 
@@ -396,6 +398,8 @@ class SimVehicle:
             return []
         (a, odometer_a), self._swept = self._swept, (self.pos, self.odometer_m)
         seen = self.camera.sweep(self.pos)
+        for s in seen:
+            self.sighted.setdefault(s.spot, t_s)
         nav = self.navigation
         if nav is None:
             return [Sighted(t_s, s.pos, s.priority, s.service_s) for s in seen]

@@ -154,3 +154,17 @@ def test_a_known_spot_is_injected_at_once_as_before():
     loop = Loop(line_problem())
     loop.set_route([0])
     assert loop.run_until(200.0) == [Cleared(0, 180.0, 80.0)]
+
+
+def test_the_books_keep_every_pass_and_the_first_sighting_of_each_aggregation():
+    # An aggregation the map missed, 10 m off the line: passed on the way out and again on
+    # the way home, seen both times (p_detect 1); the book keeps the first time.
+    truth = [spot(50.0, 10.0)]
+    camera = ReefCamera(reef(truth), seed=0, vehicle=0)
+    loop = Loop(line_problem(), camera=camera)
+    loop.set_route([0, 1])
+    loop.run_home()
+    assert camera.passes().tolist() == [2]
+    assert list(loop.sim.sighted) == [0] and loop.sim.sighted[0] <= 100.0
+    camera.passes()[0] = 99  # a copy: the camera's own count is not the caller's to change
+    assert camera.passes().tolist() == [2]
