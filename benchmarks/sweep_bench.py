@@ -38,6 +38,7 @@ REPO = Path(__file__).resolve().parents[1]
 MODES = [("--jobs 1", ["--jobs", "1"]), ("--jobs 2", ["--jobs", "2"]),
          ("--scheduler --jobs 2 (local Dask)", ["--scheduler", "--jobs", "2"])]
 TARGET_RATIO = 0.65
+WORKER_RUNS = 30  # seeds one worker runs in a row for the growth figure
 SWEEP_LINE = re.compile(r"(\d+) of (\d+) run\(s\) in ([0-9.]+) s wall on (.+)")
 # (label, `cotsfleet scenario` arguments or None for the paper preset, full run only)
 MEMORY_SCENARIOS = [
@@ -130,22 +131,43 @@ def thousand_runs(tmp: Path, runs: int) -> str:
             f"its worker: scenario, every agent's initial plan, the mission.\n\n{table}\n")
 
 
-def probe(scenario: str) -> None:
-    """(Run in a fresh process.) Simulate seed 0 of ``scenario`` (a file, or ``paper``) as a
-    sweep worker does and print the RSS before and after as JSON."""
+def probe(scenario: str, runs: int = 1) -> None:
+    """(Run in a fresh process.) Simulate seeds 0..``runs``-1 of ``scenario`` (a file, or
+    ``paper``) one after another as a sweep worker does and print as JSON the RSS before, the
+    peak after the first run and the peak after the last."""
     import resource
 
     import cotsfleet.mission.inprocess  # noqa: F401 - the simulator loaded: the baseline
     from cotsfleet.sweep import SweepSpec, run_seed
     from fleet_agent.config import AgentConfig
 
+    def peak_mb() -> float:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
     doc = None if scenario == "paper" else json.loads(Path(scenario).read_text())
-    base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-    result = run_seed(SweepSpec(doc, None, 0.0, AgentConfig(), ()), 0).to_dict()
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    spec = SweepSpec(doc, None, 0.0, AgentConfig(), ())
+    base = peak_mb()
+    result = run_seed(spec, 0).to_dict()
+    first = peak_mb()
+    for seed in range(1, runs):
+        run_seed(spec, seed)
     vehicles = len(result["vehicles"]) if "vehicles" in result else 3
-    print(json.dumps({"base_mb": base / 1024, "peak_mb": peak / 1024, "vehicles": vehicles,
-                      "run_s": result["run_s"], "error": result.get("error")}))
+    print(json.dumps({"base_mb": base, "peak_mb": first, "last_peak_mb": peak_mb(),
+                      "runs": runs, "vehicles": vehicles, "run_s": result["run_s"],
+                      "error": result.get("error")}))
+
+
+def worker_growth(runs: int) -> str:
+    """Section 3, second part: does a worker's footprint stay one mission's over many runs?"""
+    out = subprocess.run([sys.executable, "-m", "benchmarks.sweep_bench", "--probe", "paper",
+                          "--probe-runs", str(runs)],
+                         cwd=REPO, capture_output=True, text=True, check=True).stdout
+    m = json.loads(out.strip().splitlines()[-1])
+    return (f"One worker running {runs} seeds of the paper preset one after another (as a "
+            f"sweep's worker does): peak RSS {m['peak_mb']:.0f} MB after the first run, "
+            f"{m['last_peak_mb']:.0f} MB after the last (each mission's garbage is collected "
+            "before the next is frozen out of the collector's sight: `cotsfleet.mission."
+            "inprocess.simulate`).\n")
 
 
 def memory(tmp: Path, quick: bool) -> str:
@@ -184,7 +206,7 @@ def main(reps: int, big_runs: int, quick: bool, write: bool) -> None:
         print(side, flush=True)
         big = thousand_runs(tmp, big_runs)
         print(big, flush=True)
-        mem = memory(tmp, quick)
+        mem = memory(tmp, quick) + "\n" + worker_growth(5 if quick else WORKER_RUNS)
         print(mem, flush=True)
         total = time.perf_counter() - t0
     body = (f"### `--jobs` and Dask beside one process\n\n{side}\n"
@@ -204,9 +226,10 @@ if __name__ == "__main__":
                              "only; RESULTS.md untouched")
     parser.add_argument("--no-write", action="store_true", help="print, leave RESULTS.md")
     parser.add_argument("--probe", help=argparse.SUPPRESS)
+    parser.add_argument("--probe-runs", type=int, default=1, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.probe:
-        probe(args.probe)
+        probe(args.probe, args.probe_runs)
     else:
         main(1 if args.quick else args.reps, 20 if args.quick else args.big_runs, args.quick,
              not args.no_write)

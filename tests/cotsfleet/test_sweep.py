@@ -4,9 +4,11 @@ same whatever runs them, a failed run is a row, and no worker outlives the sweep
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import signal
+import weakref
 from pathlib import Path
 
 import msgspec
@@ -119,6 +121,26 @@ def test_a_run_gives_its_report_with_seed_and_wall_time(spec: SweepSpec,
     assert 0 < r.wall_s <= r.run_s
     assert r.oracle is not None and r.oracle.vid == "auv2"  # the spec's faults reached it
     assert comparable(run_seed(spec, SEEDS[0])) == comparable(r)  # deterministic
+
+
+def test_a_worker_frees_the_last_runs_garbage_and_does_not_carry_it_along(
+        spec: SweepSpec) -> None:
+    # Garbage in the oldest generation, as a finished mission's cycles are when its worker
+    # starts the next: the run must collect it, not freeze it with the live objects (it was
+    # then thawed, frozen again by the next run and never freed: a worker grew by each run).
+    class Cycle:
+        pass
+
+    freed: list[bool] = []
+    junk = Cycle()
+    junk.me = junk  # type: ignore[attr-defined]
+    weakref.finalize(junk, freed.append, True)
+    gc.collect()  # it survives, still referenced: now in the oldest generation
+    del junk
+    assert not freed
+    assert isinstance(run_seed(spec, SEEDS[1]), MissionReport)
+    assert freed == [True]
+    assert not gc.get_freeze_count()  # and nothing is left frozen after the run
 
 
 def test_a_run_that_raises_is_a_row_with_its_seed(spec: SweepSpec) -> None:
