@@ -20,11 +20,11 @@ began plus the offset the camera measured), and the waypoints it is sent to are 
 that frame too: it flies until its *estimate* reads the waypoint, so it really ends off by its
 navigation error. The camera works where the vehicle really is (a look sees the predicted
 aggregation only within its footprint of the true position, `ReefCamera.look`), and the world
-keeps its own book of what each injection really treated (`treatments`) and of when its
-camera first saw each aggregation (`sighted`). A waypoint at the
-surface (depth within `SURFACE_M`) gives a GPS fix when the vehicle reaches it
-(`DeadReckoning.surface_fix`): an agent whose estimate has grown uncertain sends its vehicle up
-for one (`fleet_agent.policies.navigation`).
+keeps its own books of what each injection really treated (`treatments`) and of when its
+camera first saw each aggregation (`sighted`). A waypoint at the surface (depth within
+`SURFACE_M`) gives a GPS fix when the vehicle reaches it (`DeadReckoning.surface_fix`): an
+agent whose estimate has grown uncertain sends its vehicle up for one
+(`fleet_agent.policies.navigation`).
 
 Pure and exact: `poll` runs to any later time, settling arrivals and work ends at the moment
 they happen, so what it reports does not depend on how often it is polled (every position is
