@@ -301,6 +301,13 @@ def _runs(values: list[float]) -> str:
     return "/".join(f"{v:.0f}" for v in values) + " s"
 
 
+def _ratios(first: dict[str, Any], last: dict[str, Any]) -> str:
+    """The largest size's mission CPU over the smallest's, run by run: how far one host's
+    spread reaches, beside the ratio of the medians that the target reads."""
+    pairs = zip(first["mission_cpu_s_runs"], last["mission_cpu_s_runs"])
+    return "/".join(f"{b / a:.2f}" for a, b in pairs) + " x"
+
+
 def _near(row: dict[str, Any]) -> str:
     got = [d for d in row["near"].values() if d is not None]
     return (f"{len(got)}/{len(row['near'])} (latest {max(got):.0f} s)" if got
@@ -429,8 +436,9 @@ def main(seed: int, quick: bool, repeats: int = 3) -> int:
             f"initial plan. Times of the {first['k']}- and {last['k']}-vehicle missions are "
             f"medians of {len(first['wall_s_runs'])} runs each, interleaved (mission "
             f"CPU {_runs(first['mission_cpu_s_runs'])} and "
-            f"{_runs(last['mission_cpu_s_runs'])}; every repeat "
-            f"gave the same figures). The {last['k']}-vehicle mission took {growth_cpu:.2f} x "
+            f"{_runs(last['mission_cpu_s_runs'])}, run by run {_ratios(first, last)}; every "
+            f"repeat gave the same figures). The {last['k']}-vehicle mission took "
+            f"{growth_cpu:.2f} x "
             f"the {first['k']}-vehicle one's CPU time, {last['mission_cpu_s']:.0f} s "
             f"(targets <= 5 and <= 900 s on one core; "
             f"the simulator's reference replan at the kill, a centralized replan of every "
