@@ -219,19 +219,50 @@ def acomms_modem():
 
     yield make
     for modem, bridge in made:
-        # acomms' reader thread loops forever and reopens its port when told it is gone;
-        # closing the port under it ends it (with a TypeError inside pyserial, which pytest
-        # reports as a warning: filtered on these tests). Then it must be gone.
-        modem.connection._serialport.close()
-        modem.connection._thread.join(5)
-        assert not modem.connection._thread.is_alive()
+        end_reader(modem.connection)
         bridge.close()
+
+
+class _ReaderEnd(Exception):
+    """Raised into acomms' reader thread to end it."""
+
+
+class _EndedPort:
+    """Stands in for acomms' serial port at teardown.
+
+    acomms' reader thread loops forever: it catches every SerialException, sleeps a second and
+    reopens the port by name (the pty still exists), so closing the port ends it only when the
+    close lands inside a read (a TypeError in pyserial). A read that raises anything else is
+    the one sure way out (pytest reports it as a warning: filtered on these tests).
+    """
+
+    is_open = False
+
+    def readline(self) -> bytes:
+        raise _ReaderEnd("test teardown")
+
+    def close(self) -> None:
+        pass
+
+
+def end_reader(connection, timeout_s: float = 10.0) -> None:
+    """End acomms' reader thread and prove it is gone.
+
+    The swap is repeated because the thread may be asleep in its reconnect branch, which
+    assigns a freshly opened port over ours when it wakes.
+    """
+    deadline = time.monotonic() + timeout_s
+    while connection._thread.is_alive() and time.monotonic() < deadline:
+        port, connection._serialport = connection._serialport, _EndedPort()
+        connection.connection_active = True
+        port.close()
+        connection._thread.join(0.5)
+    assert not connection._thread.is_alive()
+    connection._serialport.close()
 
 
 ACOMMS_THREAD_END = pytest.mark.filterwarnings(
     "ignore::pytest.PytestUnhandledThreadExceptionWarning")
-
-
 
 
 @pytest.mark.integration
