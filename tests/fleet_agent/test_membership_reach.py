@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from fleet_agent.membership import ALIVE, LOST, SUSPECT, Membership
 from fleet_agent.wire import HEARD_NEVER, HEARD_WINDOW, Heard
 
@@ -160,3 +162,44 @@ def test_the_doubted_peers_follow_every_change_of_status() -> None:
     assert m.status(9) == LOST and m.status(5) == ALIVE
     assert m.suspects() == scanned() and not {5, 7, 9} & set(m.suspects())
     assert m.heard_field(64.0).offset in m.suspects() + [9]
+
+
+@dataclass
+class Epochs:
+    """Turns that lengthen at ``change_s`` (a spatial schedule's epochs): a deadline depends on
+    when it is asked."""
+
+    change_s: float = 200.0
+
+    def cycle_s(self, t_s: float) -> float:
+        return 10.0 if t_s < self.change_s else 25.0
+
+    def turn_s(self, v: int, t_s: float) -> float:
+        return self.cycle_s(t_s) * (1 + v % 2)
+
+
+def test_the_next_deadline_is_always_the_earliest_silence_as_it_stands() -> None:
+    """`next_deadline_s` corrects its queue's lower bounds lazily; after any mix of frames,
+    relayed evidence, checks and announcements, with turns that lengthen mid-mission, it is
+    still the earliest deadline of an alive peer computed afresh (a stale answer would wake
+    the agent late or never)."""
+    rng = np.random.default_rng(7)
+    n = 6
+    m = Membership(n, 0, 40.0, 10.0, timing=Epochs(), reach=Line({v: 0.0 for v in range(n)}))
+    now = 0.0
+    for _ in range(600):
+        now += float(rng.exponential(4.0))
+        v = int(rng.integers(1, n))
+        what = rng.random()
+        if what < 0.45:
+            m.heard(v, now - float(rng.uniform(0.0, 3.0)), now)
+        elif what < 0.6:
+            m.relayed(v, now - float(rng.uniform(0.0, 30.0)), now)
+        elif what < 0.62:
+            m.mark(v, "aborted", now)
+        else:
+            m.check(now)
+        alive = [u for u, p in m.peers.items() if p.status == ALIVE]
+        expected = min((m._deadline(u, m._checked_s) for u in alive), default=None)
+        assert m.next_deadline_s() == expected
+        assert m.next_deadline_s() == expected  # asked again, nothing changed
