@@ -48,6 +48,7 @@ from cotsfleet.cli import main as cotsfleet
 from cotsfleet.io import read_scenario
 from cotsfleet.mission.faults import Fault
 from cotsfleet.mission.inprocess import InProcessBackend, simulate
+from cotsfleet.mission.processes import startup_timeout_for
 from fleet_agent.config import AgentConfig
 from fleet_agent.membership import detection_bound_s
 from fleet_agent.plans import Planner
@@ -206,14 +207,26 @@ def _role(cmdline: list[str]) -> str:
     return "other"
 
 
-def processes(workdir: Path, path: Path, victim: str, seed: int, warp: float
-              ) -> dict[str, Any]:
+def startup_wait_s(vehicles: int, plan_s: float) -> float:
+    """How long part (b) waits for its agents to be ready: `cotsfleet run`'s default
+    (`startup_timeout_for`, measured on the paper preset), or, if longer, twice what
+    ``vehicles`` agents each planning this scenario alone (``plan_s``, part (a)'s plan) take
+    on this machine's cores, plus a minute. Stop 61: on a host 1.5 times slower than usual,
+    24 agents planning scale24 (31 s each) were not all ready within the default 406 s, and
+    the mission ended before it began; (b) measures the mission, `startup_scale` the start."""
+    cores = os.cpu_count() or 1
+    return max(startup_timeout_for(vehicles), 60.0 + 2.0 * vehicles * plan_s / cores)
+
+
+def processes(workdir: Path, path: Path, victim: str, seed: int, warp: float,
+              startup_s: float) -> dict[str, Any]:
     """Part (b): `cotsfleet run` of the scenario with the kill, its tree sampled."""
     report = workdir / "run" / "report.json"
     report.parent.mkdir(exist_ok=True)  # `cotsfleet run` checks its output paths first
     argv = [sys.executable, "-m", "cotsfleet", "run", "--scenario", str(path), "--warp",
             f"{warp:g}", "--viewer", "none", "--seed", str(seed), "--kill",
-            f"{victim}@{KILL_S:g}", "--run-dir", str(workdir / "run"), "--report", str(report)]
+            f"{victim}@{KILL_S:g}", "--run-dir", str(workdir / "run"), "--report", str(report),
+            "--startup-timeout", f"{startup_s:.0f}"]
     seen: dict[tuple[int, float], dict[str, Any]] = {}  # (pid, start time) -> role, peak MB
     t0 = time.perf_counter()
     child = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -257,7 +270,7 @@ def processes(workdir: Path, path: Path, victim: str, seed: int, warp: float
     f = doc.get("fleet", {})
     delays = [d for d in f.get("detection_delay_s", {}).get(victim, {}).values()
               if d is not None]
-    return {"code": code, "timed_out": timed_out, "wall_s": wall,
+    return {"code": code, "timed_out": timed_out, "wall_s": wall, "startup_s": startup_s,
             "home": f.get("vehicles_home"), "duplicates": f.get("duplicate_treatments"),
             "false_alarms": f.get("false_alarms"), "spots": f.get("spots_cleared"),
             "priority": f.get("priority"), "detected_by": len(delays),
@@ -367,7 +380,8 @@ def main(seed: int, quick: bool, repeats: int = 3) -> int:
         print(f"(a) repeats: mission CPU {rows[0]['k']} AUVs "
               f"{_runs(rows[0]['mission_cpu_s_runs'])}, {rows[-1]['k']} AUVs "
               f"{_runs(rows[-1]['mission_cpu_s_runs'])}", flush=True)
-        b = processes(workdir, paths[24], rows[0]["victim"], seed, 30.0) if not quick else None
+        b = processes(workdir, paths[24], rows[0]["victim"], seed, 30.0, startup_wait_s(
+            24, rows[0]["plan_wall_s"])) if not quick else None
         if b is not None:
             print(f"(b) cotsfleet run: exit {b['code']}, {b['wall_s']:.0f} s wall, "
                   f"{b['false_alarms']} false alarms, {b['duplicates']} duplicates, left "
@@ -475,8 +489,10 @@ def main(seed: int, quick: bool, repeats: int = 3) -> int:
              f"{len(b['left']) + len(b['left_in_session'])}"],
         ]
         body += (f"\n**(b)** `cotsfleet run --scenario scale24.json --warp 30 --kill "
-                 f"{first['victim']}@{KILL_S:g} --viewer none` as a child in its own session "
-                 f"(each agent process plans alone, as a vehicle would); its process tree "
+                 f"{first['victim']}@{KILL_S:g} --viewer none --startup-timeout "
+                 f"{b['startup_s']:.0f}` as a child in its own session (each agent process "
+                 f"plans alone, as a vehicle would; the start-up wait is `startup_wait_s`: "
+                 f"twice the plans' time on this machine's cores, plus a minute); its process tree "
                  f"sampled every {SAMPLE_S:g} s; at the end every process seen (pid and start "
                  f"time) and the session are checked gone.\n\n"
                  f"{markdown_table(['figure', 'measured'], rows_b)}\n")
