@@ -42,11 +42,13 @@ demo: $(BASE)
 # Two workers (pytest-xdist), a test file at a time: a file's tests share its fixtures (one
 # mission per integration module), and a warp-paced mission mostly waits on its clock, so the
 # other worker has the CPU. (Not --dist loadgroup: with pytest 9, xdist 3.8 cannot group.)
+# Files go out in the suite's order, the long ones first (tests/conftest.py), not xdist's
+# order by test count, which left a 7-minute file to one worker at the end.
 # The browser test runs after, alone: it measures the web viewer's latency, which beside
 # another worker's mission measured the shared machine instead (9.1 s and 5.7 s against its
 # 5 s limit in 2 of 4 full runs of stop 52; it passed alone every time).
 test: lint
-	$(PY) -m pytest -q -n 2 --dist loadfile -m "not browser"
+	$(PY) -m pytest -q -n 2 --dist loadfile --no-loadscope-reorder -m "not browser"
 	$(PY) -m pytest -q -m browser
 
 lint: $(TESTS)
