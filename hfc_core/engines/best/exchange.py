@@ -45,6 +45,8 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
     again of routes it has not changed (17 % of the calls planning 100 vehicles over 2,500
     spots), so the last answer is kept on the instance with its routes."""
     inst = state.inst
+    if not (state.owner < 0).any():  # every task routed (the usual case on an easy reef)
+        return []
     key = (relocate, tuple(map(tuple, state.routes)))
     last = inst.__dict__.get("_replaces")
     if last is not None and last[0] == key:
