@@ -43,7 +43,7 @@ demo: $(BASE)
 # mission per integration module), and a warp-paced mission mostly waits on its clock, so the
 # other worker has the CPU. (Not --dist loadgroup: with pytest 9, xdist 3.8 cannot group.)
 # Files go out in the suite's order, the long ones first (tests/conftest.py), not xdist's
-# order by test count, which left a 7-minute file to one worker at the end.
+# order by test count, which sent a 7-minute file out among the last.
 # The browser test runs after, alone: it measures the web viewer's latency, which beside
 # another worker's mission measured the shared machine instead (9.1 s and 5.7 s against its
 # 5 s limit in 2 of 4 full runs of stop 52; it passed alone every time).

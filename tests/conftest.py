@@ -69,13 +69,11 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     """The longest files first: a file with a ``slow`` test, then one with an ``integration``
     test, then the rest, each group in its own order (a stable sort on a per-file key keeps a
     file's tests together and in order). `make test` runs two workers a file at a time with
-    ``--no-loadscope-reorder``, so they take files in this order; long files started last
-    left one worker alone at the end of the run (xdist's own order is by test count, which
-    put the 6-test, 7-minute crash file among the last)."""
-    rank: dict[str, int] = {}
+    ``--no-loadscope-reorder``, so they take files in this order; xdist's own order is by
+    test count, which sent the 6-test, 7-minute crash file out among the last."""
+    rank: dict[Path, int] = {}
     for item in items:
-        path = item.nodeid.split("::", 1)[0]
         weight = 0 if item.get_closest_marker("slow") else \
             1 if item.get_closest_marker("integration") else 2
-        rank[path] = min(rank.get(path, 2), weight)
-    items.sort(key=lambda item: rank[item.nodeid.split("::", 1)[0]])
+        rank[item.path] = min(rank.get(item.path, 2), weight)
+    items.sort(key=lambda item: rank[item.path])

@@ -13,6 +13,7 @@ journal keeps station until it has learned the fleet's cleared set from its peer
 
 from __future__ import annotations
 
+import functools
 import json
 from pathlib import Path
 
@@ -22,6 +23,7 @@ from benchmarks.crash_table import CASES, Outcome, row, run_case
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 WARP = 120.0
+run = functools.partial(run_case, warp=WARP)
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +33,7 @@ def root(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def baseline(root: Path) -> Outcome:
-    out = run_case(None, root, warp=WARP)
+    out = run(None, root)
     assert out.report is not None and not out.report.get("crashes")
     return out
 
@@ -55,7 +57,7 @@ def _running(outcome: Outcome) -> list[bool]:
 
 
 def test_the_ground_station_is_started_again_and_the_mission_goes_on(root, baseline) -> None:
-    out = run_case(CASES["ground station killed"], root, warp=WARP)
+    out = run(CASES["ground station killed"], root)
     report = ran(out, baseline)
     assert [(c["name"], c["action"]) for c in report["crashes"]] == [
         ("ground_station", "restart")]
@@ -68,7 +70,7 @@ def test_the_ground_station_is_started_again_and_the_mission_goes_on(root, basel
 
 
 def test_the_relay_is_started_again_with_the_clock_held(root, baseline) -> None:
-    out = run_case(CASES["relay killed"], root, warp=WARP)
+    out = run(CASES["relay killed"], root)
     report = ran(out, baseline)
     assert [(c["name"], c["action"]) for c in report["crashes"]] == [("relay", "restart")]
     assert "failure" not in report and report["fleet"]["vehicles_home"] == 3
@@ -78,7 +80,7 @@ def test_the_relay_is_started_again_with_the_clock_held(root, baseline) -> None:
 
 
 def test_a_full_disk_names_who_it_stopped_and_keeps_the_report(root, baseline) -> None:
-    out = run_case(CASES["full disk"], root, warp=WARP)
+    out = run(CASES["full disk"], root)
     report = ran(out, baseline)
     full = [c for c in report["crashes"] if "disk is full" in c["why"]]
     assert full, report["crashes"]
@@ -91,7 +93,7 @@ def test_a_full_disk_names_who_it_stopped_and_keeps_the_report(root, baseline) -
 
 @pytest.mark.parametrize("case", ["empty journal", "cut journal"])
 def test_a_restart_on_a_damaged_journal_rejoins_before_it_acts(root, baseline, case) -> None:
-    out = run_case(CASES[case], root, warp=WARP)
+    out = run(CASES[case], root)
     report = ran(out, baseline)
     assert [f["kind"] for f in report["faults"]] == ["kill", "restart"]
     log = (out.run_dir / "auv2.log").read_text()

@@ -45,22 +45,23 @@ def best_replaces(state: State, relocate: bool = False) -> list[Move]:
     again of routes it has not changed (17 % of the calls planning 100 vehicles over 2,500
     spots), so the last answer is kept on the instance with its routes."""
     inst = state.inst
-    if not (state.owner < 0).any():  # every task routed (the usual case on an easy reef)
+    free = np.flatnonzero(state.owner < 0)
+    # every task routed (the usual case on an easy reef), or nothing routed: no move, and no
+    # key to build for it
+    if not len(free) or not any(state.routes):
         return []
     key = (relocate, tuple(map(tuple, state.routes)))
     last = inst.__dict__.get("_replaces")
     if last is not None and last[0] == key:
         return list(last[1])
-    moves = _best_replaces(state, relocate)
+    moves = _best_replaces(state, relocate, free)
     inst.__dict__["_replaces"] = (key, tuple(moves))
     return moves
 
 
-def _best_replaces(state: State, relocate: bool) -> list[Move]:
+def _best_replaces(state: State, relocate: bool, free: np.ndarray) -> list[Move]:
+    """`best_replaces` computed afresh; ``free``: the unrouted tasks, at least one."""
     inst = state.inst
-    free = np.flatnonzero(state.owner < 0)
-    if not len(free) or not any(state.routes):
-        return []
     state.refresh()
     stack, which = inst.stacked()
     cur, owner, index, before, after = state.positions()
