@@ -1,8 +1,8 @@
 """A mission outlives its parts: the crash cases of `benchmarks.crash_table`, each a real
 3-AUV mission (paper preset, seed 7) beside the same mission without a crash, at warp 120
 where the benchmark runs warp 60: what a crash costs is in mission time, and a machine that
-falls behind slows the clock (correctness never depends on keeping up), so the suite's
-six missions take half the wall time.
+falls behind slows the clock (correctness never depends on keeping up). The file's six
+missions took 290 s against 428 s at warp 60 (stop 62's host).
 
 A passive process (the ground station) that dies is started again and the mission goes on;
 the relay too, with the clock held while it comes back; a full disk loses the agents that
