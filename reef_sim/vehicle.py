@@ -20,8 +20,9 @@ began plus the offset the camera measured), and the waypoints it is sent to are 
 that frame too: it flies until its *estimate* reads the waypoint, so it really ends off by its
 navigation error. The camera works where the vehicle really is (a look sees the predicted
 aggregation only within its footprint of the true position, `ReefCamera.look`), and the world
-keeps its own books of what each injection really treated (`treatments`) and of when its
-camera first saw each aggregation (`sighted`). A waypoint at the surface (depth within
+keeps its own books of what each injection really treated (`treatments`), of when its
+camera first saw each aggregation (`sighted`) and of where the battery went (`time`, a
+`reef_sim.timebook.TimeBook`). A waypoint at the surface (depth within
 `SURFACE_M`) gives a GPS fix when the vehicle reaches it (`DeadReckoning.surface_fix`): an
 agent whose estimate has grown uncertain sends its vehicle up for one
 (`fleet_agent.policies.navigation`).
@@ -46,6 +47,7 @@ from hfc_core.model.problem import Problem
 from hfc_core.model.travel import LegError, segment_pieces
 from reef_sim.camera import ReefCamera
 from reef_sim.navigation import DeadReckoning
+from reef_sim.timebook import TimeBook
 
 Point3 = tuple[float, float, float]
 _EPS = 1e-9
@@ -137,6 +139,7 @@ class SimVehicle:
         self._swept: tuple[Point3, float] = (self.pos, self.odometer_m)  # the camera's last
         self.treatments: list[Treatment] = []
         self.sighted: dict[int, float] = {}  # truth spot -> when the camera first saw it
+        self.time = TimeBook(self.t_s)  # where the battery went, by activity
 
     # -- the port ----------------------------------------------------------------------------
 
@@ -160,6 +163,7 @@ class SimVehicle:
             self._keep_station(cmd)
         elif isinstance(cmd, Abort) and cmd.surface:
             self.phase, self.target = Phase.HOME, HOME_TARGET
+            self.time.enter(self.t_s, "recovered")
             self._held.append(Arrived(self.t_s, HOME_TARGET))
         elif isinstance(cmd, (ReturnHome, Abort)):
             self.ahead = ()
@@ -237,7 +241,10 @@ class SimVehicle:
                     break
             elif self.phase is Phase.WORKING and self._work_end_s <= until_s:
                 self.t_s = max(self.t_s, self._work_end_s)
-                out.append(self._work_done())
+                done = self._work_done()
+                out.append(done)
+                self.time.enter(self.t_s, "holding", ended_as=None if not isinstance(
+                    done, Looked) else "look_cots" if done.present else "look_empty")
                 self.phase, self._work = Phase.HOLDING, None
             else:
                 break
@@ -268,10 +275,12 @@ class SimVehicle:
         out.append(Arrived(self.t_s, self.target))  # then what the camera saw there
         out += seen
         self.phase = Phase.HOME if self.target == HOME_TARGET else Phase.HOLDING
+        self.time.enter(self.t_s, "recovered" if self.phase is Phase.HOME else "holding")
         return True
 
     def _fly_to(self, target: int, waypoints: Sequence[Sequence[float]]) -> None:
         self.phase, self.target, self._work = Phase.FLYING, target, None
+        self.time.enter(self.t_s, "homing" if target == HOME_TARGET else "transit")
         self._waypoints = [as_point3(w) for w in waypoints] or [self.estimate()]
         self._start_segment(self.pos, self.t_s, self.odometer_m)
 
@@ -354,12 +363,16 @@ class SimVehicle:
         self._waypoints, self.target, self._flight_end = [], None, None
         if cmd.work is Work.WAIT:
             self.phase, self._work = Phase.HOLDING, None
+            self.time.enter(self.t_s, "holding")
             return
         if cmd.work is Work.LOOK and self.camera is None:
             self.phase = Phase.HOLDING
+            self.time.enter(self.t_s, "holding")
             self._held.append(Refused(self.t_s, "StationKeep", "no camera to look with"))
             return
         self.phase, self._work = Phase.WORKING, cmd
+        # a look is booked by what it found when it ends (`_advance`); cut short, as empty
+        self.time.enter(self.t_s, "injecting" if cmd.work is Work.INJECT else "look_empty")
         self._work_end_s = self.t_s + max(0.0, float(cmd.duration_s))
 
     def _work_done(self) -> VehicleReport:
