@@ -37,6 +37,7 @@ BENCHMARKS: list[tuple[str, list[str]]] = [
     ("benchmarks.helms", []),
     ("benchmarks.dynamic", ["--jobs", "2"]),
     ("benchmarks.search_value", ["--jobs", "2"]),
+    ("benchmarks.dynamic_budget", ["--jobs", "2"]),
     ("benchmarks.fault_fuzz", ["--jobs", "2"]),
     ("benchmarks.sweep_bench", []),
     ("benchmarks.dashboard_bench", []),
